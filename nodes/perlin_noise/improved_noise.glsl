@@ -1,0 +1,135 @@
+// Ken Perlin's improved noise, turbulence, fbm and uint hashing for GLSL 330; an include file (no
+// #version, no main). It computes what nodes/perlin_noise/reference.py computes in float64; the mapping
+// of pixels and seeds is documented there. Bind t_perm to a 256x1 R8UI texture holding
+// reference.perm_texture_bytes() (filter NEAREST).
+//
+// Precision: a coordinate is passed as p + cell + frac. p is split exactly into floor and fraction,
+// the integer cell (a seed offset) only ever reaches the lattice index, and the small fractional
+// parts are added in [0, 2), so float32 error stays ~1e-7 in noise units however large p or the
+// offset is (|p| < 2^24). Octave i scales p and frac by 2^i, which is exact.
+#ifndef IMPROVED_NOISE_GLSL
+#define IMPROVED_NOISE_GLSL
+
+uniform usampler2D t_perm;
+
+const int NOISE_TURBULENCE = 0;
+const int NOISE_FBM = 1;
+// reference.CHANNEL1_OFFSET = (128.5, 85.25, 42.75), split into cell and fraction
+const ivec3 NOISE_CHANNEL1_CELL = ivec3(128, 85, 42);
+const vec3 NOISE_CHANNEL1_FRAC = vec3(0.5, 0.25, 0.75);
+
+int noise_perm(int i) { return int(texelFetch(t_perm, ivec2(i & 255, 0), 0).r); }
+
+float noise_fade(float t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
+
+float noise_lerp(float t, float a, float b) { return a + t * (b - a); }
+
+float noise_grad(int hash, float x, float y, float z) {
+    int h = hash & 15;
+    float u = h < 8 ? x : y;
+    float v = h < 4 ? y : (h == 12 || h == 14 ? x : z);
+    return ((h & 1) == 0 ? u : -u) + ((h & 2) == 0 ? v : -v);
+}
+
+// Improved noise at p + cell + frac.
+float improved_noise_split(vec3 p, ivec3 cell, vec3 frac) {
+    vec3 pf = floor(p);
+    vec3 qf = floor(frac);
+    vec3 r = (p - pf) + (frac - qf);  // both differences exact; r in [0, 2)
+    vec3 rf = floor(r);
+    vec3 f = r - rf;
+    ivec3 c = (cell + ivec3(pf) + ivec3(qf) + ivec3(rf)) & 255;
+    int X = c.x, Y = c.y, Z = c.z;
+    float x = f.x, y = f.y, z = f.z;
+    float u = noise_fade(x), v = noise_fade(y), w = noise_fade(z);
+    int A = noise_perm(X) + Y;
+    int AA = noise_perm(A) + Z;
+    int AB = noise_perm(A + 1) + Z;
+    int B = noise_perm(X + 1) + Y;
+    int BA = noise_perm(B) + Z;
+    int BB = noise_perm(B + 1) + Z;
+    return noise_lerp(w,
+        noise_lerp(v, noise_lerp(u, noise_grad(noise_perm(AA), x, y, z),
+                                    noise_grad(noise_perm(BA), x - 1.0, y, z)),
+                      noise_lerp(u, noise_grad(noise_perm(AB), x, y - 1.0, z),
+                                    noise_grad(noise_perm(BB), x - 1.0, y - 1.0, z))),
+        noise_lerp(v, noise_lerp(u, noise_grad(noise_perm(AA + 1), x, y, z - 1.0),
+                                    noise_grad(noise_perm(BA + 1), x - 1.0, y, z - 1.0)),
+                      noise_lerp(u, noise_grad(noise_perm(AB + 1), x, y - 1.0, z - 1.0),
+                                    noise_grad(noise_perm(BB + 1), x - 1.0, y - 1.0, z - 1.0))));
+}
+
+float improved_noise(vec3 p) { return improved_noise_split(p, ivec3(0), vec3(0.0)); }
+
+// sum over i < octaves of |noise(2^i q)| / 2^i (mode NOISE_TURBULENCE) or noise(2^i q) / 2^i
+// (NOISE_FBM), q = p + cell + frac.
+float noise_octaves_split(vec3 p, ivec3 cell, vec3 frac, int octaves, int mode) {
+    float sum = 0.0;
+    float k = 1.0;
+    ivec3 c = cell & 255;
+    for (int i = 0; i < octaves; ++i) {
+        float n = improved_noise_split(p * k, c, frac * k);
+        sum += (mode == NOISE_FBM ? n : abs(n)) / k;
+        k *= 2.0;
+        c = (c * 2) & 255;
+    }
+    return sum;
+}
+
+float turbulence_split(vec3 p, ivec3 cell, vec3 frac, int octaves) {
+    return noise_octaves_split(p, cell, frac, octaves, NOISE_TURBULENCE);
+}
+
+float fbm_split(vec3 p, ivec3 cell, vec3 frac, int octaves) {
+    return noise_octaves_split(p, cell, frac, octaves, NOISE_FBM);
+}
+
+float turbulence(vec3 p, int octaves) { return turbulence_split(p, ivec3(0), vec3(0.0), octaves); }
+
+float fbm(vec3 p, int octaves) { return fbm_split(p, ivec3(0), vec3(0.0), octaves); }
+
+// reference.screen_offsets for one pixel: frag_coord = gl_FragCoord.xy (= (s*W, t*H)), size = (W, H),
+// scale_split = reference.split_scale(scale), (seed_cell, seed_frac) = reference.seed_offset_parts(seed).
+vec2 screen_offset(vec2 frag_coord, vec2 size, vec2 scale_split, ivec3 seed_cell, vec3 seed_frac,
+                   int octaves, int mode) {
+    vec2 a = frag_coord;         // (s, t) * (W, H)
+    vec2 b = size - frag_coord;  // (1 - s, 1 - t) * (W, H), exact
+    float off_s = noise_octaves_split(vec3(a * scale_split.x, 0.0), seed_cell,
+                                      seed_frac + vec3(a * scale_split.y, 0.0), octaves, mode);
+    float off_t = noise_octaves_split(vec3(b * scale_split.x, 0.0), seed_cell,
+                                      seed_frac + vec3(b * scale_split.y, 0.0), octaves, mode);
+    return vec2(off_s, off_t);
+}
+
+// reference.noise3_at for one object-space point.
+vec2 noise3_at(vec3 point, float scale, ivec3 seed_cell, vec3 seed_frac, int octaves, int mode) {
+    vec3 q = point * scale;
+    return vec2(noise_octaves_split(q, seed_cell, seed_frac, octaves, mode),
+                noise_octaves_split(q, seed_cell + NOISE_CHANNEL1_CELL, seed_frac + NOISE_CHANNEL1_FRAC,
+                                    octaves, mode));
+}
+
+// PCG hash (Jarzynski & Olano 2020): LCG step, then PCG's RXS-M-XS output permutation.
+uint hash_u32(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Uniform in [0, 1) with 24 bits; the same bits as reference.white_noise.
+float white_noise(uvec3 key) {
+    uint h = hash_u32(key.x + hash_u32(key.y + hash_u32(key.z)));
+    return float(h >> 8u) * (1.0 / 16777216.0);
+}
+
+uint white_stream(uint seed, uint frame, uint channel) {
+    return hash_u32(hash_u32(seed) + 2u * frame + channel);
+}
+
+// reference.white_offsets for pixel (x, y); seed and frame taken mod 2^32 on the CPU.
+vec2 white_offset(uvec2 pixel, uint seed, uint frame) {
+    return vec2(white_noise(uvec3(pixel, white_stream(seed, frame, 0u))),
+                white_noise(uvec3(pixel, white_stream(seed, frame, 1u))));
+}
+
+#endif
