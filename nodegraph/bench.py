@@ -1,0 +1,195 @@
+"""Benchmarks: commands that print figures and write JSON (never timed tests).
+
+`sketchgraph bench PIPELINE` renders frames back to back along the scene's orbit with no readback and
+no disk cache, and reports fps, the median frame time, the median time of every node, the time of a
+plain full-screen RGBA16F copy pass measured in the same run (the floor for one pass), and the time
+of the image-space stages in their float64 NumPy references on the same G-buffer.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from .errors import SketchgraphError
+
+# named benchmarks: name -> "module:click_command"
+NAMED: dict[str, str] = {}
+
+IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
+
+
+def command_for(target: str) -> click.Command:
+    if target in NAMED:
+        module, attr = NAMED[target].split(":")
+        return getattr(importlib.import_module(module), attr)
+    if target.endswith((".yaml", ".yml")) or Path(target).exists():
+        return _pipeline_command(target)
+    names = ", ".join(sorted(NAMED)) or "none yet"
+    raise SketchgraphError(f"bench: '{target}' is neither a pipeline file nor a named benchmark ({names})")
+
+
+def _pipeline_command(path: str) -> click.Command:
+    @click.command()
+    @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
+    @click.option("--frames", default=60, show_default=True, help="Frames to render along the orbit.")
+    @click.option("--size", default=None, help="WxH (default: the pipeline's).")
+    @click.option("--set", "overrides", multiple=True, help="NODE.PARAM=VALUE")
+    @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+    def cmd(scene: str | None, frames: int, size: str | None, overrides: tuple[str, ...],
+            json_path: Path | None) -> None:
+        result = bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides)
+        print_result(result)
+        if json_path:
+            json_path.parent.mkdir(parents=True, exist_ok=True)
+            json_path.write_text(json.dumps(result, indent=2) + "\n")
+            click.echo(f"wrote {json_path}")
+
+    return cmd
+
+
+def print_result(result: dict[str, Any]) -> None:
+    for k, v in result.items():
+        if isinstance(v, dict):
+            click.echo(f"{k}:")
+            for kk, vv in v.items():
+                click.echo(f"  {kk}: {_fmt(vv)}")
+        else:
+            click.echo(f"{k}: {_fmt(v)}")
+
+
+def _fmt(v: Any) -> str:
+    return f"{v:.3f}" if isinstance(v, float) else str(v)
+
+
+def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, size: str | None = None,
+                   overrides: tuple[str, ...] = (), warmup: int = 3) -> dict[str, Any]:
+    from . import gl as glmod
+    from . import pipeline as pl
+    from .executor import Executor
+
+    pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene)
+    gl = glmod.get()
+    ex = Executor(pipe, None, mode="loop", memory_limit=256 * 1024**2)
+    for f in range(-warmup, 0):
+        ex.run(f)
+    gl.finish()
+    frame_ms = []
+    for f in _bar(range(frames), "frames"):
+        t0 = time.perf_counter()
+        ex.run(f)
+        gl.finish()
+        frame_ms.append((time.perf_counter() - t0) * 1000)
+    # per-node times: a second pass that waits for the GPU after every node
+    ex.timing = True
+    per_node: dict[str, list[float]] = {nid: [] for nid in ex.plan.order}
+    for f in range(min(frames, 20)):
+        res = ex.run(f)
+        for nid, st in res.stats.items():
+            if st.status == "computed":
+                per_node[nid].append(st.ms)
+    nodes_ms = {nid: statistics.median(v) for nid, v in per_node.items() if v}
+    copy_ms = copy_pass_ms(gl, pipe.size)
+    numpy_ms, gpu_ms = _numpy_reference(pipe, nodes_ms)
+    median = statistics.median(frame_ms)
+    out: dict[str, Any] = {
+        "pipeline": str(path),
+        "scene": pipe.scene_spec,
+        "size": list(pipe.size),
+        "frames": frames,
+        "renderer": gl.renderer,
+        "fps": 1000.0 / median,
+        "ms_per_frame": median,
+        "ms_per_frame_p90": sorted(frame_ms)[int(0.9 * (len(frame_ms) - 1))],
+        "nodes": nodes_ms,
+        "copy_pass_ms": copy_ms,
+        "ms_per_frame_over_copy_pass": median / copy_ms,
+    }
+    if numpy_ms is not None:
+        out.update(numpy_reference_ms=numpy_ms, image_space_gpu_ms=gpu_ms, speedup_vs_numpy=numpy_ms / gpu_ms)
+    return out
+
+
+def copy_pass_ms(gl: Any, size: tuple[int, int], passes: int = 30) -> float:
+    """Median time of a plain full-screen RGBA16F copy, chained A->B->A so no draw can be skipped."""
+    import numpy as np
+
+    from .glsl import ENGINE_GLSL
+
+    prog = gl.program(ENGINE_GLSL / "copy.glsl", node="bench")
+    w, h = size
+    a = gl.upload(np.random.default_rng(0).random((h, w, 4), dtype=np.float32), "RGBA16F")
+    b = gl.texture(size, "RGBA16F")
+    gl.fullscreen(prog, [b], {"t_src": a})
+    gl.finish()
+    times = []
+    for i in range(passes):
+        src, dst = (a, b) if i % 2 else (b, a)
+        t0 = time.perf_counter()
+        gl.fullscreen(prog, [dst], {"t_src": src})
+        gl.finish()
+        times.append((time.perf_counter() - t0) * 1000)
+    gl.release(a)
+    gl.release(b)
+    return statistics.median(times)
+
+
+def _numpy_reference(pipe: Any, nodes_ms: dict[str, float]) -> tuple[float | None, float | None]:
+    """float64 NumPy time of the image-space stages on the same G-buffer, and their GPU time."""
+    from .executor import Executor
+
+    stages = [nid for nid, node in pipe.nodes.items() if node.type_name in IMAGE_SPACE_TYPES and nid in nodes_ms]
+    if not stages:
+        return None, None
+    refs = sorted({ref for nid in stages for ref in pipe.connections[nid].values()})
+    ex = Executor(pipe, None, requested=refs)
+    res = ex.run(0)
+    values = {ref: res.values[ref].read() for ref in refs}
+    t0 = time.perf_counter()
+    produced: dict[tuple[str, str], Any] = {}
+    for nid in [n for n in ex.plan.order if n in stages] or stages:
+        node = pipe.nodes[nid]
+        ins = {p: produced.get(ref, values.get(ref)) for p, ref in pipe.connections[nid].items()}
+        outs = reference_for(node, ins)
+        for port, arr in outs.items():
+            produced[(nid, port)] = arr
+    numpy_ms = (time.perf_counter() - t0) * 1000
+    return numpy_ms, sum(nodes_ms[n] for n in stages)
+
+
+def reference_for(node: Any, ins: dict[str, Any]) -> dict[str, Any]:
+    """Run the float64 reference of an image-space node on read-back inputs."""
+    import numpy as np
+
+    p = node.params
+    if node.type_name == "edge_detect":
+        from nodes.edge_detect.reference import edge_detect
+
+        return edge_detect(ins["normal"], ins["depth"][..., 0], **p.model_dump())
+    if node.type_name == "sketch":
+        from nodes.sketch.reference import sketch
+
+        layers = [(np.asarray(layer.matrix), layer.color) for layer in node.layers()]
+        out = sketch(ins["edges"][..., 0], ins["shade"], ins["offset"], np.asarray(p.shade_matrix), layers,
+                     p.edge_strength, p.use_shade, p.paper)
+        return out
+    if node.type_name == "depth_sprite":
+        from nodes.depth_sprite.reference import depth_sprite
+
+        uc, ud = ins.get("under_color"), ins.get("under_depth")
+        return depth_sprite(ins["color"], ins["offsets"], ins["depth"][..., 0], uc,
+                            None if ud is None else ud[..., 0], p.paper)
+    raise KeyError(node.type_name)
+
+
+def _bar(it: Any, unit: str) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(it, unit=unit, file=sys.stderr, leave=False, disable=not sys.stderr.isatty())

@@ -1,0 +1,388 @@
+"""The `sketchgraph` command line. Every error is one line on stderr and exit status 2."""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import click
+
+from . import pipeline as pl
+from .errors import SketchgraphError
+
+
+def _warn_one_line(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
+class _Group(click.Group):
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except SketchgraphError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="sketchgraph")
+def main() -> None:
+    """Sketchy, pencil and loose-line drawings of 3D meshes from YAML node graphs."""
+    warnings.showwarning = _warn_one_line
+
+
+# -- shared options -------------------------------------------------------------------------
+def pipeline_options(f: Any) -> Any:
+    f = click.option("--set", "overrides", multiple=True, metavar="NODE.PARAM=VALUE",
+                     help="Override a node parameter (YAML value; repeatable).")(f)
+    f = click.option("--size", metavar="WxH", help="Output size, e.g. 1200x900.")(f)
+    f = click.option("--scene", metavar="SCENE", help="builtin:NAME, a scene YAML or a mesh file.")(f)
+    return f
+
+
+def cache_options(f: Any) -> Any:
+    f = click.option("--no-cache", is_flag=True, help="Neither read nor write the disk cache.")(f)
+    f = click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder "
+                     "(default $SKETCHGRAPH_CACHE_DIR or ~/.cache/sketchgraph).")(f)
+    return f
+
+
+def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
+                  load_scene: bool = True) -> pl.Pipeline:
+    return pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
+                   load_scene=load_scene)
+
+
+def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
+    from .cache import Cache
+
+    return None if no_cache else Cache(cache_dir)
+
+
+def parse_frames(text: str | None) -> list[int]:
+    if text is None:
+        return [0]
+    m = re.fullmatch(r"\s*(-?\d+)\s*(?::\s*(-?\d+)\s*(?::\s*(\d+)\s*)?)?", text)
+    if not m:
+        raise SketchgraphError(f"--frames: expected N or START:END[:STEP] (END exclusive), found '{text}'")
+    start = int(m.group(1))
+    if m.group(2) is None:
+        return [start]
+    end, step = int(m.group(2)), int(m.group(3) or 1)
+    if end <= start or step < 1:
+        raise SketchgraphError(f"--frames: empty range '{text}'")
+    return list(range(start, end, step))
+
+
+def frame_path(pattern: str, frame: int, many: bool) -> Path:
+    m = re.search(r"#+", pattern)
+    if m:
+        return Path(pattern[:m.start()] + str(frame).zfill(len(m.group(0))) + pattern[m.end():])
+    if many:
+        p = Path(pattern)
+        return p.with_name(f"{p.stem}_{frame:04d}{p.suffix}")
+    return Path(pattern)
+
+
+def to_image(value: Any) -> Any:
+    """A node value as a float (H, W, C) array for writing."""
+    from .values import Strokes, Tex, TexArray
+
+    if isinstance(value, Tex):
+        return value.read()
+    if isinstance(value, TexArray):
+        import numpy as np
+
+        arr = value.read()
+        return np.concatenate(list(arr), axis=1)  # layers side by side
+    if isinstance(value, Strokes):
+        from .strokes import rasterize_strokes
+
+        return rasterize_strokes(value)
+    raise SketchgraphError(f"cannot write a {type(value).__name__} as an image")
+
+
+def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> Path:
+    from . import imageio
+    from .values import Strokes
+
+    if isinstance(value, Path):  # a File output: the node already wrote it
+        return value
+
+    if path.suffix.lower() == ".svg":
+        if not isinstance(value, Strokes):
+            raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
+        from .strokes import to_svg
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(to_svg(value))
+        return path
+    arr = to_image(value)
+    if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
+        arr = arr[:, :, :3]
+    return imageio.write(path, arr, meta, half=False)
+
+
+# -- run ------------------------------------------------------------------------------------
+@main.command()
+@click.argument("pipeline", type=click.Path())
+@click.option("-o", "--out", "out", metavar="FILE", help="Image to write (PNG, EXR; #### = frame number). "
+              "Default: out/<pipeline>.png")
+@click.option("--output", "output_name", metavar="NAME", help="Which pipeline output to write (default: the first).")
+@click.option("--frames", metavar="START:END[:STEP]", help="Render a frame sequence along the scene's orbit.")
+@click.option("--explain", is_flag=True, help="Print the plan (what runs, why, from where, formats, memory) first.")
+@click.option("--quiet", "-q", is_flag=True, help="Print nothing but errors.")
+@pipeline_options
+@cache_options
+def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
+        overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
+        cache_dir: Path | None) -> None:
+    """Render a pipeline to an image (or a frame sequence)."""
+    from .executor import Executor
+
+    pipe = open_pipeline(pipeline, overrides, size, scene)
+    frame_list = parse_frames(frames)
+    name = output_name or next(iter(pipe.outputs))
+    if name not in pipe.outputs:
+        raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
+    ref = pipe.outputs[name]
+    cache = open_cache(no_cache, cache_dir)
+    ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 else "single", requested=[ref])
+    if explain:
+        from .explain import explain as explain_plan
+
+        click.echo(explain_plan(ex, frame_list[0]))
+    pattern = out or f"out/{Path(pipeline).stem}.png"
+    many = len(frame_list) > 1
+    t0 = time.perf_counter()
+    bar = _progress(frame_list, quiet or not many, "frames")
+    try:
+        for frame in bar:
+            result = ex.run(frame)
+            path = write_value(result.values[ref], frame_path(pattern, frame, many))
+            if not quiet and not many:
+                computed = result.computed()
+                ms = sum(s.ms for s in result.stats.values())
+                click.echo(f"wrote {path}  ({len(computed)} of {len(result.stats)} nodes computed: "
+                           f"{', '.join(computed) or 'none'}; {ms:.0f} ms in nodes)")
+    finally:
+        ex.close()
+    if many and not quiet:
+        click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
+                   f"in {time.perf_counter() - t0:.1f} s")
+
+
+def _progress(items: list[int], disable: bool, unit: str) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(items, disable=disable, unit=unit, file=sys.stderr, leave=False)
+
+
+# -- inspect --------------------------------------------------------------------------------
+@main.command()
+@click.argument("pipeline", type=click.Path())
+@click.argument("port", required=False)
+@click.option("-o", "--out", "out", metavar="FILE", help="File to write (.exr keeps exact values, .png to look at).")
+@click.option("--frame", default=0, show_default=True, help="Frame to render.")
+@pipeline_options
+@cache_options
+def inspect(pipeline: str, port: str | None, out: str | None, frame: int, overrides: tuple[str, ...],
+            size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None) -> None:
+    """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
+    from .executor import Executor
+
+    pipe = open_pipeline(pipeline, overrides, size, scene)
+    if port is None:
+        raise SketchgraphError("name the output to inspect as NODE.PORT; outputs: "
+                               + ", ".join(f"{n}.{p}" for n, node in pipe.nodes.items() for p in node.outputs))
+    ref = pipe.parse_ref(port)
+    ex = Executor(pipe, open_cache(no_cache, cache_dir), requested=[ref])
+    try:
+        result = ex.run(frame)
+        value = result.values[ref]
+        path = Path(out or f"out/{ref[0]}.{ref[1]}.exr")
+        write_value(value, path, {"sketchgraph:port": f"{ref[0]}.{ref[1]}"})
+        stats = _value_stats(value)
+        click.echo(f"wrote {path}  {stats}")
+    finally:
+        ex.close()
+
+
+def _value_stats(value: Any) -> str:
+    from .values import Tex
+
+    if not isinstance(value, Tex):
+        return type(value).__name__
+    import numpy as np
+
+    arr = value.read()
+    parts = []
+    for c in range(arr.shape[2]):
+        ch = arr[:, :, c]
+        finite = ch[np.isfinite(ch)]
+        lo, hi, mean = (float(finite.min()), float(finite.max()), float(finite.mean())) if finite.size else (0, 0, 0)
+        parts.append(f"{'RGBA'[c]}[{lo:.4g}..{hi:.4g} mean {mean:.4g}]")
+    return f"{value.fmt} {value.size[0]}x{value.size[1]} " + " ".join(parts)
+
+
+# -- nodes / graph / schema -----------------------------------------------------------------
+@main.command()
+@click.argument("name", required=False)
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
+def nodes(name: str | None, as_json: bool) -> None:
+    """Every node type: ports with types, params with defaults and docs."""
+    from .registry import default
+    from .yamlio import suggest
+
+    reg = default()
+    items = reg.items()
+    if name:
+        if name not in reg:
+            raise SketchgraphError(f"unknown node type '{name}'" + suggest(name, reg.names()))
+        items = [(name, reg.get(name))]
+    if as_json:
+        click.echo(json.dumps({n: _node_info(c) for n, c in items}, indent=2))
+        return
+    for n, cls in items:
+        info = _node_info(cls)
+        click.echo(f"{n}  (version {info['version']})")
+        if info["doc"]:
+            click.echo("  " + info["doc"].split("\n\n")[0].replace("\n", "\n  "))
+        for kind in ("inputs", "outputs"):
+            if info[kind]:
+                click.echo(f"  {kind}:")
+                for p, d in info[kind].items():
+                    opt = " (optional)" if d.get("optional") else ""
+                    click.echo(f"    {p}: {d['type']}{opt}  {d['doc']}")
+        if info["params"]:
+            click.echo("  params:")
+            for p, d in info["params"].items():
+                click.echo(f"    {p} = {json.dumps(d['default'])}  {d['description']}")
+        click.echo("")
+
+
+def _node_info(cls: Any) -> dict[str, Any]:
+    params = {}
+    for fname, f in cls.Params.model_fields.items():
+        default = f.default
+        try:
+            json.dumps(default)
+        except TypeError:
+            default = cls.Params().model_dump(mode="json").get(fname)
+        params[fname] = {"default": default, "description": f.description or "",
+                         "type": str(f.annotation).replace("typing.", "")}
+    doc = " ".join((cls.doc or cls.__doc__ or "").split())
+    return {
+        "version": cls.version,
+        "doc": doc,
+        "inputs": {p: {"type": str(i.type), "doc": i.doc, "optional": i.optional} for p, i in cls.inputs.items()},
+        "outputs": {p: {"type": str(o.type), "doc": o.doc} for p, o in cls.outputs.items()},
+        "params": params,
+    }
+
+
+@main.command()
+@click.argument("pipeline", type=click.Path())
+@pipeline_options
+def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None) -> None:
+    """Print the DAG as Graphviz DOT text (pipe into `dot -Tsvg`)."""
+    pipe = open_pipeline(pipeline, overrides, size, scene, load_scene=False)
+    click.echo(to_dot(pipe))
+
+
+def to_dot(pipe: pl.Pipeline) -> str:
+    def q(s: str) -> str:
+        return '"' + s.replace('"', r"\"") + '"'
+
+    lines = [f"digraph {q(pipe.name)} {{", "  rankdir=LR;", '  node [shape=record, fontname="Helvetica"];']
+    for nid, node in pipe.nodes.items():
+        ins = "|".join(f"<i_{p}> {p}" for p in node.inputs)
+        outs = "|".join(f"<o_{p}> {p}" for p in node.outputs)
+        middle = f"{nid}\\n({node.type_name})|{{{outs}}}"
+        label = f"{{{{{ins}}}|{middle}}}" if ins else f"{{{middle}}}"
+        lines.append(f"  {q(nid)} [label={q(label)}];")
+    for nid, conns in pipe.connections.items():
+        for port, (src, sport) in conns.items():
+            ptype = pipe.nodes[src].outputs[sport].type
+            lines.append(f"  {q(src)}:o_{sport} -> {q(nid)}:i_{port} [label={q(str(ptype))}];")
+    for name, (nid, port) in pipe.outputs.items():
+        lines.append(f"  {q('out:' + name)} [shape=oval, label={q(name)}];")
+        lines.append(f"  {q(nid)}:o_{port} -> {q('out:' + name)};")
+    lines.append("}")
+    return "\n".join(lines)
+
+
+@main.command()
+def schema() -> None:
+    """JSON Schema of the pipeline format (every node type's params), for editor completion."""
+    click.echo(json.dumps(pl.json_schema(), indent=2))
+
+
+# -- cache ----------------------------------------------------------------------------------
+@main.group()
+def cache() -> None:
+    """Inspect or prune the disk cache."""
+
+
+@cache.command("info")
+@click.option("--cache-dir", type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True)
+def cache_info(cache_dir: Path | None, as_json: bool) -> None:
+    """Where the cache is, how many entries and bytes, and its limit."""
+    from .cache import Cache
+
+    info = Cache(cache_dir).info()
+    if as_json:
+        click.echo(json.dumps(info, indent=2))
+        return
+    click.echo(f"cache: {info['root']}\nentries: {info['entries']} ({info['by_kind']['exr']} EXR, "
+               f"{info['by_kind']['npz']} npz)\nsize: {_mb(info['bytes'])} of {_mb(info['limit'])} limit")
+
+
+@cache.command("prune")
+@click.option("--cache-dir", type=click.Path(path_type=Path))
+@click.option("--max-size", default=None, help="Evict least-recently-used entries down to this size (e.g. 500M, 0).")
+def cache_prune(cache_dir: Path | None, max_size: str | None) -> None:
+    """Evict least-recently-used entries until the cache fits its limit (or --max-size)."""
+    from .cache import Cache, parse_bytes
+
+    c = Cache(cache_dir)
+    try:
+        limit = parse_bytes(max_size) if max_size is not None else None
+    except ValueError:
+        raise SketchgraphError(f"--max-size: expected a size such as 500M or 2G, found '{max_size}'") from None
+    files, freed = c.prune(limit)
+    click.echo(f"removed {files} entries ({_mb(freed)}); {_mb(c.info()['bytes'])} left in {c.root}")
+
+
+def _mb(n: int) -> str:
+    return f"{n / 1024**2:.1f} MiB"
+
+
+# -- bench ----------------------------------------------------------------------------------
+BENCHMARKS: dict[str, str] = {}  # name -> "module:function", filled by benchmark modules below
+
+
+class _BenchCommand(click.Command):
+    pass
+
+
+@main.command(context_settings={"ignore_unknown_options": True, "allow_extra_args": True})
+@click.argument("target")
+@click.pass_context
+def bench(ctx: click.Context, target: str) -> None:
+    """Benchmarks: `bench PIPELINE [--scene M] [--frames N] [--size WxH] [--json F]`, or a named one:
+    shower-door, particles, accuracy, hatching, curvature (`bench NAME --help`)."""
+    from . import bench as benchmod
+
+    command = benchmod.command_for(target)
+    command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,304 @@
+"""Planning and execution.
+
+`plan()` keeps only the ancestors of the requested outputs and decides every texture's format from
+its consumers' port types. `Executor.run()` computes each planned node's key (cheap, no GPU), then
+materialises values backwards from the requested outputs: from the in-memory cache (GPU textures
+kept across frames), else from the disk cache, else by `compute()`, whose inputs are materialised
+the same way. So a node whose output is cached never causes its ancestors to load or run.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any
+
+import networkx as nx
+
+from . import types
+from .cache import Cache
+from .errors import PipelineError
+from .node import HashContext, Node, derive_seed
+from .pipeline import Pipeline, PortRef
+from .values import Arrays, Strokes, Tex, TexArray, nbytes
+
+
+@dataclass
+class Plan:
+    pipeline: Pipeline
+    requested: list[PortRef]
+    order: list[str]  # topological, ancestors of the requested outputs only
+    needed: dict[str, frozenset[str]]  # node -> output ports someone in the plan consumes
+    formats: dict[PortRef, str]  # texture outputs -> allocated format
+    reasons: dict[str, list[str]] = field(default_factory=dict)  # node -> requested outputs that need it
+
+
+def plan(pipe: Pipeline, requested: list[PortRef] | None = None) -> Plan:
+    req = list(requested) if requested else list(dict.fromkeys(pipe.outputs.values()))
+    g = pipe.graph()
+    keep: set[str] = set()
+    reasons: dict[str, list[str]] = {}
+    out_names = {ref: name for name, ref in pipe.outputs.items()}
+    for nid, port in req:
+        label = out_names.get((nid, port), f"{nid}.{port}")
+        for a in nx.ancestors(g, nid) | {nid}:
+            keep.add(a)
+            reasons.setdefault(a, []).append(label)
+    order = [n for n in nx.lexicographical_topological_sort(g) if n in keep]
+    needed: dict[str, set[str]] = {n: set() for n in order}
+    consumers: dict[PortRef, list[str | None]] = {}
+    for nid, port in req:
+        needed[nid].add(port)
+        consumers.setdefault((nid, port), []).append(None)  # None: a requested output, full precision
+    for nid in order:
+        for in_port, (src, sport) in pipe.connections[nid].items():
+            needed[src].add(sport)
+            consumers.setdefault((src, sport), []).append(pipe.nodes[nid].inputs[in_port].type.fmt)
+    formats: dict[PortRef, str] = {}
+    for (nid, port), wants in consumers.items():
+        declared = pipe.nodes[nid].outputs[port].type
+        if not declared.is_texture or declared.fmt is None:
+            continue
+        rank = max(types.precision(declared.fmt) if w is None else types.precision(w) for w in wants)
+        formats[(nid, port)] = types.with_precision(declared.fmt, min(rank, types.precision(declared.fmt)))
+    return Plan(pipe, req, order, {n: frozenset(p) for n, p in needed.items()}, formats, reasons)
+
+
+class RunContext:
+    """What a node's `compute()` sees: the GL wrapper, size, frame, seeds, the scene, its formats."""
+
+    def __init__(self, executor: Executor, node: Node, frame: int):
+        self._ex = executor
+        self.node = node
+        self.frame = frame
+        self.size: tuple[int, int] = executor.pipeline.size
+        self.scene = executor.pipeline.scene
+        self.pipeline_seed = executor.pipeline.seed
+
+    @property
+    def gl(self) -> Any:
+        return self._ex.gl
+
+    @property
+    def seed(self) -> int:
+        """This node's seed: from the pipeline seed, the node id, and the frame if the node reads it."""
+        frame = self.frame if "frame" in self.node.context_keys else 0
+        return derive_seed(self.pipeline_seed, self.node.id, frame)
+
+    def seed_for_frame(self, frame: int) -> int:
+        return derive_seed(self.pipeline_seed, self.node.id, frame)
+
+    @property
+    def camera(self) -> Any:
+        return self.scene.camera_at(self.frame) if self.scene is not None else None
+
+    def format(self, port: str) -> str:
+        """The planned format of a texture output (declared format if the port is not planned)."""
+        fmt = self._ex.plan.formats.get((self.node.id, port))
+        return fmt or self.node.outputs[port].type.fmt or "RGBA16F"
+
+    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Tex:
+        return self.gl.texture(size or self.size, self.format(port), filter=filter)
+
+    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
+        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
+
+
+@dataclass
+class NodeStat:
+    node: str
+    type: str
+    key: str
+    status: str = "skipped"  # computed | memory | disk | skipped
+    ms: float = 0.0
+    outputs: dict[str, str] = field(default_factory=dict)  # port -> format / kind
+
+
+@dataclass
+class RunResult:
+    values: dict[PortRef, Any]
+    stats: dict[str, NodeStat]
+    frame: int
+
+    def computed(self) -> list[str]:
+        return [s.node for s in self.stats.values() if s.status == "computed"]
+
+
+class Executor:
+    """Runs a pipeline. `mode='single'` persists outputs for later runs; `mode='loop'` (frame
+    sequences, benchmarks) persists only nodes marked `persist = "always"` and writes in the background."""
+
+    def __init__(self, pipeline: Pipeline, cache: Cache | None = None, *, mode: str = "single",
+                 requested: list[PortRef] | None = None, gl: Any = None, timing: bool = False,
+                 memory_limit: int = 1024**3, persist_all: bool = False):
+        self.pipeline = pipeline
+        self.cache = cache
+        self.mode = mode
+        self.timing = timing
+        self.persist_all = persist_all
+        self.plan = plan(pipeline, requested)
+        self._gl = gl
+        self._memory: OrderedDict[tuple[str, str], Any] = OrderedDict()
+        self._memory_bytes = 0
+        self.memory_limit = memory_limit
+        self.compute_counts: dict[str, int] = {}
+
+    @property
+    def gl(self) -> Any:
+        if self._gl is None:
+            from . import gl as glmod
+
+            self._gl = glmod.get()
+        return self._gl
+
+    # -- keys ------------------------------------------------------------------------------
+    def keys(self, frame: int = 0) -> dict[str, str]:
+        hctx = HashContext(self.pipeline.size, frame, self.pipeline.seed, self.pipeline.scene)
+        keys: dict[str, str] = {}
+        for nid in self.plan.order:
+            node = self.pipeline.nodes[nid]
+            ins = {p: f"{keys[s]}.{sp}" for p, (s, sp) in sorted(self.pipeline.connections[nid].items())}
+            keys[nid] = node.key(hctx, ins)
+        return keys
+
+    # -- run -------------------------------------------------------------------------------
+    def run(self, frame: int = 0) -> RunResult:
+        keys = self.keys(frame)
+        stats = {nid: NodeStat(nid, self.pipeline.nodes[nid].type_name, keys[nid]) for nid in self.plan.order}
+        pinned: set[tuple[str, str]] = set()
+        values: dict[PortRef, Any] = {}
+        for ref in self.plan.requested:
+            values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
+        self._evict(pinned)
+        return RunResult(values, stats, frame)
+
+    def _get(self, nid: str, port: str, keys: dict[str, str], stats: dict[str, NodeStat],
+             pinned: set[tuple[str, str]], frame: int) -> Any:
+        mkey = (keys[nid], port)
+        if self.pipeline.nodes[nid].side_effect and stats[nid].status != "computed":
+            self._compute(nid, keys, stats, pinned, frame)
+            return self._memory[mkey]
+        if mkey in self._memory:
+            self._memory.move_to_end(mkey)
+            pinned.add(mkey)
+            if stats[nid].status == "skipped":
+                stats[nid].status = "memory"
+            return self._memory[mkey]
+        node = self.pipeline.nodes[nid]
+        if self.cache is not None and node.persist != "never" and not node.side_effect:
+            t0 = time.perf_counter()
+            loaded = self.cache.load(keys[nid], port, f"node '{nid}'")
+            if loaded is not None:
+                value = self._upload(loaded, nid, port)
+                self._remember(mkey, value, pinned)
+                if stats[nid].status in ("skipped", "memory"):
+                    stats[nid].status = "disk"
+                stats[nid].ms += (time.perf_counter() - t0) * 1000
+                stats[nid].outputs[port] = _describe(value)
+                return value
+        self._compute(nid, keys, stats, pinned, frame)
+        return self._memory[mkey]
+
+    def _compute(self, nid: str, keys: dict[str, str], stats: dict[str, NodeStat], pinned: set[tuple[str, str]],
+                 frame: int) -> None:
+        node = self.pipeline.nodes[nid]
+        inputs = {p: self._get(s, sp, keys, stats, pinned, frame)
+                  for p, (s, sp) in self.pipeline.connections[nid].items()}
+        needed = self.plan.needed[nid]
+        ctx = RunContext(self, node, frame)
+        t0 = time.perf_counter()
+        outs = node.compute(ctx, inputs, needed)
+        if self.timing and self._gl is not None:
+            self.gl.finish()
+        ms = (time.perf_counter() - t0) * 1000
+        self.compute_counts[nid] = self.compute_counts.get(nid, 0) + 1
+        missing = needed - set(outs)
+        if missing:
+            raise RuntimeError(f"node '{nid}' ({node.type_name}) did not produce {sorted(missing)}")
+        st = stats[nid]
+        st.status, st.ms = "computed", st.ms + ms
+        persist = self.cache is not None and (
+            node.persist == "always" or self.persist_all or (node.persist == "auto" and self.mode == "single"))
+        for port, value in outs.items():
+            mkey = (keys[nid], port)
+            self._remember(mkey, value, pinned)
+            st.outputs[port] = _describe(value)
+            if persist and port in needed and self.cache.find(keys[nid], port) is None:
+                self._persist(node, keys[nid], port, value)
+
+    # -- memory cache ----------------------------------------------------------------------
+    def _remember(self, mkey: tuple[str, str], value: Any, pinned: set[tuple[str, str]]) -> None:
+        old = self._memory.pop(mkey, None)
+        if old is not None and old is not value:
+            self._memory_bytes -= nbytes(old)
+            self._release(old)
+        self._memory[mkey] = value
+        self._memory_bytes += nbytes(value)
+        pinned.add(mkey)
+
+    def _evict(self, pinned: set[tuple[str, str]]) -> None:
+        for mkey in list(self._memory):
+            if self._memory_bytes <= self.memory_limit:
+                break
+            if mkey in pinned:
+                continue
+            value = self._memory.pop(mkey)
+            self._memory_bytes -= nbytes(value)
+            self._release(value)
+
+    def _release(self, value: Any) -> None:
+        in_use = any(v is value for v in self._memory.values())
+        if isinstance(value, (Tex, TexArray)) and self._gl is not None and not in_use:
+            self.gl.release(value)
+
+    def clear_memory(self) -> None:
+        for value in self._memory.values():
+            self._release(value)
+        self._memory.clear()
+        self._memory_bytes = 0
+
+    # -- disk cache ------------------------------------------------------------------------
+    def _persist(self, node: Node, key: str, port: str, value: Any) -> None:
+        assert self.cache is not None
+        from . import __version__
+
+        meta = {"node": node.id, "type": node.type_name, "version": node.version,
+                "params": node.params.model_dump(mode="json"), "package": __version__}
+        background = self.mode == "loop"
+        if isinstance(value, Tex):
+            self.cache.store(key, port, "texture", value.read(), meta, value.fmt, background=background)
+        elif isinstance(value, TexArray):
+            self.cache.store(key, port, "texture_array", value.read(), meta, value.fmt, background=background)
+        elif isinstance(value, Strokes):
+            self.cache.store(key, port, "strokes", value, meta, background=background)
+        elif isinstance(value, Arrays):
+            self.cache.store(key, port, "arrays", value, meta, background=background)
+        # scenes and meshes are sources: never cached
+
+    def _upload(self, loaded: Any, nid: str, port: str) -> Any:
+        if loaded.kind == "texture":
+            fmt = self.plan.formats.get((nid, port)) or loaded.fmt or "RGBA32F"
+            arr = loaded.data
+            if arr.shape[2] != types.components(fmt):
+                raise PipelineError(f"cache entry for {nid}.{port} has {arr.shape[2]} channels, expected {fmt}")
+            return self.gl.upload(arr, fmt)
+        if loaded.kind == "texture_array":
+            data = loaded.data
+            fmt = loaded.fmt or "R8"
+            return self.gl.texture_array((data.shape[2], data.shape[1]), data.shape[0], fmt, data)
+        return loaded.data
+
+    def close(self) -> None:
+        if self.cache is not None:
+            self.cache.flush()
+            if self.mode == "single" and self.cache.writes:
+                self.cache.prune()
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, Tex):
+        return value.fmt
+    if isinstance(value, TexArray):
+        return f"{value.fmt}x{value.layers}"
+    return type(value).__name__

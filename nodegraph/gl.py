@@ -1,0 +1,172 @@
+"""The one headless OpenGL context (EGL), texture allocation with reuse, and full-screen passes."""
+
+from __future__ import annotations
+
+import os
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import types
+from .errors import GLUnavailableError
+from .glsl import ProgramCache
+from .values import Tex, TexArray
+
+_INSTALL_HINT = ("install Mesa's EGL and OpenGL drivers (Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri; "
+                 "Fedora: dnf install mesa-libEGL mesa-dri-drivers)")
+_CONTEXT: GL | None = None
+
+
+class GL:
+    """Wraps the moderngl context: programs, pooled textures, framebuffers, full-screen draws."""
+
+    def __init__(self, ctx: Any):
+        self.ctx = ctx
+        self.programs = ProgramCache(ctx)
+        self._pool: dict[tuple[int, int, str], list[Any]] = defaultdict(list)
+        self._fbos: dict[tuple[int, ...], Any] = {}
+        self._empty_vao: dict[int, Any] = {}
+        self.resources: dict[Any, Any] = {}  # per-context caches of nodes (vertex buffers, lookup textures)
+
+    @property
+    def renderer(self) -> str:
+        info = self.ctx.info
+        return f"{info.get('GL_RENDERER', '?')} | {info.get('GL_VERSION', '?')}"
+
+    # -- textures --------------------------------------------------------------------------
+    def texture(self, size: tuple[int, int], fmt: str, data: np.ndarray | None = None,
+                filter: str = "linear", repeat: bool = False) -> Tex:
+        """A texture of `fmt`, from the pool when one of the same shape is free."""
+        w, h = int(size[0]), int(size[1])
+        pool = self._pool[(w, h, fmt)]
+        if pool and data is None:
+            tex = pool.pop()
+        else:
+            comps, _, dtype, _ = types.FORMATS[fmt]
+            payload = None if data is None else _to_bytes(data, fmt)
+            tex = self.ctx.texture((w, h), comps, payload, dtype=dtype, alignment=1)
+        f = self.ctx.LINEAR if filter == "linear" else self.ctx.NEAREST
+        tex.filter = (f, f)
+        tex.repeat_x = tex.repeat_y = repeat
+        return Tex(tex, fmt)
+
+    def texture_array(self, size: tuple[int, int], layers: int, fmt: str, data: np.ndarray,
+                      repeat: bool = True, mipmaps: bool = True) -> TexArray:
+        comps, _, dtype, _ = types.FORMATS[fmt]
+        tex = self.ctx.texture_array((size[0], size[1], layers), comps, _to_bytes(data, fmt), dtype=dtype,
+                                     alignment=1)
+        tex.repeat_x = tex.repeat_y = repeat
+        if mipmaps:
+            tex.build_mipmaps()
+            tex.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
+            tex.anisotropy = 8.0
+        return TexArray(tex, fmt)
+
+    def release(self, value: Any) -> None:
+        """Return a texture to the pool (only the engine calls this, when nothing refers to it)."""
+        if isinstance(value, Tex):
+            w, h = value.size
+            pool = self._pool[(w, h, value.fmt)]
+            if len(pool) < 8:
+                pool.append(value.texture)
+            else:
+                value.texture.release()  # type: ignore[attr-defined]
+        elif isinstance(value, TexArray):
+            value.texture.release()  # type: ignore[attr-defined]
+
+    def framebuffer(self, colors: list[Tex], depth: Any = None) -> Any:
+        key = tuple(id(c.texture) for c in colors) + ((id(depth),) if depth is not None else ())
+        fbo = self._fbos.get(key)
+        if fbo is None:
+            if len(self._fbos) > 256:
+                for old in self._fbos.values():
+                    old.release()
+                self._fbos.clear()
+            fbo = self.ctx.framebuffer(color_attachments=[c.texture for c in colors], depth_attachment=depth)
+            self._fbos[key] = fbo
+        return fbo
+
+    def upload(self, arr: np.ndarray, fmt: str, filter: str = "linear") -> Tex:
+        """(H, W[, C]) array, row 0 = bottom, into a new texture of `fmt`."""
+        h, w = arr.shape[:2]
+        return self.texture((w, h), fmt, data=arr, filter=filter)
+
+    # -- passes ----------------------------------------------------------------------------
+    def program(self, path: Path, defines: dict[str, Any] | None = None, node: str = "?") -> Any:
+        return self.programs.get(path, defines, node)
+
+    def fullscreen(self, program: Any, targets: list[Tex], textures: dict[str, Any] | None = None,
+                   uniforms: dict[str, Any] | None = None, fbo: Any = None) -> None:
+        """Draw the full-screen triangle with `program` into `targets` (MRT in the listed order)."""
+        fbo = fbo or self.framebuffer(targets)
+        fbo.use()
+        w, h = targets[0].size if targets else fbo.size
+        self.ctx.viewport = (0, 0, w, h)
+        bind(program, textures or {}, uniforms or {})
+        vao = self._empty_vao.get(id(program))
+        if vao is None:
+            vao = self.ctx.vertex_array(program, [])
+            self._empty_vao[id(program)] = vao
+        vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+
+    def finish(self) -> None:
+        self.ctx.finish()
+
+    def check(self) -> None:
+        err = self.ctx.error
+        if err != "GL_NO_ERROR":
+            raise RuntimeError(f"OpenGL error: {err}")
+
+
+def bind(program: Any, textures: dict[str, Any], uniforms: dict[str, Any]) -> None:
+    """Bind textures to units 0.. and set uniforms; names the program does not use are skipped."""
+    unit = 0
+    for name, tex in textures.items():
+        if name not in program:
+            continue
+        obj = tex.texture if isinstance(tex, (Tex, TexArray)) else tex
+        obj.use(location=unit)
+        program[name].value = unit
+        unit += 1
+    for name, value in uniforms.items():
+        if name not in program:
+            continue
+        member = program[name]
+        if isinstance(value, np.ndarray):
+            member.write(np.ascontiguousarray(value, dtype=np.float32).tobytes())
+        else:
+            member.value = value
+
+
+def _to_bytes(data: np.ndarray, fmt: str) -> bytes:
+    dt = types.numpy_dtype(fmt)
+    arr = np.asarray(data)
+    if dt == np.uint8 and arr.dtype != np.uint8:
+        arr = np.clip(np.rint(arr * 255.0), 0, 255)
+    return np.ascontiguousarray(arr.astype(dt, copy=False)).tobytes()
+
+
+def get() -> GL:
+    """The process's GL context, created on first use (headless EGL)."""
+    global _CONTEXT
+    if _CONTEXT is None:
+        _CONTEXT = GL(_create())
+    return _CONTEXT
+
+
+def _create() -> Any:
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - a dependency of the package
+        raise GLUnavailableError(f"moderngl is not installed ({exc}); pip install moderngl") from None
+    backend = os.environ.get("SKETCHGRAPH_GL_BACKEND", "egl")
+    kwargs = {"backend": backend} if backend else {}
+    try:
+        return moderngl.create_standalone_context(require=330, **kwargs)
+    except Exception as exc:  # noqa: BLE001 - any failure here means no usable GL
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise GLUnavailableError(
+            f"cannot create a headless OpenGL 3.3 context through {backend.upper()} ({reason}); {_INSTALL_HINT}"
+        ) from None

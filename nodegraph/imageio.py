@@ -1,0 +1,66 @@
+"""Image files through OpenImageIO. Arrays are float32 (H, W, C) with row 0 = bottom (GL order)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SketchgraphError
+
+WRITABLE = (".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg")
+
+
+def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None = None, half: bool = True) -> Path:
+    """Write a float image. PNG/JPEG/TIFF are 8-bit (values clipped to [0,1]); EXR keeps the values."""
+    import OpenImageIO as oiio
+
+    p = Path(path)
+    ext = p.suffix.lower()
+    if ext not in WRITABLE:
+        raise SketchgraphError(f"{p}: cannot write '{ext or 'no extension'}' images; use one of {', '.join(WRITABLE)}")
+    a = np.asarray(arr, dtype=np.float32)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    a = np.ascontiguousarray(a[::-1])
+    h, w, c = a.shape
+    p.parent.mkdir(parents=True, exist_ok=True)
+    if ext == ".exr":
+        spec = oiio.ImageSpec(w, h, c, oiio.HALF if half else oiio.FLOAT)
+        spec.attribute("compression", "zip")
+        data = a
+    else:
+        if c == 2:  # two channels have no standard 8-bit layout: pad with a zero blue channel
+            a = np.concatenate([a, np.zeros((h, w, 1), np.float32)], axis=2)
+            c = 3
+        spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+        data = np.clip(np.rint(a * 255.0), 0, 255).astype(np.uint8)
+    if c == 1:
+        spec.channelnames = ("Y",)
+    for k, v in (attributes or {}).items():
+        spec.attribute(k, v)
+    out = oiio.ImageOutput.create(str(p))
+    if out is None or not out.open(str(p), spec):
+        raise SketchgraphError(f"{p}: cannot write: {oiio.geterror() or (out.geterror() if out else '')}")
+    ok = out.write_image(data)
+    out.close()
+    if not ok:
+        raise SketchgraphError(f"{p}: write failed: {oiio.geterror()}")
+    return p
+
+
+def read(path: str | Path) -> np.ndarray:
+    """Read an image as float32 (H, W, C), row 0 = bottom."""
+    import OpenImageIO as oiio
+
+    p = Path(path)
+    if not p.exists():
+        raise SketchgraphError(f"{p}: file not found")
+    inp = oiio.ImageInput.open(str(p))
+    if inp is None:
+        raise SketchgraphError(f"{p}: cannot read: {oiio.geterror()}")
+    spec = inp.spec()
+    pixels = inp.read_image(oiio.FLOAT)
+    inp.close()
+    arr = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    return np.ascontiguousarray(arr[::-1])

@@ -1,0 +1,102 @@
+"""Values that flow along edges: GPU textures stay on the GPU; arrays and strokes live on the CPU."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import types
+
+
+@dataclass(eq=False)
+class Tex:
+    """A 2D texture on the GPU (row 0 is the bottom row, OpenGL's convention)."""
+
+    texture: object  # moderngl.Texture
+    fmt: str
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.texture.size  # type: ignore[attr-defined]
+
+    @property
+    def nbytes(self) -> int:
+        w, h = self.size
+        return w * h * types.bytes_per_pixel(self.fmt)
+
+    def read(self) -> np.ndarray:
+        """Read back as float32 (H, W, C); 8-bit formats are scaled to [0, 1]."""
+        w, h = self.size
+        comps = types.components(self.fmt)
+        dt = types.numpy_dtype(self.fmt)
+        raw = np.frombuffer(self.texture.read(alignment=1), dtype=dt)  # type: ignore[attr-defined]
+        arr = raw.reshape(h, w, comps).astype(np.float32)
+        if dt == np.uint8:
+            arr /= 255.0
+        return arr
+
+
+@dataclass(eq=False)
+class TexArray:
+    """A 2D texture array on the GPU (layers, e.g. the 32 tones of a tonal art map)."""
+
+    texture: object  # moderngl.TextureArray
+    fmt: str
+
+    @property
+    def size(self) -> tuple[int, int]:
+        w, h, _ = self.texture.size  # type: ignore[attr-defined]
+        return (w, h)
+
+    @property
+    def layers(self) -> int:
+        return self.texture.size[2]  # type: ignore[attr-defined]
+
+    @property
+    def nbytes(self) -> int:
+        w, h = self.size
+        return w * h * self.layers * types.bytes_per_pixel(self.fmt)
+
+    def read(self) -> np.ndarray:
+        """(layers, H, W, C) float32."""
+        w, h = self.size
+        comps = types.components(self.fmt)
+        dt = types.numpy_dtype(self.fmt)
+        raw = np.frombuffer(self.texture.read(alignment=1), dtype=dt)  # type: ignore[attr-defined]
+        arr = raw.reshape(self.layers, h, w, comps).astype(np.float32)
+        if dt == np.uint8:
+            arr /= 255.0
+        return arr
+
+
+@dataclass(eq=False)
+class Strokes:
+    """Polylines in pixel coordinates (x right, y up from the bottom row) on a canvas of `size`."""
+
+    polylines: list[np.ndarray]
+    size: tuple[int, int]
+    width: float = 1.0
+    color: tuple[float, float, float] = (0.1, 0.1, 0.1)
+
+    @property
+    def nbytes(self) -> int:
+        return sum(p.nbytes for p in self.polylines)
+
+
+@dataclass(eq=False)
+class Arrays:
+    """Named NumPy arrays (per-vertex curvature, ...), cached as .npz."""
+
+    data: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self.data[key]
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in self.data.values())
+
+
+def nbytes(value: object) -> int:
+    return int(getattr(value, "nbytes", 0))

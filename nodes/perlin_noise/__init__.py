@@ -1,0 +1,80 @@
+"""perlin_noise: uncertainty values for the sketch (Nienhaus & Döllner 2004, §3.2, §3.4)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from nodegraph.node import Node, NodeParams, Output
+from nodegraph.types import Texture
+
+from . import reference
+
+
+class PerlinNoise(Node):
+    """Screen-space uncertainty values (off_s, off_t). `kind: perlin` uses Ken Perlin's improved noise
+    (2002: his permutation table, quintic fade, 12 gradients) summed over octaves, with the paper's
+    off_s = turbulence(s, t) and off_t = turbulence(1 - s, 1 - t); neighbouring values are correlated,
+    so the drawing is coherent from frame to frame. `kind: white` gives uncorrelated values in [0, 1)
+    for roughened, chalk-like profiles (paper §3.4). The seed (from the pipeline seed and the node id)
+    shifts the noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times
+    `scale` (cycles per pixel). The paper creates the noise texture once, so by default the values do
+    not change with the frame (`animate: true` reseeds every frame: no coherence, the classic boil).
+    Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
+    `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is
+    in `reference.py`; the GPU output matches it to about 1e-6."""
+
+    version = "1"
+    shaders = ("perlin_noise.glsl", "improved_noise.glsl")
+    outputs = {"out": Output(Texture("RG32F"), "Uncertainty values (off_s, off_t).")}
+
+    class Params(NodeParams):
+        kind: Literal["perlin", "white"] = Field("perlin", description="perlin: correlated improved noise; "
+                                                 "white: uncorrelated per-pixel values (chalk, paper §3.4).")
+        mode: Literal["turbulence", "fbm"] = Field("turbulence", description="turbulence: sum of |noise| over "
+                                                   "octaves (the paper's); fbm: signed sum.")
+        scale: float = Field(0.01, gt=0, le=1, description="Noise frequency in cycles per pixel (perlin).")
+        octaves: int = Field(4, ge=1, le=12, description="Octaves summed, each at twice the frequency and half "
+                                                         "the amplitude (perlin).")
+        animate: bool = Field(False, description="Reseed every frame (no frame-to-frame coherence).")
+
+    @property
+    def context_keys(self) -> frozenset[str]:  # type: ignore[override]
+        keys = {"size", "seed"}
+        if self.params.animate:
+            keys.add("frame")
+        return frozenset(keys)
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        gl = ctx.gl
+        perm = gl.resources.get("perlin_perm")
+        if perm is None:
+            perm = gl.ctx.texture((256, 1), 1, reference.perm_texture_bytes(), dtype="u1")
+            perm.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+            gl.resources["perlin_perm"] = perm
+        prog = ctx.program("perlin_noise.glsl", {"KIND": 0 if p.kind == "perlin" else 1})
+        seed = ctx.seed
+        cell, frac = reference.seed_offset_parts(seed)
+        out = ctx.target("out")
+        w, h = ctx.size
+        ctx.gl.fullscreen(prog, [out], textures={"t_perm": perm},
+                          uniforms={"u_scale_split": reference.split_scale(p.scale),
+                                    "u_seed_cell": tuple(int(c) for c in cell),
+                                    "u_seed_frac": tuple(float(f) for f in frac),
+                                    "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
+                                    "u_seed": seed & 0xFFFFFFFF,
+                                    "u_frame": (ctx.frame if p.animate else 0) & 0xFFFFFFFF,
+                                    "u_size": (float(w), float(h))})
+        return {"out": out}
+
+    def reference(self, width: int, height: int, seed: int, frame: int = 0) -> Any:
+        """The float64 CPU computation of this node's output, (H, W, 2)."""
+        p = self.params
+        if p.kind == "white":
+            return reference.white_offsets(width, height, seed, frame)
+        return reference.screen_offsets(width, height, p.scale, p.octaves, seed, p.mode)
+
+
+NODE = PerlinNoise

@@ -1,0 +1,88 @@
+"""sketch: perturbed edge map times perturbed shade map (Nienhaus & Döllner 2004, §3.2, §3.4)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import Texture
+
+Matrix = tuple[tuple[float, float], tuple[float, float]]
+Color = tuple[float, float, float]
+
+
+class EdgeLayer(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    matrix: Matrix = Field(description="2x2 degree of uncertainty for this layer, in texture units.")
+    color: Color = Field((0.1, 0.1, 0.12), description="Edge colour of this layer (RGB, 0..1).")
+
+
+class Sketch(Node):
+    """Applies uncertainty: the noise offset (off_s, off_t), multiplied by a 2x2 matrix, shifts the
+    coordinates that read the edge map; a second matrix shifts those that read the shade map. The
+    perturbed edge intensity e blends the perturbed shade colour towards the edge colour
+    (color = mix(shade, edge_color, e); with a black edge colour this is the paper's product
+    shade * (1 - e)). Where the shade map is empty the paper colour shows. Offsets are in texture
+    units (1.0 = the image width or height). With `edge_layers` the edge map is applied repeatedly,
+    each layer with its own matrix and colour (paper §3.4); `use_shade: false` drops the shade map."""
+
+    version = "1"
+    shaders = ("sketch.glsl",)
+    inputs = {
+        "edges": Input(Texture("R16F"), "Edge intensities (edge_detect.out)."),
+        "shade": Input(Texture("RGBA8"), "Shade map: flat colours, alpha = coverage (rasterize.color)."),
+        "offset": Input(Texture("RG16F"), "Uncertainty values (off_s, off_t) (perlin_noise.out)."),
+    }
+    outputs = {
+        "color": Output(Texture("RGBA16F"), "The sketchy drawing; alpha = coverage of ink or colour."),
+        "offsets": Output(Texture("RGBA16F"), "Applied shifts: xy for the (first) edge layer, zw for the shade "
+                                              "map, in texture units; depth_sprite reads them."),
+    }
+
+    class Params(NodeParams):
+        edge_matrix: Matrix = Field(((0.008, 0.0), (0.0, 0.008)), description="2x2 degree of uncertainty for the "
+                                    "edge map: [[a, b], [c, d]] times (off_s, off_t), in texture units.")
+        shade_matrix: Matrix = Field(((-0.012, 0.0), (0.0, -0.012)), description="2x2 degree of uncertainty for the "
+                                     "shade map.")
+        edge_color: Color = Field((0.1, 0.1, 0.12), description="Edge colour (RGB, 0..1).")
+        edge_layers: tuple[EdgeLayer, ...] = Field((), description="Repeated edges: if given, replaces "
+                                                   "edge_matrix/edge_color with one layer per entry (paper §3.4).")
+        edge_strength: float = Field(1.0, ge=0, le=4, description="Multiplier on the edge intensity.")
+        use_shade: bool = Field(True, description="Include the shade map (false: edges only, on paper).")
+        paper: Color = Field((0.98, 0.97, 0.94), description="Paper colour where nothing is drawn.")
+
+        @model_validator(mode="after")
+        def _layers(self) -> Sketch.Params:
+            if len(self.edge_layers) > 8:
+                raise ValueError("at most 8 edge layers")
+            return self
+
+    def layers(self) -> list[EdgeLayer]:
+        p = self.params
+        return list(p.edge_layers) or [EdgeLayer(matrix=p.edge_matrix, color=p.edge_color)]
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        ports = [port for port in ("color", "offsets") if port in needed]
+        layers = self.layers()
+        defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
+        defines["LAYERS"] = len(layers)
+        prog = ctx.program("sketch.glsl", defines)
+        size = inputs["shade"].size
+        targets = {port: ctx.target(port, size) for port in ports}
+        mats = np.stack([np.asarray(layer.matrix, dtype=np.float32).T for layer in layers])  # GLSL: column-major
+        colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
+        ctx.gl.fullscreen(prog, [targets[port] for port in ports],
+                          textures={"t_edges": inputs["edges"], "t_shade": inputs["shade"],
+                                    "t_offset": inputs["offset"]},
+                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32).T,
+                                    "u_edge_matrix": mats, "u_edge_color": colors,
+                                    "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),
+                                    "u_paper": tuple(p.paper)})
+        return targets
+
+
+NODE = Sketch

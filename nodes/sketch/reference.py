@@ -1,0 +1,31 @@
+"""float64 NumPy version of sketch.glsl."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodegraph.sampling import bilinear, pixel_uv
+
+
+def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,
+           layers: list[tuple[np.ndarray, tuple[float, float, float]]], edge_strength: float = 1.0,
+           use_shade: bool = True, paper: tuple[float, float, float] = (0.98, 0.97, 0.94)) -> dict[str, np.ndarray]:
+    """edges (H, W), shade (H, W, 4), offset (H, W, 2); layers: [(2x2 matrix, colour)]."""
+    h, w = shade.shape[:2]
+    u, v = pixel_uv(w, h)
+    off = bilinear(offset, u, v)
+    sm = np.asarray(shade_matrix, dtype=np.float64)
+    s_off = off @ sm.T
+    sh = bilinear(shade, u + s_off[..., 0], v + s_off[..., 1]) * float(use_shade)
+    color = np.asarray(paper, dtype=np.float64) * (1 - sh[..., 3:4]) + sh[..., :3] * sh[..., 3:4]
+    cover = sh[..., 3]
+    first = None
+    for matrix, edge_color in layers:
+        e_off = off @ np.asarray(matrix, dtype=np.float64).T
+        first = e_off if first is None else first
+        e = np.clip(bilinear(edges, u + e_off[..., 0], v + e_off[..., 1]) * edge_strength, 0, 1)
+        color = color * (1 - e[..., None]) + np.asarray(edge_color, dtype=np.float64) * e[..., None]
+        cover = np.maximum(cover, e)
+    assert first is not None
+    return {"color": np.concatenate([color, cover[..., None]], axis=-1),
+            "offsets": np.concatenate([first, s_off], axis=-1)}

@@ -1,0 +1,43 @@
+#version 330
+// The uncertainty step (Nienhaus & Döllner §3.2): noise offsets, weighted by a 2x2 matrix per map,
+// shift the texture coordinates that read the edge map and the shade map; the perturbed edge
+// intensity darkens the perturbed shade colour. Several edge layers (§3.4, repeated edges) each get
+// their own matrix and colour and are laid over each other.
+#if defined FRAGMENT_SHADER
+in vec2 v_uv;
+uniform sampler2D t_edges;
+uniform sampler2D t_shade;
+uniform sampler2D t_offset;
+uniform mat2 u_shade_matrix;
+uniform mat2 u_edge_matrix[LAYERS];
+uniform vec3 u_edge_color[LAYERS];
+uniform float u_edge_strength;
+uniform float u_use_shade;
+uniform vec3 u_paper;
+#ifdef LOC_COLOR
+layout(location = LOC_COLOR) out vec4 o_color;
+#endif
+#ifdef LOC_OFFSETS
+layout(location = LOC_OFFSETS) out vec4 o_offsets;
+#endif
+void main() {
+    vec2 off = texture(t_offset, v_uv).rg;
+    vec2 shade_off = u_shade_matrix * off;
+    vec4 shade = texture(t_shade, v_uv + shade_off) * u_use_shade;
+    vec3 color = mix(u_paper, shade.rgb, shade.a);
+    float cover = shade.a;
+    vec2 first_edge_off = u_edge_matrix[0] * off;
+    for (int i = 0; i < LAYERS; ++i) {
+        vec2 edge_off = u_edge_matrix[i] * off;
+        float e = clamp(texture(t_edges, v_uv + edge_off).r * u_edge_strength, 0.0, 1.0);
+        color = mix(color, u_edge_color[i], e);
+        cover = max(cover, e);
+    }
+#ifdef LOC_COLOR
+    o_color = vec4(color, cover);
+#endif
+#ifdef LOC_OFFSETS
+    o_offsets = vec4(first_edge_off, shade_off);
+#endif
+}
+#endif

@@ -1,0 +1,35 @@
+"""write: save an image (PNG, EXR, TIFF, JPEG) when the pipeline runs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import FILE, Texture
+
+
+class Write(Node):
+    """Writes its input to `path` (relative to the current directory; `####` becomes the frame number)
+    and outputs the path written. EXR keeps the values (32-bit float); PNG/JPEG/TIFF are 8-bit,
+    clipped to [0, 1], alpha dropped. A write always runs when its output is requested, even when the
+    image itself comes from the cache."""
+
+    version = "1"
+    context_keys = frozenset({"size", "frame"})
+    persist = "never"
+    side_effect = True
+    inputs = {"image": Input(Texture(None), "Any texture.")}
+    outputs = {"file": Output(FILE, "The path written.")}
+
+    class Params(NodeParams):
+        path: str = Field(description="File to write; the extension picks the format; #### = frame number.")
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        from nodegraph.cli import frame_path, write_value
+
+        return {"file": write_value(inputs["image"], frame_path(self.params.path, ctx.frame, False))}
+
+
+NODE = Write

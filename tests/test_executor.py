@@ -1,0 +1,206 @@
+"""Planning, compute counts, the disk cache and its recovery, with small test nodes."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from pydantic import Field
+
+from nodegraph import pipeline as pl
+from nodegraph.cache import Cache, CacheWarning
+from nodegraph.executor import Executor, plan
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.registry import Registry
+from nodegraph.types import Texture
+
+COUNTS: dict[str, int] = {}
+
+
+class Fill(Node):
+    """A constant texture."""
+
+    outputs = {"out": Output(Texture("RGBA32F"))}
+
+    class Params(NodeParams):
+        value: float = Field(0.5, description="fill value")
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        COUNTS[self.id] = COUNTS.get(self.id, 0) + 1
+        w, h = ctx.size
+        return {"out": ctx.gl.upload(np.full((h, w, 4), self.params.value, np.float32), ctx.format("out"))}
+
+
+class Add(Node):
+    """a + b + offset (computed on the CPU to keep the test independent of shaders)."""
+
+    inputs = {"a": Input(Texture("RGBA16F")), "b": Input(Texture("RGBA16F"))}
+    outputs = {"out": Output(Texture("RGBA32F")), "half": Output(Texture("R16F"))}
+
+    class Params(NodeParams):
+        offset: float = Field(0.0, description="added")
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        COUNTS[self.id] = COUNTS.get(self.id, 0) + 1
+        s = inputs["a"].read() + inputs["b"].read() + self.params.offset
+        out = {"out": ctx.gl.upload(s, ctx.format("out"))}
+        if "half" in needed:
+            out["half"] = ctx.gl.upload(s[..., :1] * 0.5, ctx.format("half"))
+        return out
+
+
+REG = Registry()
+REG.add(Fill, "fill")
+REG.add(Add, "add")
+
+TEXT = """\
+pipeline: t
+size: [8, 4]
+nodes:
+  a: {type: fill, params: {value: 0.25}}
+  b: {type: fill, params: {value: 0.5}}
+  c: {type: fill, params: {value: 1.0}}
+  ab: {type: add, in: {a: a.out, b: b.out}}
+  abc: {type: add, in: {a: ab.out, b: c.out}, params: {offset: 1.0}}
+outputs:
+  image: abc.out
+  partial: ab.out
+"""
+
+
+def load(overrides: list[str] = ()) -> pl.Pipeline:
+    return pl.loads(TEXT, "t.yaml", registry=REG, load_scene=False, overrides=list(overrides))
+
+
+@pytest.fixture(autouse=True)
+def _reset():
+    COUNTS.clear()
+
+
+def test_only_ancestors_of_the_requested_output_run(gl):
+    pipe = load()
+    ex = Executor(pipe, None, requested=[("ab", "out")], gl=gl)
+    res = ex.run()
+    assert COUNTS == {"a": 1, "b": 1, "ab": 1}
+    np.testing.assert_allclose(res.values[("ab", "out")].read(), 0.75)
+    assert set(res.stats) == {"a", "b", "ab"}
+
+
+def test_full_run_values_and_formats(gl):
+    pipe = load()
+    p = plan(pipe)
+    # a, b, c feed RGBA16F inputs only: the engine allocates them at half precision
+    assert p.formats[("a", "out")] == "RGBA16F"
+    # ab.out feeds abc (RGBA16F) and is a requested output (full precision)
+    assert p.formats[("ab", "out")] == "RGBA32F"
+    assert ("ab", "half") not in p.formats
+    ex = Executor(pipe, None, gl=gl)
+    res = ex.run()
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
+    assert res.values[("a", "out")].fmt if ("a", "out") in res.values else True
+
+
+def test_second_run_computes_nothing_and_a_param_change_recomputes_downstream_only(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    Executor(load(), cache, gl=gl).run()
+    assert COUNTS == {"a": 1, "b": 1, "c": 1, "ab": 1, "abc": 1}
+    COUNTS.clear()
+    ex = Executor(load(), cache, gl=gl)  # a new executor: nothing in memory, everything on disk
+    res = ex.run()
+    assert COUNTS == {}
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
+    # a and b were not even loaded: ab's cached output was enough
+    assert {n: s.status for n, s in res.stats.items()} == {"a": "skipped", "b": "skipped", "c": "skipped",
+                                                           "ab": "disk", "abc": "disk"}
+    COUNTS.clear()
+    res = Executor(load(["c.value=2.0"]), cache, gl=gl).run()
+    assert COUNTS == {"c": 1, "abc": 1}
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 3.75)
+
+
+def test_memory_cache_within_one_executor(gl):
+    ex = Executor(load(), None, gl=gl)
+    ex.run(0)
+    ex.run(1)  # no node reads the frame: everything comes from memory
+    assert COUNTS == {"a": 1, "b": 1, "c": 1, "ab": 1, "abc": 1}
+
+
+def test_corrupt_cache_entry_is_recomputed_with_a_warning(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    ex = Executor(load(), cache, gl=gl)
+    keys = ex.keys()
+    ex.run()
+    path = cache.find(keys["abc"], "out")
+    assert path is not None and path.suffix == ".exr"
+    path.write_bytes(b"not an exr at all")
+    COUNTS.clear()
+    with pytest.warns(CacheWarning, match="unusable"):
+        res = Executor(load(), Cache(tmp_path / "c"), gl=gl).run()
+    assert COUNTS == {"abc": 1}
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
+
+
+def test_mismatched_header_key_is_recomputed(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    ex = Executor(load(), cache, gl=gl)
+    keys = ex.keys()
+    ex.run()
+    # put ab's entry where abc's should be: a readable EXR whose header names another key
+    src, dst = cache.find(keys["ab"], "out"), cache.find(keys["abc"], "out")
+    dst.write_bytes(src.read_bytes())
+    COUNTS.clear()
+    with pytest.warns(CacheWarning, match="does not match"):
+        res = Executor(load(), Cache(tmp_path / "c"), gl=gl).run()
+    assert COUNTS == {"abc": 1}
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
+
+
+def test_exr_header_explains_the_entry(gl, tmp_path: Path):
+    import OpenImageIO as oiio
+
+    cache = Cache(tmp_path / "c")
+    ex = Executor(load(), cache, gl=gl)
+    keys = ex.keys()
+    ex.run()
+    spec = oiio.ImageInput.open(str(cache.find(keys["abc"], "out"))).spec()
+    assert spec.get_string_attribute("sketchgraph:key") == keys["abc"]
+    assert spec.get_string_attribute("sketchgraph:type") == "add"
+    assert '"offset": 1.0' in spec.get_string_attribute("sketchgraph:params")
+
+
+def test_lru_prune(gl, tmp_path: Path):
+    import os
+    import time
+
+    cache = Cache(tmp_path / "c")
+    Executor(load(), cache, gl=gl).run()
+    entries = sorted(cache.entries(), key=lambda e: e.path.name)
+    assert len(entries) == 5  # a, b, c, ab, abc: one per planned output port, nothing for unplanned ports
+    oldest = entries[0].path
+    past = time.time() - 3600
+    os.utime(oldest, (past, past))
+    total = sum(e.size for e in entries)
+    files, freed = cache.prune(total - 1)
+    assert files == 1 and not oldest.exists()
+    assert cache.prune(0)[0] == 4
+    assert cache.entries() == []
+
+
+def test_loop_mode_does_not_write_auto_nodes(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    ex = Executor(load(), cache, gl=gl, mode="loop")
+    ex.run(0)
+    ex.close()
+    assert cache.entries() == []
+
+
+def test_cache_writes_are_atomic_names(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    Executor(load(), cache, gl=gl).run()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        names = [p.name for p in (tmp_path / "c").rglob("*") if p.is_file()]
+    assert not any(n.startswith(".tmp") for n in names)
