@@ -143,8 +143,8 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
         cls = reg.get(nspec.type)
         if cls is None:
             hint = yamlio.suggest(nspec.type, reg.names())
-            raise PipelineError(f"node '{nid}': unknown node type '{nspec.type}'{hint} (`sketchgraph nodes` lists them)",
-                                loc.at(["nodes", nid, "type"]))
+            raise PipelineError(f"node '{nid}': unknown node type '{nspec.type}'{hint} "
+                                "(`sketchgraph nodes` lists them)", loc.at(["nodes", nid, "type"]))
         params = dict(nspec.params)
         raw_params[nid] = params
         nodes[nid] = cls(nid, _params(cls, params, data, file, ["nodes", nid, "params"], nid))
