@@ -95,6 +95,9 @@ def stages_in(path: Path) -> set[str]:
 def _digest_cached(path: str, mtime: float, size: int) -> str:
     p = Path(path)
     h = hashlib.sha256()
+    text = p.read_text()
+    if not _VERSION.match(text.split("\n", 1)[0]):  # an include file: its text is its source
+        return hashlib.sha256(text.encode()).hexdigest()
     # includes are part of the source: hash each stage's assembled text
     for stage in sorted(stages_in(p)) or ["FRAGMENT_SHADER"]:
         h.update(assemble(p, stage).source.encode())

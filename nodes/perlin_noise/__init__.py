@@ -26,7 +26,7 @@ class PerlinNoise(Node):
     in `reference.py`; the GPU output matches it to about 1e-6."""
 
     version = "1"
-    shaders = ("perlin_noise.glsl", "improved_noise.glsl")
+    shaders = ("perlin_noise.glsl",)  # includes improved_noise.glsl: hashed with it
     outputs = {"out": Output(Texture("RG32F"), "Uncertainty values (off_s, off_t).")}
 
     class Params(NodeParams):
