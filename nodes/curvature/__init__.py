@@ -1,0 +1,1 @@
+"""Curvature: per-vertex principal curvatures and directions (libigl) with defined fallbacks."""
