@@ -172,21 +172,26 @@ def reference_for(node: Any, ins: dict[str, Any]) -> dict[str, Any]:
     if node.type_name == "edge_detect":
         from nodes.edge_detect.reference import edge_detect
 
-        return edge_detect(ins["normal"], ins["depth"][..., 0], **p.model_dump())
+        return edge_detect(ins["normal_depth"], **p.model_dump())
     if node.type_name == "sketch":
         from nodes.sketch.reference import sketch
 
         layers = [(np.asarray(layer.matrix), layer.color) for layer in node.layers()]
-        out = sketch(ins["edges"][..., 0], ins["shade"], ins["offset"], np.asarray(p.shade_matrix), layers,
+        out = sketch(_plane(ins["edges"]), ins["shade"], ins["offset"], np.asarray(p.shade_matrix), layers,
                      p.edge_strength, p.use_shade, p.paper)
         return out
     if node.type_name == "depth_sprite":
         from nodes.depth_sprite.reference import depth_sprite
 
         uc, ud = ins.get("under_color"), ins.get("under_depth")
-        return depth_sprite(ins["color"], ins["offsets"], ins["depth"][..., 0], uc,
-                            None if ud is None else ud[..., 0], p.paper)
+        return depth_sprite(ins["color"], ins["offsets"], _plane(ins["depth"]), uc,
+                            None if ud is None else _plane(ud), p.paper)
     raise KeyError(node.type_name)
+
+
+def _plane(a: Any) -> Any:
+    """A single-channel image as (H, W) whether it came back from the GPU (H, W, 1) or a reference."""
+    return a[..., 0] if a.ndim == 3 else a
 
 
 def _bar(it: Any, unit: str) -> Any:

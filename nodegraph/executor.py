@@ -238,8 +238,12 @@ class Executor:
         pinned.add(mkey)
 
     def _evict(self, pinned: set[tuple[str, str]]) -> None:
+        """Past the memory limit, drop least-recently-used entries. In a frame loop, whatever this frame
+        did not use (last frame's buffers) goes back to the texture pool at once: reallocating an 800x800
+        texture costs more than a full-screen pass on llvmpipe."""
+        loop = self.mode == "loop"
         for mkey in list(self._memory):
-            if self._memory_bytes <= self.memory_limit:
+            if not loop and self._memory_bytes <= self.memory_limit:
                 break
             if mkey in pinned:
                 continue

@@ -69,7 +69,7 @@ class GL:
         if isinstance(value, Tex):
             w, h = value.size
             pool = self._pool[(w, h, value.fmt)]
-            if len(pool) < 8:
+            if len(pool) < 16:
                 pool.append(value.texture)
             else:
                 value.texture.release()  # type: ignore[attr-defined]

@@ -55,8 +55,13 @@ class DepthSprite(Node):
         uniforms = {"u_paper": tuple(self.params.paper), "u_has_under": float(has_under)}
         mgl.enable(mgl.DEPTH_TEST)
         try:
-            mgl.depth_func = "1"  # always: lay down the under layer
-            gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms, fbo=fbo)
+            if has_under:  # lay down the ordinary geometry's colour and depth
+                mgl.depth_func = "1"
+                gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms,
+                              fbo=fbo)
+            else:  # paper at the far plane: a clear is enough
+                fbo.clear(*self.params.paper, 1.0, depth=1.0)
+                gl.framebuffer([depth]).clear(1.0, 0.0, 0.0, 0.0)
             mgl.depth_func = "<"
             gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 1}), [color, depth], textures, uniforms, fbo=fbo)
         finally:

@@ -20,8 +20,8 @@ class EdgeDetect(Node):
     version = "1"
     shaders = ("edge_detect.glsl",)
     inputs = {
-        "normal": Input(Texture("RGBA16F"), "View-space normals, alpha = coverage (rasterize.normal)."),
-        "depth": Input(Texture("R32F"), "Linear view depth, 0 = background (rasterize.linear_depth)."),
+        "normal_depth": Input(Texture("RGBA32F"), "View-space normal (xyz) and linear view depth (w, 0 = "
+                              "background): rasterize.normal_depth."),
     }
     outputs = {
         "out": Output(Texture("R16F"), "Edge intensity: max(profile * profile_intensity, inner * inner_intensity)."),
@@ -51,10 +51,10 @@ class EdgeDetect(Node):
                        USE_NORMAL=int(p.mode in ("normal_depth", "normal")),
                        USE_DEPTH=int(p.mode in ("normal_depth", "depth")))
         prog = ctx.program("edge_detect.glsl", defines)
-        size = inputs["depth"].size
+        size = inputs["normal_depth"].size
         targets = {port: ctx.target(port, size) for port in ports}
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
-                          textures={"t_normal": inputs["normal"], "t_depth": inputs["depth"]},
+                          textures={"t_normal_depth": inputs["normal_depth"]},
                           uniforms={"u_normal_threshold": p.normal_threshold, "u_depth_threshold": p.depth_threshold,
                                     "u_profile_intensity": p.profile_intensity,
                                     "u_inner_intensity": p.inner_intensity, "u_width": p.width})

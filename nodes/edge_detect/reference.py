@@ -7,13 +7,13 @@ import numpy as np
 from nodegraph.sampling import shifted, smoothstep
 
 
-def edge_detect(normal: np.ndarray, depth: np.ndarray, operator: str = "four_neighbour", mode: str = "normal_depth",
+def edge_detect(normal_depth: np.ndarray, operator: str = "four_neighbour", mode: str = "normal_depth",
                 normal_threshold: float = 0.4, depth_threshold: float = 0.03, width: int = 1,
                 profile_intensity: float = 1.0, inner_intensity: float = 1.0) -> dict[str, np.ndarray]:
-    """normal (H, W, 4) with coverage in alpha, depth (H, W) linear with 0 = background."""
-    n = normal[..., :3].astype(np.float64)
-    cov = normal[..., 3] > 0.5
-    d = depth.astype(np.float64)
+    """normal_depth (H, W, 4): view-space normal in xyz, linear depth in w with 0 = background."""
+    n = normal_depth[..., :3].astype(np.float64)
+    d = normal_depth[..., 3].astype(np.float64)
+    cov = d > 0
     dc = d
     inside = dc > 0
     r = int(width)

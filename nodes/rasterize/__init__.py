@@ -14,6 +14,7 @@ from nodegraph.types import SCENE, Texture
 _OUTPUTS = {
     "color": ((0.0, 0.0, 0.0, 0.0), "LOC_COLOR"),
     "normal": ((0.0, 0.0, 0.0, 0.0), "LOC_NORMAL"),
+    "normal_depth": ((0.0, 0.0, 0.0, 0.0), "LOC_NORMAL_DEPTH"),
     "depth": ((1.0, 0.0, 0.0, 0.0), "LOC_DEPTH"),
     "linear_depth": ((0.0, 0.0, 0.0, 0.0), "LOC_LINEAR_DEPTH"),
     "position": ((0.0, 0.0, 0.0, 0.0), "LOC_POSITION"),
@@ -34,6 +35,8 @@ class Rasterize(Node):
     outputs = {
         "color": Output(Texture("RGBA8"), "Flat colour of each object (lit when `lit`), alpha = coverage."),
         "normal": Output(Texture("RGBA16F"), "View-space unit normal, alpha = coverage."),
+        "normal_depth": Output(Texture("RGBA32F"), "View-space normal in xyz and linear view depth in w "
+                               "(0 = background): one fetch per neighbour for edge detection."),
         "depth": Output(Texture("R32F"), "Window-space depth in [0, 1]; 1 = background (far plane)."),
         "linear_depth": Output(Texture("R32F"), "Distance along the view axis in scene units; 0 = background."),
         "position": Output(Texture("RGBA32F"), "Object-space position g(s,t) (paper §4.3), alpha = coverage."),

@@ -35,6 +35,9 @@ layout(location = LOC_COLOR) out vec4 o_color;
 #ifdef LOC_NORMAL
 layout(location = LOC_NORMAL) out vec4 o_normal;
 #endif
+#ifdef LOC_NORMAL_DEPTH
+layout(location = LOC_NORMAL_DEPTH) out vec4 o_normal_depth;
+#endif
 #ifdef LOC_DEPTH
 layout(location = LOC_DEPTH) out float o_depth;
 #endif
@@ -60,6 +63,9 @@ void main() {
 #endif
 #ifdef LOC_NORMAL
     o_normal = vec4(n, 1.0);
+#endif
+#ifdef LOC_NORMAL_DEPTH
+    o_normal_depth = vec4(n, v_view_depth);
 #endif
 #ifdef LOC_DEPTH
     o_depth = gl_FragCoord.z;
