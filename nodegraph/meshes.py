@@ -1,0 +1,802 @@
+"""Triangle meshes: loading (through libigl), welding, topology, normals and GPU-ready arrays.
+
+All derived data is vectorised NumPy and cached on the (immutable) `Mesh` instance.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+import tempfile
+import threading
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import MeshError
+
+SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
+
+# Normal given to vertices that have no well-defined one (unreferenced, only degenerate faces).
+FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
+
+
+class MeshWarning(UserWarning):
+    """A mesh was usable but had to be repaired (degenerate or duplicate faces removed)."""
+
+
+@dataclass(frozen=True)
+class MeshTopology:
+    n_vertices: int
+    n_faces: int
+    n_components: int  # connected components of faces sharing welded vertices
+    n_welded: int  # vertices merged into an earlier coincident one
+    n_boundary_edges: int  # welded edges used by exactly one face
+    n_nonmanifold_edges: int  # welded edges used by more than two faces
+    n_unreferenced: int  # vertices used by no face
+    n_degenerate: int  # faces with a repeated index or (numerically) zero area
+
+    @property
+    def closed(self) -> bool:
+        return self.n_boundary_edges == 0 and self.n_nonmanifold_edges == 0
+
+
+@dataclass(frozen=True, eq=False)
+class RenderArrays:
+    """Vertex streams for drawing: vertices split where the surface has a crease."""
+
+    positions: np.ndarray  # (k, 3) float32
+    normals: np.ndarray  # (k, 3) float32, split at creases
+    smooth_normals: np.ndarray  # (k, 3) float32, welded vertex normals (crack-free enlargement)
+    indices: np.ndarray  # (m, 3) uint32
+    component: np.ndarray  # (k,) float32, connected component id after welding
+    source_vertex: np.ndarray  # (k,) int64, the original vertex each render vertex came from
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.positions.shape[0])
+
+
+@dataclass(eq=False)
+class Mesh:
+    """An indexed triangle mesh. Arrays are made read-only: derived data is cached on the instance."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    source: str | None = None
+    _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        self.vertices = _readonly_copy(self.vertices, np.float64)
+        self.faces = _readonly_copy(self.faces, np.int32)
+
+    def __repr__(self) -> str:
+        return f"Mesh({self.name!r}, {len(self.vertices)} vertices, {len(self.faces)} faces)"
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.vertices.shape[0])
+
+    @property
+    def n_faces(self) -> int:
+        return int(self.faces.shape[0])
+
+    def _cached(self, key: Any, make: Any) -> Any:
+        """Compute once; arrays in the result are made read-only so callers cannot corrupt the cache."""
+        try:
+            return self._cache[key]
+        except KeyError:
+            value = make()
+            for a in value if isinstance(value, tuple) else (value,):
+                if isinstance(a, np.ndarray):
+                    a.flags.writeable = False
+            self._cache[key] = value
+            return value
+
+    # --- identity -------------------------------------------------------------------------------
+
+    def content_hash(self) -> str:
+        def make() -> str:
+            h = hashlib.sha256()
+            h.update(f"mesh:v{self.vertices.shape}:f{self.faces.shape}:".encode())
+            h.update(self.vertices.tobytes())
+            h.update(self.faces.tobytes())
+            return h.hexdigest()
+
+        return self._cached("hash", make)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        def make() -> tuple[np.ndarray, np.ndarray]:
+            if len(self.vertices) == 0:
+                return np.zeros(3), np.zeros(3)
+            return self.vertices.min(axis=0), self.vertices.max(axis=0)
+
+        lo, hi = self._cached("bounds", make)
+        return lo.copy(), hi.copy()
+
+    def diagonal(self) -> float:
+        lo, hi = self.bounds()
+        return float(np.linalg.norm(hi - lo))
+
+    # --- welding ----------------------------------------------------------------------------------
+
+    def weld(self, tol_rel: float = 1e-6) -> tuple[np.ndarray, int]:
+        """(welded_index (n,), n_unique): vertices in the same cell of size tol_rel * bbox diagonal merge.
+
+        Welded ids are numbered in order of first appearance, so a mesh without duplicates maps to itself.
+        """
+        return self._cached(("weld", float(tol_rel)), lambda: _weld(self.vertices, tol_rel * self.diagonal()))
+
+    def welded_faces(self) -> np.ndarray:
+        return self._cached("wfaces", lambda: self.weld()[0][self.faces])
+
+    # --- per-face geometry ------------------------------------------------------------------------
+
+    def _face_geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(unit face normals (m,3) zero where degenerate, corner angles (m,3), degenerate mask (m,))."""
+
+        def make() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            p = self.vertices[self.faces]  # (m, 3, 3)
+            e = np.roll(p, -1, axis=1) - p  # e[:, i] = p[i+1] - p[i]
+            cross = _cross(e[:, 0], -e[:, 2])  # (p1 - p0) x (p2 - p0)
+            area2 = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+            diag = self.diagonal()
+            wf = self.welded_faces()
+            degenerate = (
+                (area2 <= 1e-14 * diag * diag)
+                | (wf[:, 0] == wf[:, 1]) | (wf[:, 1] == wf[:, 2]) | (wf[:, 0] == wf[:, 2])
+            )
+            with np.errstate(invalid="ignore", divide="ignore"):
+                normals = np.where(degenerate[:, None], 0.0, cross / area2[:, None])
+            # corner angle at i between (p[i+1] - p[i]) and (p[i-1] - p[i]); |sin| part is the same
+            # for the three corners: twice the area
+            cos = -np.einsum("mij,mij->mi", e, np.roll(e, 1, axis=1))
+            angles = np.arctan2(np.broadcast_to(area2[:, None], cos.shape), cos)
+            angles[degenerate] = 0.0
+            return normals, angles, degenerate
+
+        return self._cached("facegeo", make)
+
+    def face_normals(self) -> np.ndarray:
+        return self._face_geometry()[0]
+
+    def signed_volume(self) -> float:
+        """Volume enclosed by the (closed, consistently wound) surface; positive for outward CCW winding."""
+        p = self.vertices[self.faces]
+        return float(np.einsum("ij,ij->i", p[:, 0], _cross(p[:, 1], p[:, 2])).sum() / 6.0)
+
+    def area(self) -> float:
+        p = self.vertices[self.faces]
+        return float(np.linalg.norm(_cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum() / 2.0)
+
+    # --- normals ----------------------------------------------------------------------------------
+
+    def vertex_normals(self) -> np.ndarray:
+        """(n, 3) float32 angle-weighted normals, shared by all vertices at one welded position."""
+
+        def make() -> np.ndarray:
+            wid, nu = self.weld()
+            normals, angles, _ = self._face_geometry()
+            wf = self.welded_faces().ravel()
+            contrib = (normals[:, None, :] * angles[:, :, None]).reshape(-1, 3)
+            acc = np.stack([np.bincount(wf, contrib[:, k], minlength=nu) for k in range(3)], axis=1)
+            out = _normalize_or(acc, FALLBACK_NORMAL)
+            return out[wid].astype(np.float32)
+
+        n = self._cached("vnormals", make)
+        return n
+
+    # --- topology ---------------------------------------------------------------------------------
+
+    def face_components(self) -> np.ndarray:
+        """(m,) component id per face, numbered in order of first face. Faces are adjacent when they
+        share a welded edge used by exactly two faces (so parts that merely touch, like Suzanne's eyes,
+        or meet at a non-manifold edge stay apart)."""
+
+        def make() -> np.ndarray:
+            m = self.n_faces
+            h1, h2 = self._manifold_pairs()
+            root = connected_labels(m, h1 // 3, h2 // 3)
+            is_root = root == np.arange(m)
+            return ((np.cumsum(is_root) - 1)[root]).astype(np.int64)
+
+        return self._cached("fcomp", make)
+
+    def _edge_stats(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Half-edges of non-degenerate faces sorted by undirected welded edge.
+
+        Returns (order of half-edge ids 3*f+i sorted by edge key, sorted keys, count of the key's edge per
+        sorted half-edge)."""
+
+        def make() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            _, nu = self.weld()
+            wf = self.welded_faces().astype(np.int64)
+            _, _, degenerate = self._face_geometry()
+            u = wf.ravel()
+            v = np.roll(wf, -1, axis=1).ravel()
+            key = np.minimum(u, v) * nu + np.maximum(u, v)
+            valid = np.repeat(~degenerate, 3)
+            ids = np.flatnonzero(valid)
+            order = ids[np.argsort(key[ids], kind="stable")]
+            skey = key[order]
+            if len(skey) == 0:
+                return order, skey, np.zeros(0, np.int64)
+            starts = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
+            counts = np.diff(np.r_[starts, len(skey)])
+            return order, skey, np.repeat(counts, counts)
+
+        return self._cached("edges", make)
+
+    def _manifold_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The two half-edge ids (3*f+i) of every welded edge used by exactly two faces."""
+
+        def make() -> tuple[np.ndarray, np.ndarray]:
+            order, skey, count = self._edge_stats()
+            if len(skey) < 2:
+                return order[:0], order[:0]
+            first = np.flatnonzero((count[:-1] == 2) & (skey[:-1] == skey[1:]))
+            return order[first], order[first + 1]
+
+        return self._cached("pairs", make)
+
+    def topology(self) -> MeshTopology:
+        def make() -> MeshTopology:
+            n, m = self.n_vertices, self.n_faces
+            _, nu = self.weld()
+            _, _, degenerate = self._face_geometry()
+            _, skey, count = self._edge_stats()
+            referenced = np.zeros(n, bool)
+            referenced[self.faces.ravel()] = True
+            comp = self.face_components()
+            edge_first = np.r_[True, skey[1:] != skey[:-1]] if len(skey) else np.zeros(0, bool)
+            edge_counts = count[edge_first]
+            return MeshTopology(
+                n_vertices=n,
+                n_faces=m,
+                n_components=int(comp.max() + 1) if len(comp) else 0,
+                n_welded=n - nu,
+                n_boundary_edges=int((edge_counts == 1).sum()),
+                n_nonmanifold_edges=int((edge_counts > 2).sum()),
+                n_unreferenced=int((~referenced).sum()),
+                n_degenerate=int(degenerate.sum()),
+            )
+
+        return self._cached("topology", make)
+
+    def vertex_components(self) -> np.ndarray:
+        """(n,) component id per original vertex: that of the first face using it (-1 if unreferenced)."""
+
+        def make() -> np.ndarray:
+            comp = np.full(self.n_vertices, -1, np.int64)
+            fc = np.repeat(self.face_components(), 3)[::-1]
+            comp[self.faces.ravel()[::-1]] = fc  # reversed: the first face wins
+            return comp
+
+        return self._cached("vcomp", make)
+
+    # --- render arrays ----------------------------------------------------------------------------
+
+    def render_arrays(self, crease_angle_deg: float = 40.0) -> RenderArrays:
+        """Vertex streams with normals split where faces meet at a dihedral angle > crease_angle_deg.
+
+        Around each welded vertex, face corners joined across an edge shared by exactly two faces whose
+        normals differ by at most the crease angle form one smoothing group, i.e. one render vertex.
+        Boundary, non-manifold and sharp edges separate groups; a crease that ends inside a smooth
+        region does not split the vertex where it ends.
+        """
+        key = ("render", float(crease_angle_deg))
+        return self._cached(key, lambda: self._render_arrays(crease_angle_deg))
+
+    def _render_arrays(self, crease_angle_deg: float) -> RenderArrays:
+        m = self.n_faces
+        normals, angles, _ = self._face_geometry()
+        wf = self.welded_faces()
+        h1, h2 = self._manifold_pairs()
+        f1, i1 = np.divmod(h1, 3)
+        f2, i2 = np.divmod(h2, 3)
+        cos_crease = np.cos(np.radians(crease_angle_deg))
+        smooth = np.einsum("ij,ij->i", normals[f1], normals[f2]) >= cos_crease - 1e-12
+        f1, i1, f2, i2 = f1[smooth], i1[smooth], f2[smooth], i2[smooth]
+        j1 = (i1 + 1) % 3
+        j2 = (i2 + 1) % 3
+        u = wf[f1, i1]
+        # the corner of face 2 at the same welded vertex as corner (f1, i1), and the other one
+        same = wf[f2, i2] == u
+        c2_u = np.where(same, 3 * f2 + i2, 3 * f2 + j2)
+        c2_v = np.where(same, 3 * f2 + j2, 3 * f2 + i2)
+        a = np.concatenate([3 * f1 + i1, 3 * f1 + j1])
+        b = np.concatenate([c2_u, c2_v])
+        group = connected_labels(3 * m, a, b)
+        is_root = group == np.arange(3 * m)
+        gid = (np.cumsum(is_root) - 1)[group]
+        k = int(is_root.sum())
+
+        corner_vertex = self.faces.ravel().astype(np.int64)
+        rep = corner_vertex[is_root]  # one original vertex per group (its lowest corner)
+        contrib = (normals[:, None, :] * angles[:, :, None]).reshape(-1, 3)
+        acc = np.stack([np.bincount(gid, contrib[:, c], minlength=k) for c in range(3)], axis=1)
+        smooth_normals = self.vertex_normals()[rep]
+        split = _normalize_or(acc, None)
+        bad = ~np.isfinite(split).all(axis=1)
+        split[bad] = smooth_normals[bad]
+        comp = np.repeat(self.face_components(), 3)[is_root]
+
+        arrays = {
+            "positions": self.vertices[rep].astype(np.float32),
+            "normals": split.astype(np.float32),
+            "smooth_normals": np.array(smooth_normals, dtype=np.float32),
+            "indices": gid.reshape(m, 3).astype(np.uint32),
+            "component": comp.astype(np.float32),
+            "source_vertex": rep,
+        }
+        for a in arrays.values():
+            a.flags.writeable = False
+        return RenderArrays(**arrays)
+
+    # --- derived meshes ---------------------------------------------------------------------------
+
+    def transformed(self, matrix: np.ndarray, name: str | None = None) -> Mesh:
+        """A copy with vertices mapped by a 4x4 affine matrix (winding flipped if it mirrors)."""
+        mat = np.asarray(matrix, dtype=np.float64)
+        v = self.vertices @ mat[:3, :3].T + mat[:3, 3]
+        f = self.faces if np.linalg.det(mat[:3, :3]) > 0 else self.faces[:, ::-1]
+        return Mesh(name or self.name, v, f, self.source)
+
+
+def merge_meshes(meshes: list[Mesh], name: str) -> Mesh:
+    """One mesh holding all of `meshes` (vertex ids offset; nothing welded)."""
+    if not meshes:
+        return Mesh(name, np.zeros((0, 3)), np.zeros((0, 3), np.int32))
+    offsets = np.cumsum([0] + [m.n_vertices for m in meshes[:-1]])
+    v = np.concatenate([m.vertices for m in meshes])
+    f = np.concatenate([m.faces + o for m, o in zip(meshes, offsets, strict=True)])
+    return Mesh(name, v, f)
+
+
+# --- helpers ------------------------------------------------------------------------------------
+
+
+def _readonly_copy(a: Any, dtype: Any) -> np.ndarray:
+    """A read-only (n, 3) array; read-only input of the right type is shared, anything else copied."""
+    if isinstance(a, np.ndarray) and a.dtype == dtype and not a.flags.writeable and a.flags.c_contiguous \
+            and a.ndim == 2 and a.shape[1:] == (3,):
+        return a
+    out = np.array(a, dtype=dtype, copy=True).reshape(-1, 3)
+    out.flags.writeable = False
+    return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (k, 3) arrays (faster than np.cross for many short rows)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _normalize_or(vectors: np.ndarray, fallback: np.ndarray | None) -> np.ndarray:
+    """Rows scaled to unit length; zero or non-finite rows become `fallback` (NaN when None)."""
+    length = np.linalg.norm(vectors, axis=1)
+    ok = np.isfinite(length) & (length > 1e-300)
+    out = np.empty_like(vectors, dtype=np.float64)
+    out[ok] = vectors[ok] / length[ok, None]
+    out[~ok] = np.nan if fallback is None else fallback
+    return out
+
+
+def _weld(vertices: np.ndarray, tol: float) -> tuple[np.ndarray, int]:
+    n = len(vertices)
+    if n == 0:
+        return np.zeros(0, np.int64), 0
+    if tol > 0:
+        cells = np.round((vertices - vertices.min(axis=0)) / tol).astype(np.int64)
+    else:  # exact: compare the bits (+ 0.0 turns -0.0 into 0.0)
+        cells = np.ascontiguousarray(vertices + 0.0).view(np.int64)
+    order = np.lexsort((cells[:, 2], cells[:, 1], cells[:, 0]))
+    sc = cells[order]
+    new = np.r_[True, (sc[1:] != sc[:-1]).any(axis=1)]
+    run = np.cumsum(new) - 1  # run id per sorted vertex
+    # representative of each run: its lowest vertex index; number runs by that representative
+    run_min = np.full(run[-1] + 1, n, np.int64)
+    np.minimum.at(run_min, run, order)
+    rank = np.empty_like(run_min)
+    rank[np.argsort(run_min)] = np.arange(len(run_min))
+    welded = np.empty(n, np.int64)
+    welded[order] = rank[run]
+    return welded, int(len(run_min))
+
+
+def connected_labels(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Connected components of n nodes joined by edges (a[i], b[i]): each node's label is the lowest
+    node id of its component. Vectorised union-find: hook roots onto the smaller root, then jump."""
+    parent = np.arange(n, dtype=np.int64)
+    a = np.asarray(a, dtype=np.int64)
+    b = np.asarray(b, dtype=np.int64)
+    while len(a):
+        ra, rb = parent[a], parent[b]
+        diff = ra != rb
+        if not diff.any():
+            break
+        a, b, ra, rb = a[diff], b[diff], ra[diff], rb[diff]
+        lo, hi = np.minimum(ra, rb), np.maximum(ra, rb)
+        np.minimum.at(parent, hi, lo)
+        while True:
+            jumped = parent[parent]
+            if np.array_equal(jumped, parent):
+                break
+            parent = jumped
+    return parent
+
+
+# --- loading ------------------------------------------------------------------------------------
+
+_LOAD_CACHE: dict[tuple[str, int, int], Mesh] = {}
+_LOAD_LOCK = threading.Lock()
+
+
+def load_mesh(path: str | Path) -> Mesh:
+    """Load a triangle mesh (OBJ, PLY, OFF, STL); polygons are triangulated, degenerate and duplicate
+    faces removed with a `MeshWarning`. Memoised by (absolute path, mtime, size)."""
+    p = Path(path).expanduser().absolute()
+    if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
+        raise MeshError(f"{p}: unsupported mesh format '{p.suffix or '(no extension)'}'; supported: "
+                        + ", ".join(SUPPORTED_EXTENSIONS))
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        raise MeshError(f"{p}: mesh file not found") from None
+    except OSError as exc:
+        raise MeshError(f"{p}: cannot access mesh file: {exc.strerror}") from None
+    if not p.is_file():
+        raise MeshError(f"{p}: not a regular file")
+    key = (str(p), st.st_mtime_ns, st.st_size)
+    with _LOAD_LOCK:
+        cached = _LOAD_CACHE.get(key)
+    if cached is not None:
+        return cached
+    if st.st_size == 0:
+        raise MeshError(f"{p}: empty file (no faces)")
+    mesh = _load_uncached(p)
+    with _LOAD_LOCK:
+        for old in [k for k in _LOAD_CACHE if k[0] == key[0]]:
+            del _LOAD_CACHE[old]
+        _LOAD_CACHE[key] = mesh
+    return mesh
+
+
+def clear_mesh_cache() -> None:
+    with _LOAD_LOCK:
+        _LOAD_CACHE.clear()
+
+
+def _load_uncached(p: Path) -> Mesh:
+    ext = p.suffix.lower()
+    if ext == ".ply":
+        try:
+            v, f = _read_ply(p)
+        except _PlyError as exc:
+            raise MeshError(f"{p}: cannot read PLY: {exc}") from None
+        except OSError as exc:
+            raise MeshError(f"{p}: cannot read: {exc.strerror}") from None
+    else:
+        v, f = _igl_read(p)
+    if v.size == 0 or v.ndim != 2 or v.shape[1] != 3:
+        raise MeshError(f"{p}: no vertices could be read (not a valid {ext[1:].upper()} file?)")
+    if not (isinstance(f, np.ndarray) and f.ndim == 2 and f.shape[1] == 3):
+        f = _triangulate(f)
+    f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
+    if len(f) == 0:
+        raise MeshError(f"{p}: no faces (empty mesh; {_plural(len(v), 'vertex', 'vertices')} read)")
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise MeshError(f"{p}: {int(bad.sum())} of {_plural(len(v), 'vertex', 'vertices')} with NaN/Inf "
+                        f"coordinates (first: vertex {int(np.argmax(bad))})")
+    out = (f < 0) | (f >= len(v))
+    if out.any():
+        rows = out.any(axis=1)
+        raise MeshError(f"{p}: face index out of range in {_plural(int(rows.sum()), 'face', 'faces')} (index "
+                        f"{int(f[out][0])} in face {int(np.argmax(rows))}; the file has "
+                        f"{_plural(len(v), 'vertex', 'vertices')}, numbered from 0)")
+    return _repair(Mesh(p.stem, v, f.astype(np.int32), str(p)))
+
+
+def _triangulate(polygons: Any) -> np.ndarray:
+    """Fan-triangulate polygons (a 2D index array, or a list of index sequences of any lengths)."""
+    if isinstance(polygons, np.ndarray) and polygons.ndim == 2:
+        polys = polygons.astype(np.int64)
+        k = polys.shape[1]
+        if k < 3:
+            return np.zeros((0, 3), np.int64)
+        fans = [np.stack([polys[:, 0], polys[:, j], polys[:, j + 1]], axis=1) for j in range(1, k - 1)]
+        return np.stack(fans, axis=1).reshape(-1, 3)
+    seqs = [np.asarray(poly, dtype=np.int64).ravel() for poly in polygons]
+    if not seqs:
+        return np.zeros((0, 3), np.int64)
+    lengths = np.array([len(q) for q in seqs])
+    flat = np.concatenate(seqs)
+    starts = np.cumsum(lengths) - lengths
+    n_tri = np.maximum(lengths - 2, 0)
+    first = np.repeat(starts, n_tri)
+    j = np.arange(n_tri.sum()) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri)
+    return np.stack([flat[first], flat[first + 1 + j], flat[first + 2 + j]], axis=1)
+
+
+def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray]:
+    """libigl's reader with file descriptor 2 captured: libigl explains failures on stderr only.
+
+    Whatever lands on stderr meanwhile is written back after a successful read, so nothing is lost."""
+    import igl
+
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr to capture
+        saved = -1
+    result: tuple[np.ndarray, np.ndarray] | None = None
+    text = ""
+    with tempfile.TemporaryFile() as tmp:
+        if saved >= 0:
+            sys.stderr.flush()
+            os.dup2(tmp.fileno(), 2)
+        try:
+            v, f = igl.read_triangle_mesh(str(p))
+            result = (np.asarray(v), np.asarray(f))
+        except Exception:
+            result = None
+        finally:
+            if saved >= 0:
+                os.dup2(saved, 2)
+                os.close(saved)
+        tmp.seek(0)
+        text = tmp.read(1 << 16).decode("utf-8", "replace")
+    if result is not None:
+        if text:
+            sys.stderr.write(text)
+        return result
+    nonfinite = _count_nonfinite_text(p)
+    if nonfinite:
+        raise MeshError(f"{p}: {_plural(nonfinite, 'vertex', 'vertices')} with NaN/Inf coordinates") from None
+    lines = [ln.strip() for ln in text.replace("Error:", "\n").splitlines() if ln.strip()]
+    reason = lines[0] if lines else ""
+    raise MeshError(f"{p}: unreadable mesh file" + (f" ({reason})" if reason else "")) from None
+
+
+def _plural(k: int, one: str, many: str) -> str:
+    return f"{k} {one if k == 1 else many}"
+
+
+def _count_nonfinite_text(p: Path) -> int:
+    """Vertices written with nan/inf (or overflowing) coordinates in an OBJ or ASCII STL file."""
+    prefix = {".obj": "v", ".stl": "vertex"}.get(p.suffix.lower())
+    if prefix is None:
+        return 0
+    count = 0
+    try:
+        with p.open("r", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                parts = line.split()
+                if len(parts) >= 4 and parts[0] == prefix:
+                    try:
+                        xyz = [float(t) for t in parts[1:4]]
+                    except ValueError:
+                        continue
+                    if not all(np.isfinite(xyz)):
+                        count += 1
+    except OSError:
+        return 0
+    return count
+
+
+def _repair(mesh: Mesh) -> Mesh:
+    """Remove degenerate faces (repeated index, zero area) and exact duplicates (same cyclic order)."""
+    f = mesh.faces.astype(np.int64)
+    _, _, degenerate = mesh._face_geometry()
+    repeated = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
+    # zero area in the original indexing (welding-induced degeneracy is counted as zero area too)
+    drop = degenerate | repeated
+    # canonical rotation: smallest index first, orientation kept
+    shift = np.argmin(f, axis=1)
+    rows = np.arange(len(f))[:, None]
+    canon = f[rows, (shift[:, None] + np.arange(3)) % 3]
+    canon_keep = canon[~drop]
+    idx_keep = np.flatnonzero(~drop)
+    n = max(mesh.n_vertices, 1)
+    if n < 2**21:
+        _, first = np.unique((canon_keep[:, 0] * n + canon_keep[:, 1]) * n + canon_keep[:, 2],
+                             return_index=True)
+    else:
+        _, first = np.unique(canon_keep, axis=0, return_index=True)
+    unique_mask = np.zeros(len(idx_keep), bool)
+    unique_mask[first] = True
+    n_dup = int((~unique_mask).sum())
+    n_deg = int(drop.sum())
+    if n_dup == 0 and n_deg == 0:
+        return mesh
+    keep = np.sort(idx_keep[unique_mask])
+    warnings.warn(
+        f"mesh '{mesh.name}' ({mesh.source}): removed {n_deg} degenerate faces (repeated vertex or zero "
+        f"area) and {n_dup} duplicate faces; {len(keep)} of {len(f)} faces remain",
+        MeshWarning,
+        stacklevel=4,
+    )
+    if len(keep) == 0:
+        raise MeshError(f"{mesh.source}: no faces left after removing {n_deg} degenerate faces")
+    return Mesh(mesh.name, mesh.vertices, mesh.faces[keep], mesh.source)
+
+
+# --- PLY ----------------------------------------------------------------------------------------
+# libigl's PLY reader aborts the process on faces of mixed sizes and returns uninitialised data for
+# ASCII 'nan', so PLY files are read here: ASCII and binary, vertex x/y/z and face vertex lists.
+
+
+class _PlyError(ValueError):
+    pass
+
+
+_PLY_TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+    "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+
+@dataclass
+class _PlyElement:
+    name: str
+    count: int
+    props: list[tuple[str, str, str | None]]  # (name, value type, list count type or None)
+
+
+def _ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise _PlyError("missing 'ply' magic or 'end_header'")
+    body = data.index(b"\n", end) + 1 if b"\n" in data[end:] else len(data)
+    fmt = ""
+    elements: list[_PlyElement] = []
+    for raw in data[:end].decode("ascii", "replace").splitlines()[1:]:
+        parts = raw.split()
+        if not parts or parts[0] in ("comment", "obj_info"):
+            continue
+        if parts[0] == "format" and len(parts) >= 2:
+            fmt = parts[1]
+        elif parts[0] == "element" and len(parts) == 3:
+            elements.append(_PlyElement(parts[1], int(parts[2]), []))
+        elif parts[0] == "property" and elements:
+            try:
+                if parts[1] == "list" and len(parts) == 5:
+                    elements[-1].props.append((parts[4], _PLY_TYPES[parts[3]], _PLY_TYPES[parts[2]]))
+                elif len(parts) == 3:
+                    elements[-1].props.append((parts[2], _PLY_TYPES[parts[1]], None))
+                else:
+                    raise _PlyError(f"bad header line '{raw.strip()}'")
+            except KeyError as exc:
+                raise _PlyError(f"unknown property type {exc}") from None
+        else:
+            raise _PlyError(f"bad header line '{raw.strip()}'")
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise _PlyError(f"unknown format '{fmt}'")
+    return fmt, elements, body
+
+
+def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
+    data = p.read_bytes()
+    fmt, elements, pos = _ply_header(data)
+    reader = _ply_ascii_elements if fmt == "ascii" else _ply_binary_elements
+    columns = reader(data[pos:], elements, "<" if fmt == "binary_little_endian" else ">")
+    vert = columns.get("vertex", {})
+    if not all(k in vert for k in "xyz"):
+        raise _PlyError("no 'vertex' element with x, y, z properties")
+    v = np.stack([np.asarray(vert[k], dtype=np.float64) for k in "xyz"], axis=1)
+    face = columns.get("face", {})
+    lists = face.get("vertex_indices", face.get("vertex_index"))
+    if lists is None:
+        return v, np.zeros((0, 3), np.int64)
+    return v, lists
+
+
+def _ply_binary_elements(buf: bytes, elements: list[_PlyElement], endian: str) -> dict[str, dict[str, Any]]:
+    import struct
+
+    out: dict[str, dict[str, Any]] = {}
+    pos = 0
+    for el in elements:
+        cols: dict[str, Any] = {}
+        if all(cnt is None for _, _, cnt in el.props):
+            dt = np.dtype([(name, endian + t) for name, t, _ in el.props])
+            size = dt.itemsize * el.count
+            if pos + size > len(buf):
+                raise _PlyError(f"file ends inside element '{el.name}'")
+            arr = np.frombuffer(buf, dt, el.count, pos)
+            cols = {name: arr[name] for name, _, _ in el.props}
+            pos += size
+            out[el.name] = cols
+            continue
+        # fast path: every list as long as the first row's
+        fields: list[tuple[str, str, int]] = []
+        lengths: list[tuple[str, int]] = []
+        probe = pos
+        for name, t, cnt in el.props:
+            if cnt is None:
+                fields.append((name, endian + t, 0))
+                probe += np.dtype(t).itemsize
+                continue
+            if probe + np.dtype(cnt).itemsize > len(buf):
+                break
+            k = int(np.frombuffer(buf, endian + cnt, 1, probe)[0])
+            fields.append((name + "#n", endian + cnt, 0))
+            fields.append((name, endian + t, k))
+            lengths.append((name + "#n", k))
+            probe += np.dtype(cnt).itemsize + k * np.dtype(t).itemsize
+        else:
+            dt = np.dtype([(n, t, (k,)) if k else (n, t) for n, t, k in fields])
+            if el.count and pos + dt.itemsize * el.count <= len(buf):
+                arr = np.frombuffer(buf, dt, el.count, pos)
+                if all((arr[n] == k).all() for n, k in lengths):
+                    out[el.name] = {n: arr[n] for n, _, _ in fields if not n.endswith("#n")}
+                    pos += dt.itemsize * el.count
+                    continue
+        # slow path: row by row
+        rows: dict[str, list[Any]] = {name: [] for name, _, _ in el.props}
+        try:
+            for _ in range(el.count):
+                for name, t, cnt in el.props:
+                    if cnt is None:
+                        rows[name].append(struct.unpack_from(endian + np.dtype(t).char, buf, pos)[0])
+                        pos += np.dtype(t).itemsize
+                    else:
+                        (k,) = struct.unpack_from(endian + np.dtype(cnt).char, buf, pos)
+                        pos += np.dtype(cnt).itemsize
+                        rows[name].append(np.frombuffer(buf, endian + t, int(k), pos))
+                        pos += int(k) * np.dtype(t).itemsize
+        except (struct.error, ValueError):
+            raise _PlyError(f"file ends inside element '{el.name}'") from None
+        out[el.name] = rows
+    return out
+
+
+def _ply_ascii_elements(buf: bytes, elements: list[_PlyElement], endian: str) -> dict[str, dict[str, Any]]:
+    lines = [ln for ln in buf.decode("ascii", "replace").splitlines() if ln.strip()]
+    out: dict[str, dict[str, Any]] = {}
+    pos = 0
+    for el in elements:
+        chunk = lines[pos:pos + el.count]
+        if len(chunk) < el.count:
+            raise _PlyError(f"file ends inside element '{el.name}' ({len(chunk)} of {el.count} rows)")
+        pos += el.count
+        tokens = [ln.split() for ln in chunk]
+        try:
+            if all(cnt is None for _, _, cnt in el.props) or (
+                tokens and len({len(t) for t in tokens}) == 1 and el.props[0][2] is not None
+                and len(el.props) == 1
+            ):
+                table = np.array(tokens, dtype=np.float64) if tokens else np.zeros((0, len(el.props)))
+                if all(cnt is None for _, _, cnt in el.props):
+                    if table.shape[1] != len(el.props):
+                        raise _PlyError(f"element '{el.name}': expected {len(el.props)} values per row")
+                    out[el.name] = {name: table[:, i] for i, (name, _, _) in enumerate(el.props)}
+                else:  # one list property, all rows the same length
+                    if (table[:, 0] != table.shape[1] - 1).any():
+                        raise _PlyError(f"element '{el.name}': list length does not match its row")
+                    out[el.name] = {el.props[0][0]: table[:, 1:].astype(np.int64)}
+                continue
+            rows: dict[str, list[Any]] = {name: [] for name, _, _ in el.props}
+            for row in tokens:
+                i = 0
+                for name, _, cnt in el.props:
+                    if cnt is None:
+                        rows[name].append(float(row[i]))
+                        i += 1
+                    else:
+                        k = int(row[i])
+                        rows[name].append([int(float(x)) for x in row[i + 1:i + 1 + k]])
+                        i += 1 + k
+            out[el.name] = rows
+        except (ValueError, IndexError):
+            raise _PlyError(f"element '{el.name}': malformed row") from None
+    return out

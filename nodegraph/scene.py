@@ -1,0 +1,829 @@
+"""Scenes: objects (mesh + transform + flat color), a camera, a light and an optional orbit.
+
+A scene comes from `builtin:NAME`, a scene YAML file or a bare mesh file (see `load_scene`).
+Matrices are float64, row-major NumPy arrays acting on column vectors (`p' = M @ p`); upload them
+to GL transposed (`m.T.astype("f4").tobytes()`) or with `transpose=True`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import hashlib
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+from . import primitives, yamlio
+from .errors import Location, MeshError, PipelineError
+from .meshes import SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
+
+SCENE_EXTENSIONS = (".yaml", ".yml")
+DEFAULT_MESH_COLOR = (0.91, 0.78, 0.55)  # warm light ochre
+DEFAULT_LIGHT = (-0.4, 0.6, 0.7)
+
+Vec = tuple[float, float, float]
+
+
+# --- math ---------------------------------------------------------------------------------------
+
+
+def _unit(v: Any, what: str = "vector") -> np.ndarray:
+    a = np.asarray(v, dtype=np.float64).reshape(3)
+    n = float(np.linalg.norm(a))
+    if not math.isfinite(n) or n == 0.0:
+        raise ValueError(f"{what} must be a finite non-zero vector, got {a.tolist()}")
+    return a / n
+
+
+def translation(t: Any) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = np.asarray(t, dtype=np.float64)
+    return m
+
+
+def scaling(s: Any) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = np.diag(np.broadcast_to(np.asarray(s, dtype=np.float64), (3,)))
+    return m
+
+
+def rotation(axis: Any, degrees: float) -> np.ndarray:
+    """4x4 right-handed rotation by `degrees` about `axis` (counter-clockwise looking down the axis)."""
+    x, y, z = _unit(axis, "rotation axis")
+    a = math.radians(degrees)
+    c, s, t = math.cos(a), math.sin(a), 1.0 - math.cos(a)
+    m = np.eye(4)
+    m[:3, :3] = [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+                 [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+                 [t * x * z - s * y, t * y * z + s * x, t * z * z + c]]
+    return m
+
+
+def euler_xyz(degrees: Any) -> np.ndarray:
+    """Rotation about X, then Y, then Z (fixed axes), angles in degrees."""
+    rx, ry, rz = (float(d) for d in degrees)
+    return rotation((0, 0, 1), rz) @ rotation((0, 1, 0), ry) @ rotation((1, 0, 0), rx)
+
+
+def compose(translate: Any = (0, 0, 0), rotate: Any = (0, 0, 0), scale: Any = 1.0) -> np.ndarray:
+    """T @ R @ S: scale, then rotate (X, Y, Z degrees), then translate."""
+    return translation(translate) @ euler_xyz(rotate) @ scaling(scale)
+
+
+def _frozen(a: Any, shape: tuple[int, ...]) -> np.ndarray:
+    out = np.array(a, dtype=np.float64).reshape(shape)
+    out.flags.writeable = False
+    return out
+
+
+def _floats(a: Any) -> list[float]:
+    return [float(x) for x in np.asarray(a, dtype=np.float64).ravel()]
+
+
+# --- camera -------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A perspective camera; OpenGL conventions (right-handed, looks down -z in view space)."""
+
+    eye: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    fov_y_deg: float = 35.0
+    near: float = 0.1
+    far: float = 100.0
+
+    def __post_init__(self) -> None:
+        for name in ("eye", "target", "up"):
+            object.__setattr__(self, name, _frozen(getattr(self, name), (3,)))
+        object.__setattr__(self, "fov_y_deg", float(self.fov_y_deg))
+        object.__setattr__(self, "near", float(self.near))
+        object.__setattr__(self, "far", float(self.far))
+        if not 0.0 < self.fov_y_deg < 180.0:
+            raise ValueError(f"camera fov must be in (0, 180) degrees, got {self.fov_y_deg}")
+        if not 0.0 < self.near < self.far:
+            raise ValueError(f"camera needs 0 < near < far, got near={self.near}, far={self.far}")
+        forward = self.target - self.eye
+        if np.linalg.norm(forward) == 0.0:
+            raise ValueError("camera eye and target coincide")
+        if np.linalg.norm(np.cross(forward, self.up)) <= 1e-9 * np.linalg.norm(forward) * np.linalg.norm(self.up):
+            raise ValueError("camera up vector is parallel to the viewing direction (or zero)")
+
+    @property
+    def distance(self) -> float:
+        return float(np.linalg.norm(self.target - self.eye))
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(right, true up, forward) unit vectors in world space."""
+        f = _unit(self.target - self.eye)
+        r = _unit(np.cross(f, self.up))
+        return r, np.cross(r, f), f
+
+    def view_matrix(self) -> np.ndarray:
+        r, u, f = self.basis()
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+        m[:3, 3] = -m[:3, :3] @ self.eye
+        return m
+
+    def projection_matrix(self, aspect: float = 1.0) -> np.ndarray:
+        """Perspective projection to clip space; z_ndc in [-1, 1] maps near to -1 and far to +1."""
+        f = 1.0 / math.tan(math.radians(self.fov_y_deg) / 2.0)
+        n, fa = self.near, self.far
+        m = np.zeros((4, 4))
+        m[0, 0] = f / aspect
+        m[1, 1] = f
+        m[2, 2] = (fa + n) / (n - fa)
+        m[2, 3] = 2.0 * fa * n / (n - fa)
+        m[3, 2] = -1.0
+        return m
+
+    def view_projection(self, aspect: float = 1.0) -> np.ndarray:
+        return self.projection_matrix(aspect) @ self.view_matrix()
+
+    def project(self, points: Any, aspect: float = 1.0) -> np.ndarray:
+        """World points (k, 3) -> NDC (k, 3)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        clip = np.c_[p, np.ones(len(p))] @ self.view_projection(aspect).T
+        return clip[:, :3] / clip[:, 3:4]
+
+    def params(self) -> dict[str, Any]:
+        return {"eye": _floats(self.eye), "target": _floats(self.target), "up": _floats(self.up),
+                "fov_y_deg": self.fov_y_deg, "near": self.near, "far": self.far}
+
+
+def near_far_for(eye: Any, center: Any, radius: float) -> tuple[float, float]:
+    """Near/far planes hugging a bounding sphere seen from `eye`."""
+    radius = max(float(radius), 1e-12)
+    dist = float(np.linalg.norm(np.asarray(center, dtype=np.float64) - np.asarray(eye, dtype=np.float64)))
+    near = max(dist - 1.05 * radius, 1e-3 * radius)
+    far = max(dist + 1.05 * radius, near * 1.001)
+    return near, far
+
+
+def frame_camera(bmin: Any, bmax: Any, fov_y_deg: float = 35.0, direction: Any = (0.55, 0.45, 1.0),
+                 aspect: float = 1.0, margin: float = 1.08, up: Any = (0.0, 1.0, 0.0)) -> Camera:
+    """A camera looking at the bounding box's centre from `direction` (target -> eye), far enough
+    that the bounding sphere (times `margin`) fits the narrower of the two fields of view."""
+    lo, hi = np.asarray(bmin, dtype=np.float64), np.asarray(bmax, dtype=np.float64)
+    center = (lo + hi) / 2.0
+    radius = float(np.linalg.norm(hi - lo)) / 2.0
+    if not radius > 0.0:
+        radius = max(float(np.abs(center).max()) * 1e-3, 1e-3)
+    d = _unit(direction, "camera direction")
+    half_y = math.radians(fov_y_deg) / 2.0
+    half_x = math.atan(math.tan(half_y) * aspect)
+    dist = radius * margin / math.sin(min(half_y, half_x))
+    eye = center + d * dist
+    upv = np.asarray(up, dtype=np.float64)
+    if np.linalg.norm(np.cross(d, upv)) < 1e-6:
+        upv = np.array([0.0, 0.0, -1.0]) if d[1] > 0 else np.array([0.0, 0.0, 1.0])
+    near, far = near_far_for(eye, center, radius)
+    return Camera(eye=eye, target=center, up=upv, fov_y_deg=fov_y_deg, near=near, far=far)
+
+
+@dataclass(frozen=True, eq=False)
+class Orbit:
+    """Turn the camera about `axis` through `center` (None: the camera target) by degrees per frame."""
+
+    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    degrees_per_frame: float = 6.0
+    center: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "axis", _frozen(_unit(self.axis, "orbit axis"), (3,)))
+        object.__setattr__(self, "degrees_per_frame", float(self.degrees_per_frame))
+        if self.center is not None:
+            object.__setattr__(self, "center", _frozen(self.center, (3,)))
+
+    def params(self) -> dict[str, Any]:
+        return {"axis": _floats(self.axis), "degrees_per_frame": self.degrees_per_frame,
+                "center": None if self.center is None else _floats(self.center)}
+
+
+# --- scene --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class SceneObject:
+    mesh: Mesh
+    transform: np.ndarray = field(default_factory=lambda: np.eye(4))  # object -> world, (4, 4) float64
+    color: Vec = DEFAULT_MESH_COLOR  # flat, unlit RGB in [0, 1]
+    sketchy: bool = True
+    name: str = ""
+    index: int = -1  # position in Scene.objects (set by Scene); object ids in buffers can use index + 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "transform", _frozen(self.transform, (4, 4)))
+        object.__setattr__(self, "color", tuple(float(c) for c in self.color))
+        if len(self.color) != 3:
+            raise ValueError(f"object color needs 3 components, got {self.color}")
+        object.__setattr__(self, "name", self.name or self.mesh.name)
+
+    @property
+    def mirrored(self) -> bool:
+        """True when the transform flips handedness (front faces become clockwise)."""
+        return bool(np.linalg.det(self.transform[:3, :3]) < 0)
+
+    def normal_matrix(self) -> np.ndarray:
+        """(3, 3) inverse transpose of the linear part, for transforming normals."""
+        return np.linalg.inv(self.transform[:3, :3]).T
+
+    def world_vertices(self) -> np.ndarray:
+        t = self.transform
+        return self.mesh.vertices @ t[:3, :3].T + t[:3, 3]
+
+    def world_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.mesh.n_vertices == 0:
+            return np.zeros(3), np.zeros(3)
+        if np.array_equal(self.transform, np.eye(4)):
+            return self.mesh.bounds()
+        w = self.world_vertices()
+        return w.min(axis=0), w.max(axis=0)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    name: str
+    objects: tuple[SceneObject, ...]
+    camera: Camera
+    light_direction: np.ndarray = field(default_factory=lambda: _unit(DEFAULT_LIGHT))
+    light_space: Literal["view", "world"] = "view"
+    orbit: Orbit | None = None
+    background: Vec = (1.0, 1.0, 1.0)
+    source: str | None = None
+    _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        objs = tuple(o if o.index == i else replace(o, index=i) for i, o in enumerate(self.objects))
+        object.__setattr__(self, "objects", objs)
+        object.__setattr__(self, "light_direction", _frozen(_unit(self.light_direction, "light direction"), (3,)))
+        object.__setattr__(self, "background", tuple(float(c) for c in self.background))
+        if self.light_space not in ("view", "world"):
+            raise ValueError(f"light space must be 'view' or 'world', got {self.light_space!r}")
+
+    def camera_at(self, frame: int) -> Camera:
+        """The camera for `frame`: eye, target and up turned rigidly about the orbit axis."""
+        if self.orbit is None or frame == 0 or self.orbit.degrees_per_frame == 0.0:
+            return self.camera
+        cam = self.camera
+        center = cam.target if self.orbit.center is None else self.orbit.center
+        r = rotation(self.orbit.axis, frame * self.orbit.degrees_per_frame)[:3, :3]
+        return replace(cam, eye=center + r @ (cam.eye - center), target=center + r @ (cam.target - center),
+                       up=r @ cam.up)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World-space bounding box of all objects."""
+        if "bounds" not in self._cache:
+            if not self.objects:
+                self._cache["bounds"] = (np.zeros(3), np.zeros(3))
+            else:
+                b = [o.world_bounds() for o in self.objects]
+                self._cache["bounds"] = (np.min([lo for lo, _ in b], axis=0), np.max([hi for _, hi in b], axis=0))
+        lo, hi = self._cache["bounds"]
+        return lo.copy(), hi.copy()
+
+    def select(self, which: Literal["all", "sketchy", "non_sketchy"] = "all") -> list[SceneObject]:
+        """Objects in scene order; each keeps its `index` so object ids agree across selections."""
+        if which == "all":
+            return list(self.objects)
+        if which == "sketchy":
+            return [o for o in self.objects if o.sketchy]
+        if which == "non_sketchy":
+            return [o for o in self.objects if not o.sketchy]
+        raise ValueError(f"select: expected 'all', 'sketchy' or 'non_sketchy', got {which!r}")
+
+    def n_triangles(self) -> int:
+        return sum(o.mesh.n_faces for o in self.objects)
+
+    def content_hash(self) -> str:
+        """Digest of everything that changes pixels (not names or the source path); cached."""
+        if "hash" not in self._cache:
+            doc = {
+                "objects": [{"mesh": o.mesh.content_hash(), "transform": _floats(o.transform),
+                             "color": list(o.color), "sketchy": o.sketchy} for o in self.objects],
+                "camera": self.camera.params(),
+                "light": {"direction": _floats(self.light_direction), "space": self.light_space},
+                "orbit": None if self.orbit is None else self.orbit.params(),
+                "background": list(self.background),
+            }
+            text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
+            self._cache["hash"] = hashlib.sha256(text.encode()).hexdigest()
+        return self._cache["hash"]
+
+
+# --- scene YAML ---------------------------------------------------------------------------------
+
+
+def _three(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) and len(value) == 3:
+        return value
+    raise ValueError("expected a list of 3 numbers [x, y, z]")
+
+
+def _nonzero(value: Vec) -> Vec:
+    if not all(math.isfinite(x) for x in value) or not any(value):
+        raise ValueError("expected a finite non-zero vector")
+    return value
+
+
+def _rgb(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) and len(value) == 3:
+        return value
+    raise ValueError("expected a color [r, g, b] with 3 numbers in [0, 1]")
+
+
+def _in_unit(value: Vec) -> Vec:
+    if not all(0.0 <= x <= 1.0 for x in value):
+        raise ValueError("expected color components in [0, 1]")
+    return value
+
+
+def _scale(value: Any) -> Any:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return (value, value, value)
+    if isinstance(value, (list, tuple)) and len(value) == 3:
+        return value
+    raise ValueError("expected a positive number or [sx, sy, sz]")
+
+
+def _positive(value: Vec) -> Vec:
+    if not all(x > 0 and math.isfinite(x) for x in value):
+        raise ValueError("expected positive scale factors (mirroring is not supported)")
+    return value
+
+
+Vec3 = Annotated[Vec, BeforeValidator(_three)]
+Dir3 = Annotated[Vec, BeforeValidator(_three), AfterValidator(_nonzero)]
+Color = Annotated[Vec, BeforeValidator(_rgb), AfterValidator(_in_unit)]
+Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive)]
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class TransformSpec(_Spec):
+    translate: Vec3 = Field((0.0, 0.0, 0.0), description="Translation [x, y, z], applied last.")
+    rotate: Vec3 = Field((0.0, 0.0, 0.0), description="Rotation in degrees about X, then Y, then Z (fixed "
+                         "axes), applied after scaling.")
+    scale: Scale3 = Field((1.0, 1.0, 1.0), description="Uniform scale (a number) or [sx, sy, sz]; positive.")
+
+    def matrix(self) -> np.ndarray:
+        return compose(self.translate, self.rotate, self.scale)
+
+
+class ObjectSpec(_Spec):
+    name: str | None = Field(None, description="Object name (default: the mesh file's stem or the "
+                             "primitive type with its index).")
+    mesh: str | None = Field(None, description="Mesh file (.obj, .ply, .off, .stl), relative to the scene "
+                             "file. Give this or 'primitive'.")
+    primitive: dict[str, Any] | None = Field(None, description="A procedural mesh: {type: NAME, ...params}; "
+                                             "types: " + ", ".join(primitives.PRIMITIVES) + ".")
+    transform: TransformSpec = Field(default_factory=TransformSpec, description="Object-to-world transform.")
+    color: Color = Field(DEFAULT_MESH_COLOR, description="Flat, unlit color [r, g, b] in [0, 1] (the shade "
+                         "map).")
+    sketchy: bool = Field(True, description="Draw sketchily (false: plain 3D geometry composed by depth).")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> ObjectSpec:
+        if (self.mesh is None) == (self.primitive is None):
+            raise ValueError("give exactly one of 'mesh' (a file) or 'primitive' ({type: ...})")
+        return self
+
+
+class CameraSpec(_Spec):
+    eye: Vec3 = Field(description="Camera position [x, y, z] in world space.")
+    target: Vec3 = Field(description="Point the camera looks at.")
+    up: Dir3 = Field((0.0, 1.0, 0.0), description="Up direction; must not be parallel to target - eye.")
+    fov: float = Field(35.0, gt=0.0, lt=180.0, description="Vertical field of view in degrees.")
+    near: float | None = Field(None, gt=0.0, description="Near plane distance (default: hug the scene's "
+                               "bounding sphere).")
+    far: float | None = Field(None, gt=0.0, description="Far plane distance (default: hug the scene's "
+                              "bounding sphere).")
+
+
+class LightSpec(_Spec):
+    direction: Dir3 = Field(DEFAULT_LIGHT, description="Direction toward the light (normalised on load).")
+    space: Literal["view", "world"] = Field("view", description="Space of 'direction': 'view' moves with the "
+                                            "camera, 'world' stays fixed in the scene.")
+
+
+class OrbitSpec(_Spec):
+    axis: Dir3 = Field((0.0, 1.0, 0.0), description="Axis the camera turns about (right-handed).")
+    degrees_per_frame: float = Field(6.0, description="Degrees turned per frame.")
+    center: Vec3 | None = Field(None, description="A point on the axis (default: the camera target).")
+
+
+class SceneSpec(_Spec):
+    scene: str | None = Field(None, description="Scene name (default: the file's stem).")
+    objects: list[ObjectSpec] = Field(min_length=1, description="The objects, drawn in this order; object "
+                                      "ids follow it.")
+    camera: CameraSpec | None = Field(None, description="Camera; framed from the scene's bounding box "
+                                      "when omitted.")
+    light: LightSpec = Field(default_factory=LightSpec, description="Directional light for shading nodes.")
+    orbit: OrbitSpec | None = Field(None, description="Turn the camera per frame (for frame sequences).")
+    background: Color = Field((1.0, 1.0, 1.0), description="Background (paper) color [r, g, b].")
+
+
+# primitive parameter models: one per primitive, named as the function's parameters
+
+
+class _PrimSpec(_Spec):
+    type: str = Field(description="Primitive type.")
+
+
+class PlaneSpec(_PrimSpec):
+    type: Literal["plane"] = Field(description="A square in the XZ plane facing +Y.")
+    size: float = Field(1.0, gt=0, description="Edge length.")
+    subdiv: int = Field(1, ge=1, le=512, description="Cells per edge.")
+
+
+class BoxSpec(_PrimSpec):
+    type: Literal["box"] = Field(description="An axis-aligned box centred at the origin.")
+    size: Scale3 = Field((1.0, 1.0, 1.0), description="Edge lengths [x, y, z] (or one number).")
+
+
+class SphereSpec(_PrimSpec):
+    type: Literal["sphere"] = Field(description="An icosphere.")
+    radius: float = Field(1.0, gt=0, description="Radius.")
+    subdiv: int = Field(3, ge=0, le=7, description="Subdivisions of the icosahedron (20 * 4**subdiv faces).")
+
+
+class UVSphereSpec(_PrimSpec):
+    type: Literal["uv_sphere"] = Field(description="A latitude/longitude sphere about +Y.")
+    radius: float = Field(1.0, gt=0, description="Radius.")
+    n_u: int = Field(32, ge=3, le=4096, description="Segments around the axis.")
+    n_v: int = Field(16, ge=2, le=4096, description="Rings from pole to pole.")
+
+
+class CylinderSpec(_PrimSpec):
+    type: Literal["cylinder"] = Field(description="A cylinder about +Y, centred at the origin.")
+    radius: float = Field(0.5, gt=0, description="Radius.")
+    height: float = Field(1.0, gt=0, description="Height along Y.")
+    segments: int = Field(32, ge=3, le=4096, description="Segments around the axis.")
+    caps: bool = Field(True, description="Close both ends.")
+
+
+class ConeSpec(_PrimSpec):
+    type: Literal["cone"] = Field(description="A closed cone about +Y, apex up.")
+    radius: float = Field(0.5, gt=0, description="Base radius.")
+    height: float = Field(1.0, gt=0, description="Height along Y.")
+    segments: int = Field(32, ge=3, le=4096, description="Segments around the axis.")
+
+
+class TorusSpec(_PrimSpec):
+    type: Literal["torus"] = Field(description="A ring torus about +Y.")
+    R: float = Field(1.0, gt=0, description="Major radius (centre of the tube).")
+    r: float = Field(0.25, gt=0, description="Tube radius (less than R).")
+    n_major: int = Field(48, ge=3, le=4096, description="Segments around the axis.")
+    n_minor: int = Field(24, ge=3, le=4096, description="Segments around the tube.")
+
+    @field_validator("r")
+    @classmethod
+    def _ring(cls, r: float, info: ValidationInfo) -> float:
+        big = info.data.get("R")
+        if big is not None and r >= big:
+            raise ValueError(f"expected a tube radius below R = {big} (a ring torus)")
+        return r
+
+
+class EllipsoidSpec(_PrimSpec):
+    type: Literal["ellipsoid"] = Field(description="An icosphere scaled to semi-axes a, b, c.")
+    a: float = Field(1.0, gt=0, description="Semi-axis along X.")
+    b: float = Field(0.75, gt=0, description="Semi-axis along Y.")
+    c: float = Field(0.5, gt=0, description="Semi-axis along Z.")
+    subdiv: int = Field(3, ge=0, le=7, description="Icosphere subdivisions.")
+
+
+class ArchSpec(_PrimSpec):
+    type: Literal["arch"] = Field(description="A semicircular arch in the XY plane springing at y = 0.")
+    span: float = Field(1.0, gt=0, description="Clear span (diameter of the intrados).")
+    thickness: float = Field(0.15, gt=0, description="Radial thickness of the ring.")
+    depth: float = Field(0.3, gt=0, description="Depth along Z.")
+    segments: int = Field(16, ge=4, le=4096, description="Segments along the half circle (rounded up to a "
+                          "multiple of 4).")
+    spandrels: bool = Field(False, description="Fill the corners above the ring to a rectangle.")
+
+
+PRIMITIVE_SPECS: dict[str, type[_PrimSpec]] = {
+    "plane": PlaneSpec, "box": BoxSpec, "sphere": SphereSpec, "uv_sphere": UVSphereSpec,
+    "cylinder": CylinderSpec, "cone": ConeSpec, "torus": TorusSpec, "ellipsoid": EllipsoidSpec, "arch": ArchSpec,
+}
+
+
+def primitive_mesh(spec: _PrimSpec) -> Mesh:
+    params = spec.model_dump(exclude={"type"})
+    return primitives.PRIMITIVES[spec.type](**params)
+
+
+def _build_primitive(data: Any, file: str, path: tuple[Any, ...], root: Any) -> Mesh:
+    if not isinstance(data, dict):
+        raise PipelineError(f"'primitive' must be a mapping like {{type: box}}, found {yamlio.describe(data)}",
+                            yamlio.locate(root, path, file))
+    kind = data.get("type")
+    if kind is None:
+        raise PipelineError("primitive: missing required field 'type' (one of "
+                            + ", ".join(PRIMITIVE_SPECS) + ")", yamlio.locate(root, path, file))
+    if kind not in PRIMITIVE_SPECS:
+        raise PipelineError(f"unknown primitive type {kind!r}{yamlio.suggest(str(kind), PRIMITIVE_SPECS)}; "
+                            "choose one of " + ", ".join(PRIMITIVE_SPECS),
+                            yamlio.locate(root, (*path, "type"), file))
+    spec = yamlio.validate(PRIMITIVE_SPECS[kind], data, file, prefix=path, root=root, what=f"primitive {kind}")
+    return primitive_mesh(spec)
+
+
+def scene_from_yaml(path: str | Path) -> Scene:
+    """Load a scene YAML file; every error is a one-line PipelineError with file:line:col."""
+    p = Path(path)
+    file = str(path)
+    data = yamlio.load(p)
+    if not isinstance(data, dict):
+        raise PipelineError(f"a scene file must be a mapping with 'objects:', found {yamlio.describe(data)}",
+                            Location(file, 1, 1))
+    spec = yamlio.validate(SceneSpec, data, file, root=data, what="scene")
+    base = p.parent
+    objects: list[SceneObject] = []
+    for i, obj in enumerate(spec.objects):
+        where = ("objects", i)
+        if obj.mesh is not None:
+            mesh_path = Path(obj.mesh).expanduser()
+            if not mesh_path.is_absolute():
+                mesh_path = base / mesh_path
+            mesh_path = mesh_path.absolute()
+            loc = yamlio.locate(data, (*where, "mesh"), file)
+            if not mesh_path.exists():
+                raise PipelineError(f"object {i}: mesh file not found: {mesh_path} (mesh paths are relative to "
+                                    "the scene file)", loc)
+            try:
+                mesh = load_mesh(mesh_path)
+            except MeshError as exc:
+                raise PipelineError(str(exc), loc) from None
+            default_name = mesh_path.stem
+        else:
+            mesh = _build_primitive(data["objects"][i]["primitive"], file, (*where, "primitive"), data)
+            default_name = f"{mesh.name}{i}"
+        objects.append(SceneObject(mesh=mesh, transform=obj.transform.matrix(), color=obj.color,
+                                   sketchy=obj.sketchy, name=obj.name or default_name))
+    lo, hi = _bounds_of(objects)
+    center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
+    if spec.camera is None:
+        camera = frame_camera(lo, hi)
+    else:
+        c = spec.camera
+        near, far = near_far_for(c.eye, center, radius)
+        try:
+            camera = Camera(eye=c.eye, target=c.target, up=c.up, fov_y_deg=c.fov,
+                            near=c.near if c.near is not None else near,
+                            far=c.far if c.far is not None else max(far, (c.near or 0.0) * 1.001))
+        except ValueError as exc:
+            raise PipelineError(f"camera: {exc}", yamlio.locate(data, ("camera",), file)) from None
+    orbit = None
+    if spec.orbit is not None:
+        orbit = Orbit(axis=spec.orbit.axis, degrees_per_frame=spec.orbit.degrees_per_frame,
+                      center=spec.orbit.center)
+    return Scene(name=spec.scene or p.stem, objects=tuple(objects), camera=camera,
+                 light_direction=spec.light.direction, light_space=spec.light.space, orbit=orbit,
+                 background=spec.background, source=file)
+
+
+def _bounds_of(objects: list[SceneObject]) -> tuple[np.ndarray, np.ndarray]:
+    b = [o.world_bounds() for o in objects]
+    return np.min([lo for lo, _ in b], axis=0), np.max([hi for _, hi in b], axis=0)
+
+
+def mesh_scene(path: str | Path) -> Scene:
+    """One sketchy object from a mesh file, framed, with a 6 degrees/frame orbit about +Y."""
+    mesh = load_mesh(path)
+    lo, hi = mesh.bounds()
+    return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
+                 camera=frame_camera(lo, hi), orbit=Orbit(), source=str(path))
+
+
+# --- built-in scenes ----------------------------------------------------------------------------
+
+
+def _single(name: str, mesh: Mesh, color: Vec) -> Scene:
+    lo, hi = mesh.bounds()
+    return Scene(name=name, objects=(SceneObject(mesh, np.eye(4), color, True, name),),
+                 camera=frame_camera(lo, hi), orbit=Orbit(), source=f"builtin:{name}")
+
+
+def _builtin_box() -> Scene:
+    return _single("box", primitives.box((1.0, 1.0, 1.0)), (0.85, 0.62, 0.42))
+
+
+def _builtin_sphere() -> Scene:
+    return _single("sphere", primitives.sphere(1.0, 4), (0.55, 0.68, 0.82))
+
+
+def _builtin_torus() -> Scene:
+    return _single("torus", primitives.torus(1.0, 0.35, 64, 32), (0.80, 0.52, 0.60))
+
+
+def _builtin_primitives() -> Scene:
+    """Every primitive in a row on a floor, for visual checks."""
+    items: list[tuple[Mesh, np.ndarray, Vec]] = [
+        (primitives.box((0.8, 0.8, 0.8)), compose((0.0, 0.4, 0.0), (0, 25, 0)), (0.85, 0.62, 0.42)),
+        (primitives.sphere(0.45, 3), compose((1.2, 0.45, 0.0)), (0.55, 0.68, 0.82)),
+        (primitives.uv_sphere(0.45, 24, 12), compose((2.4, 0.45, 0.0)), (0.62, 0.78, 0.60)),
+        (primitives.cylinder(0.35, 0.9, 32), compose((3.6, 0.45, 0.0)), (0.90, 0.80, 0.50)),
+        (primitives.cone(0.4, 0.9, 32), compose((4.8, 0.45, 0.0)), (0.80, 0.45, 0.35)),
+        (primitives.torus(0.4, 0.14, 48, 20), compose((0.6, 0.14, 1.3)), (0.80, 0.52, 0.60)),
+        (primitives.ellipsoid(0.5, 0.3, 0.35, 3), compose((1.9, 0.3, 1.3)), (0.70, 0.60, 0.85)),
+        (primitives.arch(0.6, 0.15, 0.25, 16, False), compose((3.2, 0.0, 1.3)), (0.93, 0.84, 0.66)),
+        (primitives.arch(0.6, 0.15, 0.25, 16, True), compose((4.4, 0.0, 1.3)), (0.88, 0.74, 0.55)),
+        (primitives.plane(6.4, 8), compose((2.4, 0.0, 0.65)), (0.72, 0.74, 0.68)),
+    ]
+    objs = tuple(SceneObject(m, t, c, True, m.name) for m, t, c in items)
+    lo, hi = _bounds_of(list(objs))
+    return Scene(name="primitives", objects=objs, camera=frame_camera(lo, hi, direction=(0.35, 0.6, 1.0)),
+                 orbit=Orbit(), source="builtin:primitives")
+
+
+# cloister palette: distinct flat colors so the shade map reads as patches
+_SANDSTONE = (0.88, 0.76, 0.54)
+_PALE_STONE = (0.80, 0.76, 0.66)
+_OCHRE = (0.78, 0.63, 0.42)
+_WALL = (0.94, 0.87, 0.71)
+_BEAM = (0.68, 0.56, 0.42)
+_TERRACOTTA = (0.78, 0.37, 0.23)
+_PLASTER = (0.74, 0.69, 0.64)
+_FLOOR = (0.62, 0.66, 0.58)
+_LAWN = (0.47, 0.63, 0.36)
+_GREY = (0.66, 0.65, 0.62)
+_WATER = (0.42, 0.60, 0.76)
+_TOWER = (0.84, 0.72, 0.56)
+
+
+def _block(lo: Any, hi: Any, name: str = "block") -> Mesh:
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    return primitives.box(hi - lo).transformed(translation((lo + hi) / 2.0), name)
+
+
+def _hexahedron(corners: Any, name: str) -> Mesh:
+    """A box-like solid from 8 corners indexed by bits (x, y, z) as in `primitives.box`."""
+    return Mesh(name, np.asarray(corners, dtype=np.float64), primitives.box().faces)
+
+
+@dataclass(frozen=True)
+class _ArcadeLayout:
+    """One arcade in local coordinates: bays of 1 along +x at z = 0, the garth at +z, the walk at -z."""
+
+    columns: tuple[float, ...]
+    bays: tuple[int, ...]
+    beam_x: tuple[float, float]
+    wall_x: tuple[float, float]
+    roof_front_x: tuple[float, float]
+    roof_back_x: tuple[float, float]
+    corner_fill: bool = False  # fill the square above column 0 where the other arcade's arches butt
+
+
+# heights (floor top at y = 0)
+_PLINTH_TOP, _SHAFT_TOP, _ECHINUS_TOP, _SPRING = 0.10, 0.78, 0.83, 0.90
+_SPAN, _ARCH_T, _ARCH_D = 0.8, 0.1, 0.24
+_BEAM_TOP = _SPRING + _SPAN / 2 + _ARCH_T + 0.12
+_ROOF_FRONT_Z, _ROOF_BACK_Z, _ROOF_FRONT_Y, _ROOF_BACK_Y, _ROOF_T = 0.27, -1.0, _BEAM_TOP + 0.07, 1.97, 0.07
+_WALL_Z, _WALL_TOP = (-1.2, -1.0), 2.15
+
+
+def _arcade(layout: _ArcadeLayout, tag: str) -> list[tuple[str, Mesh, Vec]]:
+    plinths, shafts, capitals, arches = [], [], [], []
+    for x in layout.columns:
+        plinths.append(_block((x - 0.14, 0.0, -0.14), (x + 0.14, _PLINTH_TOP, 0.14)))
+        h = _SHAFT_TOP - _PLINTH_TOP
+        shafts.append(primitives.cylinder(0.075, h, 24).transformed(translation((x, _PLINTH_TOP + h / 2, 0))))
+        e = _ECHINUS_TOP - _SHAFT_TOP
+        capitals.append(primitives.cylinder(0.1, e, 24).transformed(translation((x, _SHAFT_TOP + e / 2, 0))))
+        capitals.append(_block((x - 0.14, _ECHINUS_TOP, -0.14), (x + 0.14, _SPRING, 0.14)))
+    for k in layout.bays:
+        a = primitives.arch(_SPAN, _ARCH_T, _ARCH_D, 24, spandrels=True)
+        arches.append(a.transformed(translation((k + 0.5, _SPRING, 0.0))))
+    top = _SPRING + _SPAN / 2 + _ARCH_T
+    if layout.corner_fill:
+        arches.append(_block((-_ARCH_D / 2, _SPRING, -_ARCH_D / 2), (0.0, top, 0.0)))
+    beam = _block((layout.beam_x[0], top, -0.15), (layout.beam_x[1], _BEAM_TOP, 0.15))
+    wall = _block((layout.wall_x[0], 0.0, _WALL_Z[0]), (layout.wall_x[1], _WALL_TOP, _WALL_Z[1]))
+    # lean-to roof: a slab from the beam up to the back wall, its ends along the given x ranges
+    (f0, f1), (b0, b1) = layout.roof_front_x, layout.roof_back_x
+    zf, zb = _ROOF_FRONT_Z, _ROOF_BACK_Z
+    yf, yb, t = _ROOF_FRONT_Y, _ROOF_BACK_Y, _ROOF_T
+    corners = [(f0, yf - t, zf), (f1, yf - t, zf), (f0, yf, zf), (f1, yf, zf),
+               (b0, yb - t, zb), (b1, yb - t, zb), (b0, yb, zb), (b1, yb, zb)]
+    # box bit order is (x, y, z) with z growing: the back (z = zb) must come first
+    corners = corners[4:] + corners[:4]
+    roof = _hexahedron(corners, "roof")
+    return [
+        (f"{tag}.plinths", merge_meshes(plinths, "plinths"), _PALE_STONE),
+        (f"{tag}.shafts", merge_meshes(shafts, "shafts"), _SANDSTONE),
+        (f"{tag}.capitals", merge_meshes(capitals, "capitals"), _OCHRE),
+        (f"{tag}.arches", merge_meshes(arches, "arches"), _WALL),
+        (f"{tag}.beam", beam, _BEAM),
+        (f"{tag}.roof", roof, _TERRACOTTA),
+        (f"{tag}.wall", wall, _PLASTER),
+    ]
+
+
+def _builtin_cloister() -> Scene:
+    """Two arcades meeting at a corner (an L of a cloister walk) around a garth with a well."""
+    south = _ArcadeLayout(columns=tuple(float(x) for x in range(6)), bays=tuple(range(5)),
+                          beam_x=(-0.15, 5.14), wall_x=(-1.2, 5.2), roof_front_x=(_ROOF_FRONT_Z, 5.3),
+                          roof_back_x=(_ROOF_BACK_Z, 5.3), corner_fill=True)
+    # the west arcade is built along +x too and turned by +90 degrees about Y, then moved by +5 in z:
+    # local x maps to world z = 5 - x, so its corner end is local x = 5 (the south arcade's column 0)
+    west = _ArcadeLayout(columns=tuple(float(x) for x in range(5)), bays=tuple(range(5)),
+                         beam_x=(-0.14, 4.85), wall_x=(-0.2, 6.0), roof_front_x=(-0.3, 5.0 - _ROOF_FRONT_Z),
+                         roof_back_x=(-0.3, 5.0 - _ROOF_BACK_Z))
+    west_transform = translation((0.0, 0.0, 5.0)) @ rotation((0, 1, 0), 90.0)
+    objects: list[SceneObject] = []
+    for tag, layout, transform in (("south", south, np.eye(4)), ("west", west, west_transform)):
+        for name, mesh, color in _arcade(layout, tag):
+            objects.append(SceneObject(mesh, transform, color, True, name))
+    g0, g1 = 5.75, 3.0  # garth extent and well position
+    well_h = 0.36
+    ground = [
+        ("floor", _block((-1.3, -0.12, -1.3), (g0, 0.0, g0)), _FLOOR),
+        ("lawn", _block((0.35, 0.0, 0.35), (g0, 0.03, g0)), _LAWN),
+        ("well", primitives.cylinder(0.32, well_h, 32).transformed(translation((g1, 0.03 + well_h / 2, g1))),
+         _GREY),
+        ("well.rim", primitives.torus(0.32, 0.045, 48, 12).transformed(translation((g1, 0.03 + well_h, g1))),
+         _PALE_STONE),
+        ("well.water", primitives.cylinder(0.27, 0.01, 32).transformed(
+            translation((g1, 0.03 + well_h + 0.006, g1))), _WATER),
+    ]
+    # a bell tower behind the corner: a square shaft under a pyramid roof (a 4-sided cone turned 45 deg)
+    tower_c, tower_w, tower_h = -1.95, 1.4, 3.5
+    ground += [
+        ("tower", _block((tower_c - tower_w / 2, -0.12, tower_c - tower_w / 2),
+                         (tower_c + tower_w / 2, tower_h, tower_c + tower_w / 2)), _TOWER),
+        ("tower.roof", primitives.cone(tower_w / math.sqrt(2.0) * 1.1, 1.1, 4).transformed(
+            compose((tower_c, tower_h + 0.55, tower_c), (0.0, 45.0, 0.0))), _TERRACOTTA),
+    ]
+    objects += [SceneObject(m, np.eye(4), c, True, n) for n, m, c in ground]
+    lo, hi = _bounds_of(objects)
+    # three-quarter view from the garth, slightly above, toward the corner and the tower
+    target = np.array([1.9, 1.1, 0.6])
+    eye = target + np.array([3.9, 1.9, 7.8])
+    radius = float(np.linalg.norm(hi - lo)) / 2.0
+    near, far = near_far_for(eye, (lo + hi) / 2.0, radius)
+    camera = Camera(eye=eye, target=target, up=(0.0, 1.0, 0.0), fov_y_deg=44.0, near=near, far=far)
+    return Scene(name="cloister", objects=tuple(objects), camera=camera,
+                 light_direction=DEFAULT_LIGHT, light_space="view",
+                 orbit=Orbit(center=np.array([2.2, 0.0, 2.2])), source="builtin:cloister")
+
+
+BUILTIN_SCENES: dict[str, Callable[[], Scene]] = {
+    "cloister": _builtin_cloister,
+    "box": _builtin_box,
+    "sphere": _builtin_sphere,
+    "torus": _builtin_torus,
+    "primitives": _builtin_primitives,
+}
+
+
+@functools.cache
+def builtin_scene(name: str) -> Scene:
+    if name not in BUILTIN_SCENES:
+        close = difflib.get_close_matches(name, list(BUILTIN_SCENES), n=1, cutoff=0.5)
+        hint = f" (did you mean 'builtin:{close[0]}'?)" if close else ""
+        raise PipelineError(f"unknown built-in scene 'builtin:{name}'{hint}; available: "
+                            + ", ".join(f"builtin:{n}" for n in BUILTIN_SCENES))
+    return BUILTIN_SCENES[name]()
+
+
+def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
+    """`builtin:NAME`, a scene YAML (.yaml/.yml) or a mesh file (.obj/.ply/.off/.stl); relative paths
+    start at `base_dir` (default: the current directory)."""
+    spec = str(spec).strip()
+    if spec.startswith("builtin:"):
+        return builtin_scene(spec.removeprefix("builtin:"))
+    path = Path(spec).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    ext = path.suffix.lower()
+    if ext not in SCENE_EXTENSIONS + SUPPORTED_EXTENSIONS:
+        hint = yamlio.suggest(spec, [f"builtin:{n}" for n in BUILTIN_SCENES]) if ":" in spec else ""
+        raise PipelineError(f"scene '{spec}': expected builtin:NAME, a scene file ({', '.join(SCENE_EXTENSIONS)}) "
+                            f"or a mesh file ({', '.join(SUPPORTED_EXTENSIONS)}){hint}")
+    if not path.exists():
+        raise PipelineError(f"scene file not found: {path.absolute()}")
+    if ext in SCENE_EXTENSIONS:
+        return scene_from_yaml(path)
+    return mesh_scene(path)
