@@ -269,11 +269,12 @@ def nodes(name: str | None, as_json: bool) -> None:
 def _node_info(cls: Any) -> dict[str, Any]:
     params = {}
     for fname, f in cls.Params.model_fields.items():
-        default = f.default
-        try:
-            json.dumps(default)
-        except TypeError:
-            default = cls.Params().model_dump(mode="json").get(fname)
+        if f.is_required():
+            default = "(required)"
+        else:
+            from pydantic_core import to_jsonable_python
+
+            default = to_jsonable_python(f.get_default(call_default_factory=True))
         params[fname] = {"default": default, "description": f.description or "",
                          "type": str(f.annotation).replace("typing.", "")}
     doc = " ".join((cls.doc or cls.__doc__ or "").split())

@@ -54,8 +54,8 @@ def assemble(path: Path, stage: str, defines: dict[str, Any] | None = None) -> A
         out.append(f"#define {name} {_define_value(value)}")
     out.append("#line 2 0")
 
-    def expand(src_lines: list[str], file_no: int, file: Path, depth: int) -> None:
-        for lineno, line in enumerate(src_lines, start=1):
+    def expand(src_lines: list[str], file_no: int, file: Path, depth: int, first_line: int = 1) -> None:
+        for lineno, line in enumerate(src_lines, start=first_line):
             m = _INCLUDE.match(line)
             if not m:
                 out.append(line)
@@ -76,7 +76,7 @@ def assemble(path: Path, stage: str, defines: dict[str, Any] | None = None) -> A
             expand(inc_lines, n, inc, depth + 1)
             out.append(f"#line {lineno + 1} {file_no}")
 
-    expand(lines[1:], 0, path, 0)
+    expand(lines[1:], 0, path, 0, first_line=2)
     return Assembled("\n".join(out) + "\n", files)
 
 

@@ -160,7 +160,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
         try:
             params = cls.Params.model_validate(merged)
         except ValidationError as exc:
-            err = yamlio.validation_error(exc, merged, None, what=f"node '{nid}'")
+            err = yamlio.validation_error(exc, merged, None, what=f"node '{nid}'", model=cls.Params)
             raise PipelineError(err.message, where) from None
         raw_params[nid] = merged
         nodes[nid] = cls(nid, params)

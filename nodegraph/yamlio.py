@@ -53,7 +53,6 @@ def _construct_mapping(loader: _MarkedLoader, node: yaml.MappingNode) -> MarkedD
                 "while constructing a mapping", node.start_mark, "found unhashable key", key_node.start_mark
             ) from None
         if key in out:
-            line, col = _pos(key_node)
             raise yaml.constructor.ConstructorError(
                 None, None, f"duplicate key {key!r}", key_node.start_mark
             )
@@ -130,8 +129,31 @@ def suggest(word: str, choices: Iterable[str]) -> str:
     return f" (did you mean '{match[0]}'?)" if match else ""
 
 
+def _fields_at(model: Any, loc: Sequence[Any]) -> list[str]:
+    """Field names of the (nested) pydantic model reached by following `loc` from `model`."""
+    import typing
+
+    current = model
+    for part in loc:
+        if not (isinstance(current, type) and issubclass(current, BaseModel)):
+            return []
+        if isinstance(part, str) and part in current.model_fields:
+            ann = current.model_fields[part].annotation
+        elif isinstance(part, (str, int)):
+            ann = current  # an element of a container: keep looking for a model below
+        else:
+            return []
+        candidates = [ann, *typing.get_args(ann)]
+        for args in list(candidates):
+            candidates.extend(typing.get_args(args))
+        current = next((c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)), None)
+    if isinstance(current, type) and issubclass(current, BaseModel):
+        return list(current.model_fields)
+    return []
+
+
 def validation_error(exc: ValidationError, root: Any, file: str | None, prefix: Sequence[Any] = (),
-                     what: str = "") -> PipelineError:
+                     what: str = "", model: Any = None) -> PipelineError:
     """The first pydantic error as a one-line PipelineError located in the YAML source."""
     err = exc.errors()[0]
     loc = list(prefix) + [p for p in err["loc"] if not (isinstance(p, str) and p.startswith("function-"))]
@@ -139,9 +161,7 @@ def validation_error(exc: ValidationError, root: Any, file: str | None, prefix: 
     field = ".".join(str(p) for p in err["loc"]) or "value"
     label = f"{what} " if what else ""
     if etype == "extra_forbidden":
-        parent_model_fields: list[str] = []
-        ctx = err.get("ctx") or {}
-        parent_model_fields = list(ctx.get("fields", []))
+        parent_model_fields = _fields_at(model, err["loc"][:-1]) if model is not None else []
         msg = f"{label}unknown field '{err['loc'][-1]}'" + suggest(str(err["loc"][-1]), parent_model_fields)
         return PipelineError(msg, locate(root, loc, file, key=True))
     if etype == "missing":
@@ -159,7 +179,7 @@ def validate(model: type[T], data: Any, file: str | None, prefix: Sequence[Any] 
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        raise validation_error(exc, root if root is not None else data, file, prefix, what) from None
+        raise validation_error(exc, root if root is not None else data, file, prefix, what, model) from None
 
 
 def load_model(path: str | Path, model: type[T]) -> T:

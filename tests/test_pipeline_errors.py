@@ -106,7 +106,7 @@ def test_bad_parameter_value():
 
 def test_unknown_parameter():
     e = error(GOOD.replace("    in: {normal", "    params: {widht: 2}\n    in: {normal"))
-    assert str(e).startswith("p.yaml:7:14: node 'edges' (edge_detect) unknown field 'widht'")
+    assert str(e).startswith("p.yaml:7:14: node 'edges' (edge_detect) unknown field 'widht' (did you mean 'width'?)")
 
 
 def test_bad_top_level_field():
