@@ -779,8 +779,8 @@ def _builtin_cloister() -> Scene:
     objects += [SceneObject(m, np.eye(4), c, True, n) for n, m, c in ground]
     lo, hi = _bounds_of(objects)
     # three-quarter view from the garth, slightly above, toward the corner and the tower
-    target = np.array([1.9, 1.1, 0.6])
-    eye = target + np.array([3.9, 1.9, 7.8])
+    target = np.array([1.7, 1.0, 1.0])
+    eye = target + np.array([4.6, 2.9, 9.0])
     radius = float(np.linalg.norm(hi - lo)) / 2.0
     near, far = near_far_for(eye, (lo + hi) / 2.0, radius)
     camera = Camera(eye=eye, target=target, up=(0.0, 1.0, 0.0), fov_y_deg=44.0, near=near, far=far)
