@@ -134,7 +134,8 @@ def test_sketch_matches_float64_reference(gl, rng):
               {"matrix": ((-0.03, 0.0), (0.0, 0.06)), "color": (0.6, 0.1, 0.1)})
     params = Sketch.Params(shade_matrix=((-0.04, 0.02), (0.01, -0.05)), edge_layers=layers, edge_strength=1.3)
     node = Sketch("s", params)
-    got = run_node(gl, node, {"edges": edges, "shade": shade, "offset": offset}, (w, h))
+    got = run_node(gl, node, {"edges": edges, "shade": shade, "offset": offset}, (w, h),
+                   needed=frozenset({"color", "offsets"}))
     # the reference reads exactly what the GPU holds (after 8-bit / half quantisation)
     ref = sketch_ref(edges.read()[..., 0], shade.read(), offset.read(), np.asarray(params.shade_matrix),
                      [(np.asarray(lay.matrix), lay.color) for lay in node.layers()], params.edge_strength,
@@ -167,7 +168,7 @@ def test_depth_sprite_matches_float64_reference(gl, with_under):
         under_c[xs > 34] = (0.2, 0.5, 0.3, 1.0)
         inputs.update(under_color=gl.upload(under_c, "RGBA8"), under_depth=gl.upload(under_d[..., None], "R32F"))
         under_c = inputs["under_color"].read()
-    got = run_node(gl, DepthSprite("d"), inputs, (w, h))
+    got = run_node(gl, DepthSprite("d"), inputs, (w, h), needed=frozenset({"color", "depth"}))
     ref = depth_sprite_ref(inputs["color"].read(), inputs["offsets"].read(), depth, under_c, under_d)
     gz, rz = got["depth"].read()[..., 0], ref["depth"]
     # the depth test runs at depth-buffer precision: allow 1e-6 in the values, no pixel decided differently
