@@ -17,14 +17,20 @@ class DepthSprite(Node):
     the sketch node), so everything the sketch draws beyond the object's boundary gets the depth of the
     surface it came from; the ordinary depth test then gives correct occlusion both ways. Pixels whose
     perturbed depth is the far plane are rejected early. Depth is read with nearest filtering so no
-    depth is invented across silhouettes (our choice; the paper does not say)."""
+    depth is invented across silhouettes (our choice; the paper does not say).
 
-    version = "1"
+    Repeated edges (paper §3.4) need the depth map read once per edge layer: connect `sketch_depth`
+    (sketch.depth, the minimum over every layer's and the shade map's lookup) and it is used as the
+    perturbed depth instead of the two lookups through `offsets`, which then only hold the first layer."""
+
+    version = "2"
     shaders = ("depth_sprite.glsl",)
     inputs = {
         "color": Input(Texture("RGBA16F"), "The sketch (sketch.color)."),
         "offsets": Input(Texture("RGBA16F"), "Edge and shade shifts (sketch.offsets)."),
         "depth": Input(Texture("R32F"), "Window depth of the sketchy objects (rasterize.depth)."),
+        "sketch_depth": Input(Texture("R32F"), "Perturbed depth over all edge layers and the shade map "
+                              "(sketch.depth); replaces the lookups through `offsets`.", optional=True),
         "under_color": Input(Texture("RGBA8"), "Colour of ordinary geometry to compose with.", optional=True),
         "under_depth": Input(Texture("R32F"), "Window depth of that geometry (same camera).", optional=True),
     }
@@ -50,6 +56,9 @@ class DepthSprite(Node):
         fbo = gl.framebuffer([color, depth], rb)
         mgl = gl.ctx
         textures = {"t_color": inputs["color"], "t_offsets": inputs["offsets"], "t_depth": inputs["depth"]}
+        has_sketch_depth = "sketch_depth" in inputs
+        if has_sketch_depth:
+            textures["t_sketch_depth"] = inputs["sketch_depth"]
         if has_under:
             textures.update(t_under_color=inputs["under_color"], t_under_depth=inputs["under_depth"])
         uniforms = {"u_paper": tuple(self.params.paper), "u_has_under": float(has_under)}
@@ -63,7 +72,8 @@ class DepthSprite(Node):
                 fbo.clear(*self.params.paper, 1.0, depth=1.0)
                 gl.framebuffer([depth]).clear(1.0, 0.0, 0.0, 0.0)
             mgl.depth_func = "<"
-            gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 1}), [color, depth], textures, uniforms, fbo=fbo)
+            gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 1, "SKETCH_DEPTH": int(has_sketch_depth)}),
+                          [color, depth], textures, uniforms, fbo=fbo)
         finally:
             mgl.depth_func = "<"
             mgl.disable(mgl.DEPTH_TEST)

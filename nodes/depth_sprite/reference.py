@@ -9,7 +9,9 @@ from nodegraph.sampling import bilinear, nearest, pixel_uv
 
 def depth_sprite(color: np.ndarray, offsets: np.ndarray, depth: np.ndarray, under_color: np.ndarray | None = None,
                  under_depth: np.ndarray | None = None,
-                 paper: tuple[float, float, float] = (0.98, 0.97, 0.94)) -> dict[str, np.ndarray]:
+                 paper: tuple[float, float, float] = (0.98, 0.97, 0.94),
+                 sketch_depth: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """sketch_depth (H, W), when given, is the perturbed depth (sketch.depth) instead of the lookups."""
     h, w = depth.shape[:2]
     u, v = pixel_uv(w, h)
     paper_rgb = np.broadcast_to(np.asarray(paper, dtype=np.float64), (h, w, 3))
@@ -21,7 +23,11 @@ def depth_sprite(color: np.ndarray, offsets: np.ndarray, depth: np.ndarray, unde
         out_rgb = paper_rgb.copy()
         out_z = np.ones((h, w))
     off = offsets.astype(np.float64)
-    z = np.minimum(nearest(depth, u + off[..., 0], v + off[..., 1]), nearest(depth, u + off[..., 2], v + off[..., 3]))
+    if sketch_depth is not None:
+        z = np.asarray(sketch_depth, dtype=np.float64)
+    else:
+        z = np.minimum(nearest(depth, u + off[..., 0], v + off[..., 1]),
+                       nearest(depth, u + off[..., 2], v + off[..., 3]))
     draw = (z < 1.0) & (z < out_z)
     out_rgb = np.where(draw[..., None], bilinear(color, u, v)[..., :3], out_rgb)
     out_z = np.where(draw, z, out_z)

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
+from nodegraph.meshes import MeshWarning
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import SCENE, Texture
 
@@ -25,9 +27,19 @@ _OUTPUTS = {
 class Rasterize(Node):
     """Renders the scene's objects into a G-buffer: unlit colour (the shade map), view-space normals,
     window depth, linear view depth, object-space positions and object ids. Only the outputs the plan
-    needs are written. Objects can be enlarged along their welded vertex normals (paper §4.2)."""
+    needs are written.
 
-    version = "1"
+    Enlargement (paper §4.2) moves every vertex along its vertex normal in object space, so the
+    G-buffer (above all `position`, g(s,t) of §4.3) also covers a band around each object. The paper
+    needs a connected surface with shared, interpolated normals; for any other mesh the behaviour is
+    defined: coincident vertices are welded (tolerance 1e-6 of the bounding-box diagonal) before the
+    normals are computed, so split normals and duplicated seam vertices cannot open cracks, and each
+    connected component (faces joined across manifold edges) is moved along its own angle-weighted
+    normals, all by the same distance. A mesh file that needed either gets one `MeshWarning` per
+    process naming the mesh and what was done (built-in scenes, assembled from parts on purpose, do not
+    warn)."""
+
+    version = "2"
     shaders = ("rasterize.glsl",)
     context_keys = frozenset({"size", "frame", "scene", "camera"})
     persist = "auto"
@@ -50,7 +62,12 @@ class Rasterize(Node):
                                              "geometry); unlit flat colour otherwise (the paper's shade map).")
         ambient: float = Field(0.45, ge=0, le=1, description="Ambient share of the lit colour.")
         enlarge: float = Field(0.0, ge=0, le=0.5, description="Shift every vertex along its welded vertex normal "
-                               "by this fraction of the object's bounding-box diagonal (paper §4.2).")
+                               "by this fraction of the object's bounding-box diagonal (paper §4.2); each "
+                               "connected component moves along its own normals.")
+        enlarge_unit: Literal["object", "scene"] = Field(
+            "object", description="What `enlarge` is a fraction of: object: each object's own bounding-box "
+            "diagonal; scene: the scene's bounding-box diagonal (the same world distance for every object: "
+            "a band of even width around small and large objects alike).")
         crease_angle: float = Field(40.0, ge=0, le=180, description="Dihedral angle in degrees above which "
                                     "normals are split (sharp creases), below which they are smoothed.")
         cull_backfaces: bool = Field(False, description="Skip back faces (faster; wrong for open meshes).")
@@ -85,12 +102,16 @@ class Rasterize(Node):
         if scene.light_space == "world":
             light = view[:3, :3] @ light
         light = light / max(np.linalg.norm(light), 1e-12)
+        lo, hi = scene.bounds()
+        scene_diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         try:
             for index, obj in enumerate(scene.objects):
                 if self.params.select == "sketchy" and not obj.sketchy:
                     continue
                 if self.params.select == "non_sketchy" and obj.sketchy:
                     continue
+                if self.params.enlarge > 0:
+                    _warn_enlarge_once(obj.mesh)
                 vao, diag = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
                 model = np.asarray(obj.transform, dtype=np.float64)
                 mv = view @ model
@@ -99,6 +120,8 @@ class Rasterize(Node):
                 _set(prog, "u_view", view)
                 _set(prog, "u_proj", proj)
                 _set(prog, "u_normal_view", normal_view)
+                if self.params.enlarge_unit == "scene":  # a world distance, in this object's units
+                    diag = scene_diag / max(abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0), 1e-12)
                 _set(prog, "u_enlarge", float(self.params.enlarge * diag))
                 _set(prog, "u_color", tuple(float(c) for c in obj.color))
                 _set(prog, "u_light", tuple(float(c) for c in light))
@@ -139,7 +162,8 @@ def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, 
         bufs = {
             "in_pos": ctx.buffer(np.ascontiguousarray(ra.positions, dtype=np.float32).tobytes()),
             "in_normal": ctx.buffer(np.ascontiguousarray(ra.normals, dtype=np.float32).tobytes()),
-            "in_smooth": ctx.buffer(np.ascontiguousarray(ra.smooth_normals, dtype=np.float32).tobytes()),
+            "in_smooth": ctx.buffer(np.ascontiguousarray(enlarge_normals(mesh, crease_angle),
+                                                         dtype=np.float32).tobytes()),
         }
         ibo = ctx.buffer(np.ascontiguousarray(ra.indices, dtype=np.uint32).tobytes())
         bmin, bmax = mesh.bounds()
@@ -152,6 +176,60 @@ def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, 
         vao = gl.ctx.vertex_array(prog, content, index_buffer=entry["ibo"], index_element_size=4)
         entry["vaos"][id(prog)] = vao
     return vao, entry["diag"]
+
+
+def enlarge_normals(mesh: Any, crease_angle: float = 40.0) -> np.ndarray:
+    """(k, 3) direction of enlargement for each vertex of `mesh.render_arrays(crease_angle)`.
+
+    The angle-weighted normal of the faces around the vertex's welded position that belong to the
+    vertex's own connected component: every render vertex at one welded position of one component gets
+    the same direction (no cracks where normals are split), and components that touch keep their own.
+    """
+    ra = mesh.render_arrays(crease_angle)
+    welded, _ = mesh.weld()
+    faces = mesh.faces
+    comp = mesh.face_components().astype(np.int64)
+    n_comp = int(comp.max()) + 1 if len(comp) else 1
+    p = mesh.vertices[faces]  # (m, 3, 3)
+    e = np.roll(p, -1, axis=1) - p  # e[:, i] = p[i+1] - p[i]
+    cross = np.cross(e[:, 0], -e[:, 2])
+    area2 = np.linalg.norm(cross, axis=1)
+    face_n = np.divide(cross, area2[:, None], out=np.zeros_like(cross), where=area2[:, None] > 0)
+    cos = -np.einsum("mij,mij->mi", e, np.roll(e, 1, axis=1))
+    angles = np.arctan2(np.broadcast_to(area2[:, None], cos.shape), cos)  # corner angles (m, 3)
+    corner_key = (welded[faces] * n_comp + comp[:, None]).ravel()
+    keys, inverse = np.unique(corner_key, return_inverse=True)
+    contrib = (face_n[:, None, :] * angles[:, :, None]).reshape(-1, 3)
+    acc = np.stack([np.bincount(inverse, contrib[:, k], minlength=len(keys)) for k in range(3)], axis=1)
+    length = np.linalg.norm(acc, axis=1)
+    ok = length > 1e-12
+    acc[ok] /= length[ok, None]
+    vertex_key = welded[ra.source_vertex] * n_comp + ra.component.astype(np.int64)
+    slot = np.clip(np.searchsorted(keys, vertex_key), 0, len(keys) - 1)
+    found = (keys[slot] == vertex_key) & ok[slot]
+    return np.where(found[:, None], acc[slot], ra.smooth_normals).astype(np.float32)
+
+
+_WARNED: set[str] = set()
+
+
+def _warn_enlarge_once(mesh: Any) -> None:
+    """One MeshWarning per mesh file and process when enlargement had to weld or split by component."""
+    key = mesh.content_hash()
+    if key in _WARNED or not mesh.source:
+        return
+    _WARNED.add(key)
+    topo = mesh.topology()
+    if topo.n_welded == 0 and topo.n_components <= 1:
+        return
+    done = []
+    if topo.n_welded:
+        done.append(f"welded {topo.n_welded} coincident vertices (split normals) before computing normals")
+    if topo.n_components > 1:
+        done.append(f"enlarged each of its {topo.n_components} connected components along its own normals")
+    where = f" ({mesh.source})" if mesh.source else ""
+    warnings.warn(f"mesh '{mesh.name}'{where} is not one connected surface with shared normals, which enlargement "
+                  f"assumes (paper §4.2): " + " and ".join(done), MeshWarning, stacklevel=2)
 
 
 NODE = Rasterize

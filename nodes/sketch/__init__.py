@@ -27,19 +27,30 @@ class Sketch(Node):
     (color = mix(shade, edge_color, e); with a black edge colour this is the paper's product
     shade * (1 - e)). Where the shade map is empty the paper colour shows. Offsets are in texture
     units (1.0 = the image width or height). With `edge_layers` the edge map is applied repeatedly,
-    each layer with its own matrix and colour (paper §3.4); `use_shade: false` drops the shade map."""
+    each layer with its own matrix and colour (paper §3.4); `use_shade: false` drops the shade map.
 
-    version = "1"
+    With `depth` connected, the `depth` output is the perturbed depth for the depth sprite: the depth
+    map read (nearest texel) once per edge layer at that layer's shifted coordinates and once at the
+    shade map's (when `use_shade`), the minimum of them all (paper §3.3 and §3.4: "depth information
+    must be adjusted by accessing the depth map multiple times"). Connect it to
+    `depth_sprite.sketch_depth`; `offsets` only holds the first layer's shift."""
+
+    version = "2"
     shaders = ("sketch.glsl",)
     inputs = {
         "edges": Input(Texture("R16F"), "Edge intensities (edge_detect.out)."),
         "shade": Input(Texture("RGBA8"), "Shade map: flat colours, alpha = coverage (rasterize.color)."),
-        "offset": Input(Texture("RG16F"), "Uncertainty values (off_s, off_t) (perlin_noise.out)."),
+        "offset": Input(Texture("RG16F"), "Uncertainty values (off_s, off_t) (perlin_noise.out or "
+                        "object_noise.out)."),
+        "depth": Input(Texture("R32F"), "Window depth of the same objects (rasterize.depth); needed only for "
+                       "the `depth` output.", optional=True),
     }
     outputs = {
         "color": Output(Texture("RGBA16F"), "The sketchy drawing; alpha = coverage of ink or colour."),
         "offsets": Output(Texture("RGBA16F"), "Applied shifts: xy for the (first) edge layer, zw for the shade "
                                               "map, in texture units; depth_sprite reads them."),
+        "depth": Output(Texture("R32F"), "Perturbed window depth: minimum of the depth map over every edge "
+                        "layer's shift and the shade shift (1 = nothing); for depth_sprite.sketch_depth."),
     }
 
     class Params(NodeParams):
@@ -66,18 +77,22 @@ class Sketch(Node):
 
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
-        ports = [port for port in ("color", "offsets") if port in needed]
+        ports = [port for port in ("color", "offsets", "depth") if port in needed]
+        if "depth" in ports and "depth" not in inputs:
+            raise ValueError(f"node '{self.id}': output 'depth' needs input 'depth' (connect rasterize.depth)")
         layers = self.layers()
         defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
         defines["LAYERS"] = len(layers)
         prog = ctx.program("sketch.glsl", defines)
         size = inputs["shade"].size
-        targets = {port: ctx.target(port, size) for port in ports}
+        targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
+        textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
+        if "depth" in ports:
+            textures["t_depth"] = inputs["depth"]
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32).T for layer in layers])  # GLSL: column-major
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
-                          textures={"t_edges": inputs["edges"], "t_shade": inputs["shade"],
-                                    "t_offset": inputs["offset"]},
+                          textures=textures,
                           uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32).T,
                                     "u_edge_matrix": mats, "u_edge_color": colors,
                                     "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodegraph.sampling import bilinear, pixel_uv
+from nodegraph.sampling import bilinear, nearest, pixel_uv
 
 
 def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,
            layers: list[tuple[np.ndarray, tuple[float, float, float]]], edge_strength: float = 1.0,
-           use_shade: bool = True, paper: tuple[float, float, float] = (0.98, 0.97, 0.94)) -> dict[str, np.ndarray]:
-    """edges (H, W), shade (H, W, 4), offset (H, W, 2); layers: [(2x2 matrix, colour)]."""
+           use_shade: bool = True, paper: tuple[float, float, float] = (0.98, 0.97, 0.94),
+           depth: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """edges (H, W), shade (H, W, 4), offset (H, W, 2); layers: [(2x2 matrix, colour)]; depth (H, W)
+    optional: adds the "depth" output (minimum of the depth map over every perturbed lookup)."""
     h, w = shade.shape[:2]
     u, v = pixel_uv(w, h)
     off = bilinear(offset, u, v)
@@ -19,6 +21,9 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
     sh = bilinear(shade, u + s_off[..., 0], v + s_off[..., 1]) * float(use_shade)
     color = np.asarray(paper, dtype=np.float64) * (1 - sh[..., 3:4]) + sh[..., :3] * sh[..., 3:4]
     cover = sh[..., 3]
+    z = np.ones((h, w))
+    if depth is not None and use_shade:
+        z = nearest(depth, u + s_off[..., 0], v + s_off[..., 1])
     first = None
     for matrix, edge_color in layers:
         e_off = off @ np.asarray(matrix, dtype=np.float64).T
@@ -26,6 +31,11 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
         e = np.clip(bilinear(edges, u + e_off[..., 0], v + e_off[..., 1]) * edge_strength, 0, 1)
         color = color * (1 - e[..., None]) + np.asarray(edge_color, dtype=np.float64) * e[..., None]
         cover = np.maximum(cover, e)
+        if depth is not None:
+            z = np.minimum(z, nearest(depth, u + e_off[..., 0], v + e_off[..., 1]))
     assert first is not None
-    return {"color": np.concatenate([color, cover[..., None]], axis=-1),
-            "offsets": np.concatenate([first, s_off], axis=-1)}
+    out = {"color": np.concatenate([color, cover[..., None]], axis=-1),
+           "offsets": np.concatenate([first, s_off], axis=-1)}
+    if depth is not None:
+        out["depth"] = z
+    return out

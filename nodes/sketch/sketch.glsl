@@ -2,7 +2,8 @@
 // The uncertainty step (Nienhaus & Döllner §3.2): noise offsets, weighted by a 2x2 matrix per map,
 // shift the texture coordinates that read the edge map and the shade map; the perturbed edge
 // intensity darkens the perturbed shade colour. Several edge layers (§3.4, repeated edges) each get
-// their own matrix and colour and are laid over each other.
+// their own matrix and colour and are laid over each other. LOC_DEPTH: the depth map read (nearest)
+// at every layer's shifted coordinates and the shade map's, the minimum written for the depth sprite.
 #if defined FRAGMENT_SHADER
 in vec2 v_uv;
 uniform sampler2D t_edges;
@@ -20,6 +21,15 @@ layout(location = LOC_COLOR) out vec4 o_color;
 #ifdef LOC_OFFSETS
 layout(location = LOC_OFFSETS) out vec4 o_offsets;
 #endif
+#ifdef LOC_DEPTH
+uniform sampler2D t_depth;
+layout(location = LOC_DEPTH) out float o_depth;
+// nearest lookup, as depth_sprite does: depth must not be blended across a silhouette
+float depth_at(vec2 uv) {
+    vec2 size = vec2(textureSize(t_depth, 0));
+    return texelFetch(t_depth, ivec2(clamp(floor(uv * size), vec2(0.0), size - 1.0)), 0).r;
+}
+#endif
 void main() {
     vec2 off = texture(t_offset, v_uv).rg;
     vec2 shade_off = u_shade_matrix * off;
@@ -27,17 +37,26 @@ void main() {
     vec3 color = mix(u_paper, shade.rgb, shade.a);
     float cover = shade.a;
     vec2 first_edge_off = u_edge_matrix[0] * off;
+#ifdef LOC_DEPTH
+    float z = u_use_shade > 0.5 ? depth_at(v_uv + shade_off) : 1.0;
+#endif
     for (int i = 0; i < LAYERS; ++i) {
         vec2 edge_off = u_edge_matrix[i] * off;
         float e = clamp(texture(t_edges, v_uv + edge_off).r * u_edge_strength, 0.0, 1.0);
         color = mix(color, u_edge_color[i], e);
         cover = max(cover, e);
+#ifdef LOC_DEPTH
+        z = min(z, depth_at(v_uv + edge_off));
+#endif
     }
 #ifdef LOC_COLOR
     o_color = vec4(color, cover);
 #endif
 #ifdef LOC_OFFSETS
     o_offsets = vec4(first_edge_off, shade_off);
+#endif
+#ifdef LOC_DEPTH
+    o_depth = z;
 #endif
 }
 #endif
