@@ -189,14 +189,26 @@ def _progress(items: list[int], disable: bool, unit: str) -> Any:
 @click.argument("port", required=False)
 @click.option("-o", "--out", "out", metavar="FILE", help="File to write (.exr keeps exact values, .png to look at).")
 @click.option("--frame", default=0, show_default=True, help="Frame to render.")
+@click.option("--all", "all_", is_flag=True, help="Every planned node output into the folder -o DIR: EXR + PNG "
+              "each, a contact sheet and an HTML page (default DIR: out/<pipeline>.inspect).")
 @pipeline_options
 @cache_options
-def inspect(pipeline: str, port: str | None, out: str | None, frame: int, overrides: tuple[str, ...],
+def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, overrides: tuple[str, ...],
             size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None) -> None:
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
     pipe = open_pipeline(pipeline, overrides, size, scene)
+    if all_:
+        if port is not None:
+            raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
+        from .inspect_all import inspect_all
+
+        insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame,
+                                 open_cache(no_cache, cache_dir))
+        click.echo(f"wrote {len(insp.ports())} outputs of {len(insp.nodes)} nodes to {page.parent}  "
+                   f"(page {page}; {insp.total_ms:.0f} ms in nodes)")
+        return
     if port is None:
         raise SketchgraphError("name the output to inspect as NODE.PORT; outputs: "
                                + ", ".join(f"{n}.{p}" for n, node in pipe.nodes.items() for p in node.outputs))

@@ -1,0 +1,325 @@
+"""`sketchgraph inspect PIPELINE --all -o DIR`: every planned node output as an EXR (exact values) and a
+PNG that fits its type, a contact sheet, a JSON summary and an HTML page in topological order.
+
+Intermediates are read with the formats the ordinary run gives them: requesting an intermediate
+would otherwise promote it to its declared precision and change what its consumers see.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+from . import viz
+from .executor import Executor, RunResult, plan
+from .pipeline import Pipeline, PortRef
+
+
+@dataclass
+class PortView:
+    node: str
+    port: str
+    value: Any
+    fmt: str
+    panel: viz.Panel
+    stats: list[dict[str, Any]]
+
+
+@dataclass
+class NodeView:
+    node: str
+    type: str
+    status: str
+    ms: float
+    key: str
+    inputs: dict[str, str]
+    params: dict[str, Any]
+    ports: list[PortView] = field(default_factory=list)
+
+
+@dataclass
+class Inspection:
+    pipeline: Pipeline
+    frame: int
+    nodes: list[NodeView]
+    generation: dict[str, int]
+    not_planned: list[str]
+    outputs: dict[str, PortRef]
+
+    @property
+    def total_ms(self) -> float:
+        return sum(n.ms for n in self.nodes)
+
+    def ports(self) -> list[PortView]:
+        return [p for n in self.nodes for p in n.ports]
+
+
+def all_ports(pipe: Pipeline) -> list[PortRef]:
+    """Every output port the ordinary run of the pipeline's outputs produces, in topological order."""
+    base = plan(pipe)
+    return [(nid, port) for nid in base.order for port in sorted(base.needed[nid])]
+
+
+def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = None) -> Executor:
+    """An executor that keeps every planned output, each in the format the ordinary run allocates."""
+    base = plan(pipe)
+    ex = Executor(pipe, cache, mode=mode, requested=all_ports(pipe), gl=gl)
+    assert ex.plan.order == base.order, "requesting intermediates must not change the plan"
+    ex.plan.formats.clear()
+    ex.plan.formats.update(base.formats)
+    ex.plan.reasons = base.reasons
+    return ex
+
+
+def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -> Inspection:
+    """Run (unless given the result) and describe every planned output."""
+    result = result if result is not None else ex.run(frame)
+    pipe = ex.pipeline
+    g = pipe.graph().subgraph(ex.plan.order)
+    generation = {nid: i for i, gen in enumerate(nx.topological_generations(g)) for nid in gen}
+    params = pipe_params(pipe)
+    nodes = []
+    for nid in ex.plan.order:
+        st = result.stats[nid]
+        view = NodeView(nid, st.type, st.status, st.ms, st.key,
+                        {p: f"{s}.{sp}" for p, (s, sp) in sorted(pipe.connections[nid].items())}, params.get(nid, {}))
+        for port in sorted(ex.plan.needed[nid]):
+            value = result.values.get((nid, port))
+            if value is None:
+                continue
+            view.ports.append(PortView(nid, port, value, st.outputs.get(port, type(value).__name__),
+                                       viz.visualize(value, port), value_stats(value)))
+        nodes.append(view)
+    return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
+                      dict(pipe.outputs))
+
+
+def pipe_params(pipe: Pipeline) -> dict[str, dict[str, Any]]:
+    return {nid: node.params.model_dump(mode="json") for nid, node in pipe.nodes.items()}
+
+
+def value_stats(value: Any) -> list[dict[str, Any]]:
+    """Per-channel min/max/mean/NaN of textures and arrays (named arrays by name)."""
+    from .values import Arrays, Strokes, Tex, TexArray
+
+    if isinstance(value, (Tex, TexArray)):
+        return [s.as_dict() for s in viz.channel_stats(value.read())]
+    if isinstance(value, Arrays):
+        out = []
+        for name, arr in value.data.items():
+            a = np.asarray(arr)
+            if a.dtype.kind not in "fiub" or a.size == 0:
+                continue
+            flat = a.reshape(len(a), -1) if a.ndim > 1 else a[:, None]
+            for s in viz.channel_stats(flat, [f"{name}[{i}]" for i in range(flat.shape[1])] if flat.shape[1] > 1
+                                       else [name]):
+                out.append(s.as_dict())
+        return out
+    if isinstance(value, Strokes):
+        pts = np.concatenate(value.polylines) if value.polylines else np.zeros((0, 2), np.float32)
+        return [s.as_dict() for s in viz.channel_stats(pts, ["x", "y"])]
+    return []
+
+
+# -- writing ---------------------------------------------------------------------------------------------
+def write_exact(value: Any, base: Path, attrs: dict[str, str]) -> Path | None:
+    """The exact value: textures (and arrays, layers side by side) as float EXR, strokes as SVG, arrays as npz."""
+    from . import imageio
+    from .strokes import to_svg
+    from .values import Arrays, Strokes, Tex, TexArray
+
+    if isinstance(value, Tex):
+        return imageio.write(base.with_name(base.name + ".exr"), value.read(), attrs, half=False)
+    if isinstance(value, TexArray):
+        return imageio.write(base.with_name(base.name + ".exr"), np.concatenate(list(value.read()), axis=1), attrs,
+                             half=False)
+    if isinstance(value, Strokes):
+        p = base.with_name(base.name + ".svg")
+        p.write_text(to_svg(value))
+        return p
+    if isinstance(value, Arrays):
+        p = base.with_name(base.name + ".npz")
+        np.savez(p, **value.data)
+        return p
+    return None
+
+
+def sheet(insp: Inspection, cell: int = 192, title: str | None = None) -> np.ndarray:
+    """One contact sheet of every planned output, in topological order. Labels hold nothing that changes
+    between runs (no timings, no cache status), so the sheet of a pipeline is always the same bytes."""
+    cells = [viz.Cell(p.panel.image, [f"{p.node}.{p.port}", f"{p.fmt} {p.panel.kind}"]) for p in insp.ports()]
+    w, h = insp.pipeline.size
+    return viz.contact_sheet(cells, cell=cell, title=title if title is not None else
+                             f"{insp.pipeline.name} {w}x{h} frame {insp.frame}")
+
+
+def write_inspection(insp: Inspection, out: Path, exact: bool = True, cell: int = 192) -> dict[str, Any]:
+    """DIR/NODE.PORT.{exr,png}, DIR/contact_sheet.png, DIR/stats.json and DIR/index.html."""
+    out.mkdir(parents=True, exist_ok=True)
+    images: dict[PortRef, str] = {}
+    exacts: dict[PortRef, str] = {}
+    for p in insp.ports():
+        base = out / f"{p.node}.{p.port}"
+        if p.panel.image is not None:
+            viz.write_png(base.with_name(base.name + ".png"), p.panel.image)
+            images[(p.node, p.port)] = base.name + ".png"
+        if exact:
+            written = write_exact(p.value, base, {"sketchgraph:port": f"{p.node}.{p.port}",
+                                                   "sketchgraph:format": p.fmt})
+            if written is not None:
+                exacts[(p.node, p.port)] = written.name
+    viz.write_png(out / "contact_sheet.png", sheet(insp, cell))
+    summary = summarize(insp, images, exacts)
+    (out / "stats.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
+    (out / "index.html").write_text(html_page(insp, images, exacts, "contact_sheet.png"))
+    return summary
+
+
+def summarize(insp: Inspection, images: dict[PortRef, str] | None = None,
+              exacts: dict[PortRef, str] | None = None) -> dict[str, Any]:
+    images, exacts = images or {}, exacts or {}
+    return {
+        "pipeline": insp.pipeline.file, "name": insp.pipeline.name, "frame": insp.frame,
+        "size": list(insp.pipeline.size), "total_ms": round(insp.total_ms, 3),
+        "nodes": [{
+            "node": n.node, "type": n.type, "status": n.status, "ms": round(n.ms, 3), "key": n.key,
+            "inputs": n.inputs, "params": n.params,
+            "ports": [{"port": p.port, "format": p.fmt, "view": p.panel.kind, "note": p.panel.note,
+                       "png": images.get((p.node, p.port)), "exact": exacts.get((p.node, p.port)),
+                       "stats": p.stats} for p in n.ports],
+        } for n in insp.nodes],
+        "not_planned": insp.not_planned,
+    }
+
+
+# -- HTML ------------------------------------------------------------------------------------------------
+CSS = """
+:root { color-scheme: dark; --bg: #1d1e20; --card: #2a2b2e; --line: #3c3d41; --dim: #9a9a96; --fg: #ecece8;
+        --accent: #e8a04a; }
+* { box-sizing: border-box; }
+body { margin: 0; padding: 16px 20px; background: var(--bg); color: var(--fg);
+       font: 13px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; }
+h1 { font-size: 20px; margin: 0 0 4px; } h2 { font-size: 16px; margin: 0 0 6px; }
+a { color: var(--accent); }
+.dim { color: var(--dim); }
+.flow { display: flex; gap: 14px; align-items: flex-start; overflow-x: auto; padding: 8px 0; }
+.gen { display: flex; flex-direction: column; gap: 14px; min-width: 300px; }
+.gen > .label { color: var(--dim); font-size: 11px; text-transform: uppercase; letter-spacing: .06em; }
+.card { background: var(--card); border: 1px solid var(--line); border-radius: 6px; padding: 10px; width: 300px; }
+.card:target { outline: 2px solid var(--accent); }
+.badge { display: inline-block; padding: 0 6px; border-radius: 9px; font-size: 11px; margin-left: 4px;
+         background: #444; }
+.badge.computed { background: #7a4b1c; } .badge.disk { background: #255a3a; } .badge.memory { background: #24486e; }
+figure { margin: 8px 0 0; }
+figure img { display: block; max-width: 100%; max-height: 240px; background: #111; image-rendering: auto; }
+figcaption { font-size: 12px; margin-top: 3px; }
+table { border-collapse: collapse; font: 11px/1.3 ui-monospace, "SFMono-Regular", Menlo, monospace; margin-top: 4px; }
+td, th { padding: 1px 6px 1px 0; text-align: right; } th { color: var(--dim); font-weight: normal; }
+td:first-child, th:first-child { text-align: left; }
+.bad { color: #ff6b6b; }
+ul.inputs { margin: 4px 0; padding-left: 16px; }
+pre { background: #151617; border: 1px solid var(--line); padding: 8px; overflow-x: auto; font-size: 12px; }
+details > summary { cursor: pointer; color: var(--dim); }
+.sheet img { max-width: 100%; }
+"""
+
+# Checks that every image loaded and says so on the console (and on <html data-images=...>), so a headless
+# browser, or anyone with the developer tools open, sees a broken link at once.
+IMAGE_CHECK = """
+window.addEventListener('load', function () {
+  var bad = [];
+  for (var i = 0; i < document.images.length; i++) {
+    var im = document.images[i];
+    if (!(im.complete && im.naturalWidth > 0)) bad.push(im.getAttribute('src'));
+  }
+  document.documentElement.setAttribute('data-images', bad.length ? 'broken' : 'ok');
+  document.documentElement.setAttribute('data-image-count', String(document.images.length));
+  bad.forEach(function (s) { console.error('image failed to load: ' + s); });
+});
+"""
+
+
+def page(title: str, body: str) -> str:
+    e = html.escape
+    return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+            f'<link rel="icon" href="data:,">\n<title>{e(title)}</title>\n<style>{CSS}</style>\n'
+            f'<script>{IMAGE_CHECK}</script>\n</head>\n<body>\n{body}\n</body>\n</html>\n')
+
+
+def fmt_num(x: float) -> str:
+    if x != x:  # NaN: no finite values
+        return "–"
+    return f"{x:.4g}"
+
+
+def stats_table(stats: list[dict[str, Any]]) -> str:
+    if not stats:
+        return ""
+    rows = "".join(
+        f"<tr><td>{html.escape(s['channel'])}</td><td>{fmt_num(s['min'])}</td><td>{fmt_num(s['max'])}</td>"
+        f"<td>{fmt_num(s['mean'])}</td><td class=\"{'bad' if s['nan'] or s['inf'] else ''}\">{s['nan']}"
+        f"{'+' + str(s['inf']) + ' inf' if s['inf'] else ''}</td></tr>" for s in stats)
+    return f"<table><tr><th>ch</th><th>min</th><th>max</th><th>mean</th><th>NaN</th></tr>{rows}</table>"
+
+
+def html_page(insp: Inspection, images: dict[PortRef, str], exacts: dict[PortRef, str], sheet_file: str | None) -> str:
+    e = html.escape
+    pipe = insp.pipeline
+    out_names: dict[PortRef, list[str]] = {}
+    for name, ref in insp.outputs.items():
+        out_names.setdefault(ref, []).append(name)
+    gens: dict[int, list[NodeView]] = {}
+    for n in insp.nodes:
+        gens.setdefault(insp.generation.get(n.node, 0), []).append(n)
+    columns = []
+    for g in sorted(gens):
+        cards = []
+        for n in gens[g]:
+            ins = "".join(f'<li>{e(p)} ← <a href="#node-{e(src.split(".")[0])}">{e(src)}</a></li>'
+                          for p, src in n.inputs.items())
+            figs = []
+            for p in n.ports:
+                ref = (p.node, p.port)
+                img = (f'<a href="{e(images[ref])}"><img src="{e(images[ref])}" alt="{e(p.node)}.{e(p.port)}"></a>'
+                       if ref in images else "")
+                exact = f' · <a href="{e(exacts[ref])}">exact</a>' if ref in exacts else ""
+                named = f' <span class="badge">output {e(", ".join(out_names[ref]))}</span>' if ref in out_names else ""
+                figs.append(f'<figure>{img}<figcaption><b>{e(p.port)}</b> · {e(p.fmt)}{named}{exact}<br>'
+                            f'<span class="dim">{e(p.panel.kind)}: {e(p.panel.note)}</span></figcaption>'
+                            f'{stats_table(p.stats)}</figure>')
+            params = json.dumps(n.params, sort_keys=True)
+            cards.append(
+                f'<div class="card" id="node-{e(n.node)}"><h2>{e(n.node)} <span class="dim">({e(n.type)})</span></h2>'
+                f'<div><span class="badge {e(n.status)}">{e(n.status)}</span> {n.ms:.1f} ms '
+                f'<span class="dim">key {e(n.key[:12])}</span></div>'
+                f'{"<ul class=inputs>" + ins + "</ul>" if ins else ""}'
+                f'<details><summary>params</summary><pre>{e(params)}</pre></details>{"".join(figs)}</div>')
+        columns.append(f'<div class="gen"><div class="label">step {g + 1}</div>{"".join(cards)}</div>')
+    w, h = pipe.size
+    skipped = (f'<p class="dim">not needed by the outputs (not run): {e(", ".join(insp.not_planned))}</p>'
+               if insp.not_planned else "")
+    sheet_html = (f'<details open class="sheet"><summary>contact sheet</summary>'
+                  f'<a href="{e(sheet_file)}"><img src="{e(sheet_file)}" alt="contact sheet"></a></details>'
+                  if sheet_file else "")
+    body = (f'<h1>{e(pipe.name)}</h1><p class="dim">{e(pipe.file)} · {w}×{h} · scene {e(pipe.scene_spec)} · '
+            f'seed {pipe.seed} · frame {insp.frame} · {len(insp.nodes)} nodes, {insp.total_ms:.1f} ms in nodes</p>'
+            f'<div class="flow">{"".join(columns)}</div>{skipped}{sheet_html}')
+    return page(f"{pipe.name}: intermediate buffers", body)
+
+
+def inspect_all(pipe: Pipeline, out: Path, frame: int, cache: Any, exact: bool = True) -> tuple[Inspection, Path]:
+    """What `inspect --all` does: run with every intermediate kept, write it all, return where the page is."""
+    ex = debug_executor(pipe, cache)
+    try:
+        insp = inspect_run(ex, frame)
+        write_inspection(insp, out, exact=exact)
+    finally:
+        ex.close()
+    return insp, out / "index.html"
