@@ -26,8 +26,11 @@ class GL:
         self.ctx = ctx
         self.programs = ProgramCache(ctx)
         self._pool: dict[tuple[int, int, str], list[Any]] = defaultdict(list)
-        self._fbos: dict[tuple[int, ...], Any] = {}
+        # framebuffers by the ids of their attachments; each entry keeps its attachments alive, so an id
+        # cannot be reused while the entry exists, and releasing a texture drops its framebuffers
+        self._fbos: dict[tuple[int, ...], tuple[Any, tuple[Any, ...]]] = {}
         self._empty_vao: dict[int, Any] = {}
+        self._scratch: Any = None
         self.resources: dict[Any, Any] = {}  # per-context caches of nodes (vertex buffers, lookup textures)
 
     @property
@@ -72,21 +75,38 @@ class GL:
             if len(pool) < 16:
                 pool.append(value.texture)
             else:
+                self._drop_framebuffers(value.texture)
                 value.texture.release()  # type: ignore[attr-defined]
         elif isinstance(value, TexArray):
+            self._drop_framebuffers(value.texture)
             value.texture.release()  # type: ignore[attr-defined]
 
+    def _drop_framebuffers(self, texture: Any) -> None:
+        tid = id(texture)
+        for key in [k for k in self._fbos if tid in k]:
+            fbo, _ = self._fbos.pop(key)
+            self._release_fbo(fbo)
+
+    def _release_fbo(self, fbo: Any) -> None:
+        # moderngl restores the last bound framebuffer when it creates one: never leave a deleted one bound
+        if self._scratch is None:
+            self._scratch = self.ctx.framebuffer(color_attachments=[self.ctx.renderbuffer((1, 1))])
+        self._scratch.use()
+        fbo.release()
+
     def framebuffer(self, colors: list[Tex], depth: Any = None) -> Any:
-        key = tuple(id(c.texture) for c in colors) + ((id(depth),) if depth is not None else ())
-        fbo = self._fbos.get(key)
-        if fbo is None:
-            if len(self._fbos) > 256:
-                for old in self._fbos.values():
-                    old.release()
-                self._fbos.clear()
+        attachments = tuple(c.texture for c in colors) + ((depth,) if depth is not None else ())
+        key = tuple(id(a) for a in attachments)
+        entry = self._fbos.get(key)
+        if entry is None:
+            if len(self._fbos) >= 512:  # drop the oldest half; never the one bound last
+                for old in list(self._fbos)[:256]:
+                    old_fbo, _ = self._fbos.pop(old)
+                    self._release_fbo(old_fbo)
             fbo = self.ctx.framebuffer(color_attachments=[c.texture for c in colors], depth_attachment=depth)
-            self._fbos[key] = fbo
-        return fbo
+            self._fbos[key] = (fbo, attachments)
+            return fbo
+        return entry[0]
 
     def upload(self, arr: np.ndarray, fmt: str, filter: str = "linear") -> Tex:
         """(H, W[, C]) array, row 0 = bottom, into a new texture of `fmt`."""
