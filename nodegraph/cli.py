@@ -137,14 +137,27 @@ def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> P
 @click.option("--frames", metavar="START:END[:STEP]", help="Render a frame sequence along the scene's orbit.")
 @click.option("--explain", is_flag=True, help="Print the plan (what runs, why, from where, formats, memory) first.")
 @click.option("--quiet", "-q", is_flag=True, help="Print nothing but errors.")
+@click.option("--watch", is_flag=True, help="Re-render whenever the pipeline, its scene file or the scene's "
+              "meshes change; only nodes whose key changed recompute. Ctrl-C stops.")
+@click.option("--interval", default=0.5, show_default=True, metavar="SECONDS", help="How often --watch polls.")
 @pipeline_options
 @cache_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
-        overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-        cache_dir: Path | None) -> None:
+        watch: bool, interval: float, overrides: tuple[str, ...], size: str | None, scene: str | None,
+        no_cache: bool, cache_dir: Path | None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
 
+    if watch:
+        if frames is not None and len(parse_frames(frames)) > 1:
+            raise SketchgraphError("--watch renders one frame; give --frames N or drop --frames")
+        from . import watch as watchmod
+
+        watcher = watchmod.Watcher(pipeline, out, output_name, overrides, size, scene,
+                                   open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0])
+        click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
+        watchmod.watch(watcher, interval, echo=click.echo)
+        return
     pipe = open_pipeline(pipeline, overrides, size, scene)
     frame_list = parse_frames(frames)
     name = output_name or next(iter(pipe.outputs))
@@ -395,6 +408,39 @@ def bench(ctx: click.Context, target: str) -> None:
 
     command = benchmod.command_for(target)
     command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
+
+
+# -- diff -----------------------------------------------------------------------------------
+@main.command()
+@click.argument("a", type=click.Path())
+@click.argument("b", type=click.Path(), required=False)
+@click.option("--set-a", "set_a", multiple=True, metavar="NODE.PARAM=VALUE", help="Override for A only.")
+@click.option("--set-b", "set_b", multiple=True, metavar="NODE.PARAM=VALUE", help="Override for B only.")
+@click.option("-o", "--out", "out", metavar="DIR", default="out/diff", show_default=True,
+              help="Folder for difference images, diff_sheet.png (A | B | |A-B|) and diff.json.")
+@click.option("--frame", default=0, show_default=True, help="Frame to compare.")
+@click.option("--keys-only", is_flag=True, help="Compare keys only; render nothing.")
+@pipeline_options
+@cache_options
+def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], out: str, frame: int,
+         keys_only: bool, overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
+         cache_dir: Path | None) -> None:
+    """Which nodes differ between two pipelines (or one pipeline with --set-a/--set-b) and why; max and
+    mean absolute difference and a difference image per differing output. Exit 1 if anything differs."""
+    from .diff import diff as diff_pipelines
+    from .diff import format_report
+
+    pipe_a = open_pipeline(a, overrides + set_a, size, scene)
+    pipe_b = open_pipeline(b or a, overrides + set_b, size, scene)
+    report = diff_pipelines(pipe_a, pipe_b, frame, open_cache(no_cache, cache_dir),
+                            None if keys_only else Path(out), pixels=not keys_only)
+    click.echo(f"A: {a}" + "".join(f" --set {s}" for s in overrides + set_a))
+    click.echo(f"B: {b or a}" + "".join(f" --set {s}" for s in overrides + set_b))
+    click.echo(format_report(report))
+    if report.out is not None and report.ports:
+        click.echo(f"wrote {report.out}/ (diff_sheet.png, diff.json)")
+    if report.changed:
+        sys.exit(1)
 
 
 if __name__ == "__main__":  # pragma: no cover
