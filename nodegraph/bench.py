@@ -21,7 +21,9 @@ import click
 from .errors import SketchgraphError
 
 # named benchmarks: name -> "module:click_command"
-NAMED: dict[str, str] = {}
+NAMED: dict[str, str] = {
+    "shower-door": "nodegraph.showerdoor:command",
+}
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
 
