@@ -23,6 +23,7 @@ from .errors import SketchgraphError
 # named benchmarks: name -> "module:click_command"
 NAMED: dict[str, str] = {
     "shower-door": "nodegraph.showerdoor:command",
+    "accuracy": "nodegraph.accuracy:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
