@@ -443,5 +443,94 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
         sys.exit(1)
 
 
+# -- wedge ----------------------------------------------------------------------------------
+@main.command()
+@click.argument("pipeline", type=click.Path())
+@click.option("-p", "--param", "params", multiple=True, required=True, metavar="NODE.PARAM=V1,V2,...",
+              help="A param and the values to sweep (YAML values; give -p once or twice).")
+@click.option("-o", "--out", "out", metavar="FILE", help="Sheet to write (default: out/<pipeline>.wedge.png).")
+@click.option("--output", "output_name", metavar="NAME", help="Which pipeline output to show (default: the first).")
+@click.option("--cell", default=256, show_default=True, help="Cell size of the sheet in pixels.")
+@click.option("--frame", default=0, show_default=True, help="Frame to render.")
+@pipeline_options
+@cache_options
+def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: str | None, cell: int, frame: int,
+          overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
+          cache_dir: Path | None) -> None:
+    """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
+    from . import viz
+    from . import wedge as wedgemod
+
+    axes = wedgemod.axes_from(list(params))
+    t0 = time.perf_counter()
+    n = len(wedgemod.combinations(axes))
+    cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
+                         output_name, frame, open_cache(no_cache, cache_dir),
+                         progress=lambda it: _progress(list(it), n < 2, "cells"))
+    path = Path(out or f"out/{Path(pipeline).stem}.wedge.png")
+    viz.write_png(path, wedgemod.sheet(cells, axes, Path(pipeline).stem, cell))
+    for c in cells:
+        click.echo(f"  {c.label}: recomputed {', '.join(c.computed) or 'nothing'} ({c.ms:.0f} ms)")
+    click.echo(f"wrote {path}  ({len(cells)} cells in {time.perf_counter() - t0:.1f} s)")
+
+
+# -- gallery --------------------------------------------------------------------------------
+@main.group()
+def gallery() -> None:
+    """Build the gallery (images, contact sheets, index.html, manifest.json) or verify it."""
+
+
+def _gallery_options(f: Any) -> Any:
+    f = click.option("--gallery", "gallery_file", default="gallery/gallery.yaml", show_default=True,
+                     type=click.Path(path_type=Path), help="The gallery file.")(f)
+    f = click.option("--only", multiple=True, metavar="ENTRY", help="Only these entries (repeatable).")(f)
+    f = click.option("--quiet", "-q", is_flag=True, help="No progress bar.")(f)
+    return f
+
+
+@gallery.command("build")
+@_gallery_options
+@click.option("--force", is_flag=True, help="Render every entry, even those the manifest says are up to date.")
+@click.option("--cold", is_flag=True, help="Render everything with a fresh, empty node cache (implies --force).")
+@click.option("--inspect", "inspect_", is_flag=True, help="Also dump every entry's intermediates (EXR, PNG, "
+              "page) under gallery/out/inspect/.")
+@cache_options
+def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force: bool, cold: bool, inspect_: bool,
+                  no_cache: bool, cache_dir: Path | None) -> None:
+    """Render every entry that is not up to date; print the time per entry and in total."""
+    from . import gallery as gal
+
+    g = gal.load(gallery_file)
+    if cold:
+        with gal.TemporaryCache() as fresh:
+            report = gal.build(g, fresh, only=list(only), force=True, inspect=inspect_, echo=click.echo,
+                               progress=not quiet, cold=True)
+    else:
+        report = gal.build(g, open_cache(no_cache, cache_dir), only=list(only), force=force, inspect=inspect_,
+                           echo=click.echo, progress=not quiet)
+    click.echo(gal.format_build(report))
+    click.echo(f"wrote {g.manifest_path} and {g.root / 'index.html'}")
+    if report.failed:
+        sys.exit(1)
+
+
+@gallery.command("verify")
+@_gallery_options
+@click.option("--cache", "use_cache", is_flag=True, help="Let the rebuild use the node cache (default: compute "
+              "everything again).")
+@click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder for --cache.")
+def gallery_verify(gallery_file: Path, only: tuple[str, ...], quiet: bool, use_cache: bool,
+                   cache_dir: Path | None) -> None:
+    """Render every entry again and compare with manifest.json; exit 1 naming every entry that differs."""
+    from . import gallery as gal
+
+    g = gal.load(gallery_file)
+    checks, info = gal.verify(g, open_cache(not use_cache, cache_dir), only=list(only), echo=click.echo,
+                              progress=not quiet)
+    click.echo(gal.format_verify(checks, info))
+    if any(c.status in ("differs", "failed") for c in checks):
+        sys.exit(1)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

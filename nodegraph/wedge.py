@@ -1,0 +1,137 @@
+"""Wedges: sweep one or two node params over listed values and lay the results out as a labelled
+contact sheet (columns: the first param's values, rows: the second's).
+
+Every cell is an ordinary run with `--set` overrides; one executor hands its in-memory values to the
+next, so nodes upstream of the swept params run once for the whole wedge.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import yaml
+
+from . import viz
+from .errors import SketchgraphError
+from .executor import Executor
+from .pipeline import Pipeline
+
+
+@dataclass(frozen=True)
+class Axis:
+    param: str  # NODE.PARAM
+    values: tuple[Any, ...]
+
+    def override(self, value: Any) -> str:
+        return f"{self.param}={json.dumps(value)}"
+
+
+def parse_axis(text: str) -> Axis:
+    """`NODE.PARAM=V1,V2,...` or `NODE.PARAM=[V1, V2, ...]` (values are YAML)."""
+    param, eq, values = text.partition("=")
+    node, dot, name = param.strip().partition(".")
+    if not eq or not dot or not node or not name:
+        raise SketchgraphError(f"wedge '{text}': expected NODE.PARAM=V1,V2,... such as edges.normal_threshold=0.2,0.4")
+    body = values.strip()
+    try:
+        parsed = yaml.safe_load(body if body.startswith("[") else f"[{body}]")
+    except yaml.YAMLError as exc:
+        raise SketchgraphError(f"wedge '{text}': values are not YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(parsed, list) or not parsed:
+        raise SketchgraphError(f"wedge '{text}': expected a non-empty list of values")
+    return Axis(param.strip(), tuple(parsed))
+
+
+def axes_from(spec: Any) -> list[Axis]:
+    """A gallery entry's `wedge:` mapping ({NODE.PARAM: [values]}) or a list of `NODE.PARAM=...` strings."""
+    if isinstance(spec, dict):
+        axes = []
+        for k, v in spec.items():
+            if not isinstance(v, list) or not v:
+                raise SketchgraphError(f"wedge {k}: expected a non-empty list of values, found {v!r}")
+            axes.append(Axis(str(k), tuple(v)))
+    elif isinstance(spec, (list, tuple)):
+        axes = [parse_axis(s) if isinstance(s, str) else s for s in spec]
+    else:
+        raise SketchgraphError(f"wedge: expected {{NODE.PARAM: [values]}}, found {spec!r}")
+    if not 1 <= len(axes) <= 2:
+        raise SketchgraphError(f"wedge: sweep one or two params, found {len(axes)}")
+    return axes
+
+
+def label(value: Any) -> str:
+    text = json.dumps(value) if not isinstance(value, str) else value
+    return text.replace(" ", "")
+
+
+@dataclass
+class Cell:
+    row: int
+    col: int
+    overrides: list[str]
+    label: str
+    image: np.ndarray  # display order
+    computed: list[str]
+    ms: float
+
+
+def combinations(axes: list[Axis]) -> list[tuple[int, int, list[str], str]]:
+    """(row, col, overrides, label) for every cell, row-major."""
+    cols = axes[0]
+    rows = axes[1] if len(axes) > 1 else None
+    out = []
+    for (r, rv), (c, cv) in itertools.product(enumerate(rows.values if rows else [None]), enumerate(cols.values)):
+        overrides = [cols.override(cv)] + ([rows.override(rv)] if rows else [])
+        text = f"{cols.param}={label(cv)}" + (f" {rows.param}={label(rv)}" if rows else "")
+        out.append((r, c, overrides, text))
+    return out
+
+
+def run(load: Callable[[list[str]], Pipeline], axes: list[Axis], output: str | None = None, frame: int = 0,
+        cache: Any = None, progress: Callable[[Any], Any] = lambda it: it) -> list[Cell]:
+    """Render every cell; `load(overrides)` opens the pipeline with the cell's overrides added."""
+    from .watch import adopt_memory
+
+    cells: list[Cell] = []
+    prev: Executor | None = None
+    try:
+        for r, c, overrides, text in progress(combinations(axes)):
+            t0 = time.perf_counter()
+            pipe = load(overrides)
+            name = output or next(iter(pipe.outputs))
+            if name not in pipe.outputs:
+                raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
+            ref = pipe.outputs[name]
+            ex = Executor(pipe, cache, requested=[ref])
+            adopt_memory(ex, prev)
+            if prev is not None:
+                prev.close()
+            prev = ex
+            result = ex.run(frame)
+            panel = viz.visualize(result.values[ref], ref[1])
+            if panel.image is None:
+                raise SketchgraphError(f"output '{name}' ({ref[0]}.{ref[1]}) is not an image; pick one with --output")
+            cells.append(Cell(r, c, overrides, text, panel.image, result.computed(),
+                              (time.perf_counter() - t0) * 1000))
+    finally:
+        if prev is not None:
+            prev.close()
+    return cells
+
+
+def sheet(cells: list[Cell], axes: list[Axis], title: str = "", cell: int = 256) -> np.ndarray:
+    """The labelled sheet: column headers are the first param's values, row headers the second's."""
+    cols = axes[0]
+    rows = axes[1] if len(axes) > 1 else None
+    head = f"{title}  " if title else ""
+    head += f"columns: {cols.param}" + (f"  rows: {rows.param}" if rows else "")
+    return viz.contact_sheet(
+        [viz.Cell(c.image, []) for c in cells], cell=cell, columns=len(cols.values), title=head,
+        column_labels=[f"{cols.param.split('.')[-1]}={label(v)}" for v in cols.values],
+        row_labels=[f"{rows.param.split('.')[-1]}={label(v)}" for v in rows.values] if rows else None)
