@@ -1,0 +1,129 @@
+"""contour: multiple contour drawing with shaken edge maps (Lee et al. 2006, §3.2.1.3 and §4.2.1)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import Texture, TextureArray
+from nodes.distortion_map import MAX_AMPLITUDE
+
+Color = tuple[float, float, float]
+PAPER_COLOR: Color = (0.97, 0.96, 0.93)
+GRAPHITE_COLOR: Color = (0.17, 0.17, 0.19)
+
+
+def screen_bounds(scene: Any, camera: Any, size: tuple[int, int], margin: int) -> tuple[int, int, int, int] | None:
+    """Pixel rectangle (x, y, w, h) holding every object's projected bounding box grown by `margin` pixels,
+    clipped to the image; None when a box reaches behind the camera (then the whole image)."""
+    w, h = size
+    if not scene.objects:
+        return (0, 0, 0, 0)
+    vp = camera.projection_matrix(w / h) @ camera.view_matrix()
+    lo = np.array([np.inf, np.inf])
+    hi = -lo
+    for obj in scene.objects:
+        bmin, bmax = obj.world_bounds()
+        corners = np.array([[x, y, z, 1.0] for x in (bmin[0], bmax[0]) for y in (bmin[1], bmax[1])
+                            for z in (bmin[2], bmax[2])])
+        clip = corners @ vp.T
+        if (clip[:, 3] <= 1e-9).any():
+            return None
+        ndc = clip[:, :2] / clip[:, 3:4]
+        px = (ndc + 1.0) * 0.5 * np.array([w, h])
+        lo, hi = np.minimum(lo, px.min(axis=0)), np.maximum(hi, px.max(axis=0))
+    x0 = int(np.clip(np.floor(lo[0]) - margin, 0, w))
+    y0 = int(np.clip(np.floor(lo[1]) - margin, 0, h))
+    x1 = int(np.clip(np.ceil(hi[0]) + margin, 0, w))
+    y1 = int(np.clip(np.ceil(hi[1]) + margin, 0, h))
+    return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+
+
+def view_light(scene: Any, camera: Any) -> np.ndarray:
+    """The scene light as a unit view-space direction towards the light (float64)."""
+    light = np.asarray(scene.light_direction, dtype=np.float64)
+    if scene.light_space == "world":
+        light = camera.view_matrix()[:3, :3] @ light
+    return light / max(float(np.linalg.norm(light)), 1e-12)
+
+
+class Contour(Node):
+    """Draws the edge map several times, once through each distortion layer (a shaken attempt), with
+    pencil tone: attempt k darkens by tone x pressure_k x edge x (1 - light_weight x l), where l =
+    sqrt((N.L) x 0.5 + 0.5) is the light contribution at the attempt's surface point (the report's), so
+    lines in shadow are darker. With a paper texture the darkness is modulated by the dot product of the
+    grain normal and the stroke direction (perpendicular to the projected normal). Attempts combine as
+    value = prod_k (1 - darkness_k): where they overlap the line darkens. Per-attempt pressures are
+    drawn from the node seed in [1 - pressure_jitter, 1]."""
+
+    version = "1"
+    shaders = ("contour.glsl",)
+    context_keys = frozenset({"size", "seed", "scene", "camera"})
+    inputs = {
+        "edges": Input(Texture("R16F"), "Edge intensities, 1 = edge (edge_detect.out)."),
+        "distortion": Input(TextureArray("RG16F"), "Offsets in pixels, one layer per attempt (distortion_map.out)."),
+        "normal_depth": Input(Texture("RGBA16F"), "View-space normal and linear depth (rasterize.normal_depth)."),
+        "paper": Input(Texture("RGBA16F"), "Paper grain normals (paper.out); no grain when not connected.",
+                       optional=True),
+    }
+    outputs = {
+        "out": Output(Texture("R16F"), "Contour drawing as paper value: 1 = bare paper, 0 = black."),
+        "color": Output(Texture("RGBA16F"), "The contours in graphite on paper (RGB), alpha 1."),
+    }
+
+    class Params(NodeParams):
+        tone: float = Field(0.75, ge=0, le=1, description="Darkness of one full-pressure attempt over a full "
+                            "edge in shadow (pencil tone).")
+        light_weight: float = Field(0.55, ge=0, le=1, description="How much a fully lit surface lightens its "
+                                    "contour (0: the light has no effect).")
+        pressure_jitter: float = Field(0.35, ge=0, lt=1, description="Per-attempt pressure varies in "
+                                       "[1 - pressure_jitter, 1].")
+        grain: float = Field(0.4, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
+                           "(grain normal . stroke direction), clamped to [0, 2].")
+        paper_tint: float = Field(0.06, ge=0, le=1, description="How much the paper relief shows on bare paper "
+                                  "in `color`.")
+        paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
+        graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")
+
+    def pressures(self, seed: int, layers: int) -> np.ndarray:
+        u = np.random.default_rng(seed).random(layers)
+        return 1.0 - self.params.pressure_jitter * u
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        dist = inputs["distortion"]
+        layers = dist.layers
+        ports = [port for port in ("out", "color") if port in needed]
+        paper = inputs.get("paper")
+        defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
+        defines.update(LAYERS=layers, PAPER=int(paper is not None))
+        prog = ctx.program("contour.glsl", defines)
+        size = inputs["edges"].size
+        targets = {port: ctx.target(port, size) for port in ports}
+        textures = {"t_edges": inputs["edges"], "t_distortion": dist, "t_normal_depth": inputs["normal_depth"]}
+        if paper is not None:
+            textures["t_paper"] = paper
+        light = view_light(ctx.scene, ctx.camera) if ctx.scene is not None else np.array([0.0, 0.0, 1.0])
+        uniforms = {"u_light": tuple(float(c) for c in light), "u_tone": p.tone, "u_light_weight": p.light_weight,
+                    "u_grain": p.grain, "u_pressure": self.pressures(ctx.seed, layers).astype(np.float32),
+                    "u_paper": p.paper_color, "u_graphite": p.graphite_color, "u_paper_tint": p.paper_tint}
+        fbo = ctx.gl.framebuffer([targets[port] for port in ports])
+        box = None
+        if ctx.scene is not None and "color" not in targets:
+            # edges lie on the objects and attempts are shifted by at most MAX_AMPLITUDE x height: only
+            # pixels near the objects' projected boxes can be drawn on (the rest is bare paper, cleared)
+            box = screen_bounds(ctx.scene, ctx.camera, size, int(np.ceil(MAX_AMPLITUDE * size[1])) + 2)
+        if box is not None:
+            fbo.clear(1.0, 1.0, 1.0, 1.0)
+            fbo.scissor = box
+        try:
+            ctx.gl.fullscreen(prog, [targets[port] for port in ports], textures=textures, uniforms=uniforms, fbo=fbo)
+        finally:
+            fbo.scissor = None
+        return targets
+
+
+NODE = Contour

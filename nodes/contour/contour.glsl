@@ -1,0 +1,68 @@
+#version 330
+// Multiple contour drawing (Lee et al. 2006, §4.2.1): the edge map is read through each distortion
+// layer (one shaken attempt at the contour per layer), every attempt deposits graphite with its own
+// pressure, darker where the surface faces away from the light, grainy where the paper tooth meets the
+// stroke, and attempts multiply (value = prod(1 - darkness_k)), so where they overlap the line darkens.
+#if defined FRAGMENT_SHADER
+uniform sampler2D t_edges;            // edge intensity, 1 = edge (bilinear, clamped)
+uniform sampler2DArray t_distortion;  // per-layer offsets in pixels (x, y)
+uniform sampler2D t_normal_depth;     // view-space normal (xyz), linear depth (w, 0 = background)
+#if PAPER
+uniform sampler2D t_paper;            // grain normal (xyz) and height (w), tiled at one texel per pixel
+#endif
+uniform vec3 u_light;                 // view-space unit direction towards the light
+uniform float u_tone;                 // darkness of one full-pressure attempt over an edge
+uniform float u_light_weight;         // how much the light lightens the line
+uniform float u_grain;                // paper grain strength
+uniform float u_pressure[LAYERS];     // per-attempt pressure in (0, 1]
+uniform vec3 u_paper;                 // paper colour
+uniform vec3 u_graphite;              // graphite colour
+uniform float u_paper_tint;           // visibility of the paper relief on bare paper
+#ifdef LOC_OUT
+layout(location = LOC_OUT) out float o_out;
+#endif
+#ifdef LOC_COLOR
+layout(location = LOC_COLOR) out vec4 o_color;
+#endif
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec2 size = vec2(textureSize(t_edges, 0));
+    ivec2 maxpx = textureSize(t_normal_depth, 0) - 1;
+#if PAPER
+    ivec2 psize = textureSize(t_paper, 0);
+    vec4 grain = texelFetch(t_paper, px % psize, 0);
+#endif
+    // the surface under the pixel gives the light and the stroke direction (the report's choice); an
+    // attempt shaken off the surface reads them where its edge sample came from instead
+    vec4 here = texelFetch(t_normal_depth, px, 0);
+    float value = 1.0;
+    for (int k = 0; k < LAYERS; ++k) {
+        vec2 p = gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, k), 0).xy;
+        float e = texture(t_edges, p / size).r;
+        if (e <= 0.0) continue;
+        vec4 nd = here.w > 0.0 ? here : texelFetch(t_normal_depth, clamp(ivec2(floor(p)), ivec2(0), maxpx), 0);
+        // light contribution sqrt((N.L) * 0.5 + 0.5) (the report's); background reads as half lit
+        float light = nd.w > 0.0 ? sqrt(clamp(dot(normalize(nd.xyz), u_light) * 0.5 + 0.5, 0.0, 1.0))
+                                 : sqrt(0.5);
+        float dark = u_tone * u_pressure[k] * min(e, 1.0) * (1.0 - u_light_weight * light);
+#if PAPER
+        // a contour runs across the projected normal; graphite catches on the side of the paper tooth
+        // the stroke runs into (mean factor 1; the line's sign only mirrors the pattern)
+        vec2 dir = length(nd.xy) > 1e-4 ? normalize(vec2(-nd.y, nd.x)) : vec2(1.0, 0.0);
+        dark *= clamp(1.0 + u_grain * 2.5 * dot(grain.xy, dir), 0.0, 2.0);
+#endif
+        value *= 1.0 - clamp(dark, 0.0, 1.0);
+    }
+#ifdef LOC_OUT
+    o_out = value;
+#endif
+#ifdef LOC_COLOR
+    vec3 paper = u_paper;
+#if PAPER
+    paper *= 1.0 - u_paper_tint * (1.0 - grain.w);  // valleys of the tooth read slightly darker
+#endif
+    o_color = vec4(mix(u_graphite, paper, value), 1.0);
+#endif
+}
+#endif

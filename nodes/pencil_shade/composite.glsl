@@ -1,0 +1,30 @@
+#version 330
+// Final pencil image: hatching value times contour value (graphite over graphite darkens), graphite
+// over paper whose relief shows faintly.
+#if defined FRAGMENT_SHADER
+in vec2 v_uv;
+uniform sampler2D t_shade;    // hatching, 1 = paper
+#if CONTOUR
+uniform sampler2D t_contour;  // contours, 1 = paper
+#endif
+#if PAPER
+uniform sampler2D t_paper;    // grain normal (xyz), height (w)
+#endif
+uniform vec3 u_paper_color;
+uniform vec3 u_graphite_color;
+uniform float u_paper_tint;
+out vec4 o_color;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    float value = texelFetch(t_shade, px, 0).r;
+#if CONTOUR
+    value *= texture(t_contour, v_uv).r;
+#endif
+    vec3 paper = u_paper_color;
+#if PAPER
+    paper *= 1.0 - u_paper_tint * (1.0 - texelFetch(t_paper, px % textureSize(t_paper, 0), 0).w);
+#endif
+    o_color = vec4(mix(u_graphite_color, paper, clamp(value, 0.0, 1.0)), 1.0);
+}
+#endif

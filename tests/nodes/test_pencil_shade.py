@@ -1,0 +1,249 @@
+"""pencil_shade: 3-way blending against analytic barycentrics and a float64 reference, tone mapping,
+fallback directions, the pencil pipelines end to end, caching across frames."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError
+from nodegraph.executor import Executor
+from nodegraph.primitives import plane
+from nodegraph.scene import Camera, Scene, SceneObject
+from nodegraph.values import Arrays
+from nodes.curvature import object_field
+from nodes.curvature.principal import DirectionSource
+from nodes.hatching_synthesis.tam import synthesize_tam
+from nodes.paper import paper_height, paper_normals
+from nodes.pencil_shade import PencilShade, reference
+
+ROOT = Path(__file__).resolve().parents[2]
+W, H = 96, 80
+
+
+class Ctx:
+    """The parts of RunContext that pencil_shade.compute reads, for hand-made inputs."""
+
+    def __init__(self, gl: Any, node: PencilShade, scene: Scene):
+        self.gl, self.node, self.scene, self.size, self.frame, self.seed = gl, node, scene, (W, H), 0, 1
+        self.camera = scene.camera
+
+    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
+        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
+
+    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Any:
+        return self.gl.texture(size or self.size, self.node.outputs[port].type.fmt, filter=filter)
+
+
+def top_down_plane() -> Scene:
+    """One quad (two triangles) in y = 0, seen straight from above: world +x is screen +x, world -z is
+    screen +y, and barycentric coordinates are linear in screen space (no perspective foreshortening)."""
+    cam = Camera(eye=(0.0, 3.0, 0.0), target=(0.0, 0.0, 0.0), up=(0.0, 0.0, -1.0), fov_y_deg=35.0, near=1.0,
+                 far=5.0)
+    return Scene("quad", (SceneObject(plane(1.6, 1)),), cam, light_direction=(0.0, 0.0, 1.0))
+
+
+def curvature_for(mesh: Any, screen_angles_deg: list[float], source: int = DirectionSource.MEASURED) -> Arrays:
+    a = np.radians(screen_angles_deg)
+    dmin = np.stack([np.cos(a), np.zeros_like(a), -np.sin(a)], axis=1).astype(np.float32)  # world x/-z
+    n = mesh.n_vertices
+    return Arrays({object_field(0, "dmin"): dmin, object_field(0, "source"): np.full(n, source, np.uint8),
+                   object_field(0, "key"): np.array(f"test-{screen_angles_deg}-{source}"),
+                   "objects": np.array(1)})
+
+
+@pytest.fixture(scope="module")
+def tam() -> np.ndarray:
+    return synthesize_tam(size=64, tones=16, max_darkness=0.7, seed=4)
+
+
+def render(gl, scene: Scene, curv: Arrays, tam: np.ndarray, paper: np.ndarray | None = None,
+           ports: frozenset[str] = frozenset({"shade", "blend"}), **params) -> dict[str, np.ndarray]:
+    node = PencilShade("shade", PencilShade.Params(**params))
+    inputs = {"tam": gl.texture_array((tam.shape[2], tam.shape[1]), tam.shape[0], "R8", tam),
+              "curvature": curv}
+    if paper is not None:
+        inputs["paper"] = gl.texture((paper.shape[1], paper.shape[0]), "RGBA16F", data=paper, repeat=True)
+    out = node.compute(Ctx(gl, node, scene), inputs, ports)
+    return {k: v.read() for k, v in out.items()}
+
+
+def quad_barycentrics(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per pixel centre: triangle index (-1 outside or within 1.5 px of an edge), its corner vertex ids,
+    and analytic barycentric weights from the projected corners."""
+    mesh = scene.objects[0].mesh
+    view, proj = scene.camera.view_matrix(), scene.camera.projection_matrix(W / H)
+    pix = np.array([reference.project_to_pixels(v, view, proj, (W, H)) for v in mesh.vertices])
+    ys, xs = np.mgrid[0:H, 0:W] + 0.5
+    tri = np.full((H, W), -1)
+    bary = np.zeros((H, W, 3))
+    corners = np.zeros((H, W, 3), dtype=np.int64)
+    for t, face in enumerate(mesh.faces):
+        a, b, c = pix[face]
+        m = np.array([[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]])
+        inv = np.linalg.inv(m)
+        l1 = inv[0, 0] * (xs - a[0]) + inv[0, 1] * (ys - a[1])
+        l2 = inv[1, 0] * (xs - a[0]) + inv[1, 1] * (ys - a[1])
+        lam = np.stack([1 - l1 - l2, l1, l2], axis=-1)
+        # distance to the nearest edge in pixels: lambda_i / |grad lambda_i|
+        grads = [np.hypot(-inv[0, 0] - inv[1, 0], -inv[0, 1] - inv[1, 1]), np.hypot(*inv[0]), np.hypot(*inv[1])]
+        dist = np.min(lam / np.array(grads), axis=-1)
+        inside = dist > 1.5
+        tri[inside], bary[inside], corners[inside] = t, lam[inside], face
+    return tri, bary, corners
+
+
+def test_weights_sum_to_one_and_match_analytic_barycentrics(gl, tam):
+    scene = top_down_plane()
+    out = render(gl, scene, curvature_for(scene.objects[0].mesh, [0, 30, 60, 90]), tam, anchor="screen")
+    blend = out["blend"]
+    covered = blend[..., 3] >= 0
+    assert covered.mean() > 0.5
+    w = blend[covered][:, :3]
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=2e-3)
+    assert w.min() > -1e-3
+    tri, bary, _ = quad_barycentrics(scene)
+    inside = tri >= 0
+    assert inside.sum() > 1000
+    np.testing.assert_allclose(blend[inside][:, :3], bary[inside], atol=4e-3)
+
+
+def test_three_way_blend_matches_reference(gl, tam):
+    # four different vertex directions: every fragment blends three rotated samples by its weights
+    scene = top_down_plane()
+    angles = [0.0, 35.0, 80.0, 120.0]
+    rng = np.random.default_rng(3)
+    paper = paper_normals(paper_height(32, 9, 1.2, 0.3, 6.0), 6.0)
+    params = dict(anchor="screen", layers=2, layer_offset=0.3, max_darkness=0.9, light_intensity=0.3, grain=0.4)
+    scene = Scene("quad", scene.objects, scene.camera, light_direction=tuple(rng.normal(size=3) * 0.1 + [0, 0, 1]))
+    out = render(gl, scene, curvature_for(scene.objects[0].mesh, angles), tam, paper=paper, **params)
+    tri, bary, corners = quad_barycentrics(scene)
+    inside = tri >= 0
+    ys, xs = np.nonzero(inside)
+    a = np.radians(np.array(angles))[corners[inside]]
+    dirs = np.stack([np.cos(a), np.sin(a)], axis=-1)  # (N, 3, 2)
+    from nodes.contour import view_light
+
+    brightness = max(float(view_light(scene, scene.camera)[2]), 0.0)  # the plane faces the camera: n = +z
+    dark = reference.darkness(np.full(len(xs), brightness), params["light_intensity"])
+    assert dark[0] > params["layer_offset"]  # both layers take part
+    expected = reference.shade(xs + 0.5, ys + 0.5, dirs, bary[inside], dark, tam, max_tone=0.9 * 15, layers=2,
+                               layer_offset=0.3, layer_angle_deg=30.0, grain=0.4, paper=paper)
+    got = out["shade"][..., 0][inside]
+    err = np.abs(got - expected)
+    # 8-bit tones and 8-bit bilinear weights on the GPU, a 16-bit float output
+    assert err.mean() < 3e-3 and np.percentile(err, 99.5) < 1e-2
+    assert np.std(expected) > 0.05  # there is hatching to compare
+
+
+def test_agreeing_directions_reduce_to_one_rotated_texture(gl, tam):
+    scene = top_down_plane()
+    for angle in (0.0, 25.0, -60.0):
+        out = render(gl, scene, curvature_for(scene.objects[0].mesh, [angle] * 4), tam, anchor="screen",
+                     layers=1, grain=0.0, light_intensity=0.4)
+        covered = out["blend"][..., 3] >= 0
+        ys, xs = np.nonzero(covered)
+        d = np.tile([math.cos(math.radians(angle)), math.sin(math.radians(angle))], (len(xs), 3, 1))
+        one = np.tile([1.0, 0.0, 0.0], (len(xs), 1))  # a single orientation, weight 1
+        dark = reference.darkness(np.full(len(xs), 1.0), 0.4)
+        expected = reference.shade(xs + 0.5, ys + 0.5, d, one, dark, tam, max_tone=0.6 * 15, layers=1,
+                                   layer_offset=0.45, layer_angle_deg=30.0)
+        err = np.abs(out["shade"][..., 0][covered] - expected)
+        assert err.mean() < 3e-3 and np.percentile(err, 99.5) < 1e-2, angle
+
+
+def test_fixed_frame_directions_use_the_screen_fallback(gl, tam):
+    scene = top_down_plane()
+    mesh = scene.objects[0].mesh
+    # the curvature node's fixed-frame fallback (no measured direction): the screen fallback angle wins
+    a = render(gl, scene, curvature_for(mesh, [0, 30, 60, 90], DirectionSource.FIXED_FRAME), tam, anchor="screen",
+               layers=1, grain=0.0, light_intensity=0.4, fallback_angle=45.0)
+    b = render(gl, scene, curvature_for(mesh, [45.0] * 4), tam, anchor="screen", layers=1, grain=0.0,
+               light_intensity=0.4)
+    np.testing.assert_allclose(a["shade"], b["shade"], atol=2e-3)
+
+
+def test_tone_mapping_is_monotonic_reference():
+    b = np.linspace(-0.5, 1.5, 401)
+    t = reference.tone_index(b, 1.0, 20.0)
+    assert np.all(np.diff(t) <= 0) and t[0] == 20.0 and t[-1] == 0.0
+    np.testing.assert_allclose(reference.tone_index(np.array([0.25]), 1.0, 20.0), [10.0])  # 20 (1 - sqrt .25)
+    shares = reference.layer_shares(np.linspace(0, 1, 101), 3, 0.3)
+    assert np.all(np.diff(shares, axis=1) >= 0)  # every layer darkens with the darkness
+    assert np.all(shares[0] >= shares[1]) and np.all(shares[1] >= shares[2])  # lighter layers first
+
+
+SPHERE = """\
+pipeline: t
+size: [128, 128]
+scene: builtin:sphere
+seed: 2
+nodes:
+  gbuf: {type: rasterize}
+  tam: {type: hatching_synthesis, params: {size: 64, tones: 16}}
+  curv: {type: curvature}
+  shade: {type: pencil_shade, in: {tam: tam.tones, curvature: curv.out}, params: {grain: 0.0}}
+outputs:
+  shade: shade.shade
+  blend: shade.blend
+  normal: gbuf.normal
+  color: shade.color
+"""
+
+
+def test_gpu_darkness_is_monotonic_in_brightness_on_a_sphere(gl):
+    pipe = pl.loads(SPHERE, "t.yaml")
+    res = Executor(pipe, None, gl=gl).run()
+    shade = res.values[("shade", "shade")].read()[..., 0]
+    blend = res.values[("shade", "blend")].read()
+    normal = res.values[("gbuf", "normal")].read()
+    from nodes.contour import view_light
+
+    covered = (blend[..., 3] >= 0) & (normal[..., 3] > 0)
+    n = normal[covered][:, :3]
+    b = n @ view_light(pipe.scene, pipe.scene.camera)
+    max_tone = pipe.nodes["shade"].params.max_darkness * 15
+    # the tone index the GPU used is the reference mapping of the G-buffer's brightness
+    np.testing.assert_allclose(blend[covered][:, 3], reference.tone_index(b, 1.0, max_tone), atol=0.05)
+    # measured darkness of the hatching, averaged in brightness bins, falls as the light rises
+    bins = np.linspace(-0.2, 1.0, 9)
+    which = np.digitize(b, bins)
+    means = [1 - shade[covered][which == k].mean() for k in range(1, len(bins)) if (which == k).sum() > 30]
+    assert len(means) >= 6
+    assert np.all(np.diff(means) < 0.01) and means[0] - means[-1] > 0.2
+    # the sphere is umbilic: every direction falls back, and nothing is NaN
+    color = res.values[("shade", "color")].read()
+    assert np.isfinite(color).all() and color.min() >= 0 and color.max() <= 1
+
+
+def test_curvature_of_another_scene_is_a_clear_error(gl, tam):
+    scene = top_down_plane()
+    bad = Arrays({object_field(0, "dmin"): np.zeros((3, 3), np.float32), "objects": np.array(1)})
+    with pytest.raises(PipelineError, match="curvature of object 0 has 3 vertices"):
+        render(gl, scene, bad, tam)
+    with pytest.raises(PipelineError, match="no arrays for object 0"):
+        render(gl, scene, Arrays({}), tam)
+
+
+@pytest.mark.parametrize("name, output", [("pencil.yaml", "shade.color"), ("pencil_contours.yaml", "contour.color")])
+def test_shipped_pencil_pipelines_run(gl, name: str, output: str):
+    pipe = pl.load(ROOT / "pipelines" / name, size=(160, 120))
+    res = Executor(pipe, None, gl=gl).run()
+    img = next(iter(res.values.values())).read()
+    assert img.shape == (120, 160, 4) and np.isfinite(img).all()
+    assert img[..., :3].min() < 0.5 and img[..., :3].max() > 0.9  # graphite and paper
+
+
+def test_frame_loop_reuses_hatching_and_curvature(gl):
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(96, 96))
+    ex = Executor(pipe, None, mode="loop", gl=gl)
+    for frame in range(4):
+        ex.run(frame)
+    counts = ex.compute_counts
+    assert counts["tam"] == 1 and counts["curv"] == 1 and counts["paper"] == 1 and counts["distortion"] == 1
+    assert counts["shade"] == 4 and counts["contour"] == 4 and counts["gbuf"] == 4
