@@ -217,3 +217,16 @@ def test_object_noise_seed_comes_from_pipeline_and_node_not_frame(gl):
     other.seed = pipe.seed + 1
     c = Executor(other, None, requested=[("noise", "out")], gl=gl).run(3).values[("noise", "out")].read()
     assert not np.array_equal(a, c)
+
+
+def test_object_noise_shape_format_and_port_type_error(gl):
+    pipe = pl.load(ROOT / "pipelines" / "object_space_uncertainty.yaml", size=(40, 24))
+    out = Executor(pipe, None, requested=[("noise", "out")], gl=gl).run().values[("noise", "out")]
+    assert out.fmt == "RG32F" and out.size == (40, 24) and out.read().shape == (24, 40, 2)
+    from nodegraph.errors import PipelineError
+
+    text = (ROOT / "pipelines" / "object_space_uncertainty.yaml").read_text()
+    bad = text.replace("in: {position: enlarged.position}", "in: {position: enlarged.color}")
+    assert bad != text
+    with pytest.raises(PipelineError, match="position"):
+        pl.loads(bad, file="bad.yaml", load_scene=False)
