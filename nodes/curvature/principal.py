@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 # Bump when the output for the same mesh and radius changes (part of mesh_content_key).
-ALGORITHM_VERSION = 1
+ALGORITHM_VERSION = 2
 DEFAULT_RADIUS = 3
 
 
@@ -228,8 +228,13 @@ def compute_curvature(
         # libigl on the compacted mesh (it misbehaves on unreferenced vertices).
         remap = np.full(n, -1, dtype=np.int64)
         remap[idx] = np.arange(idx.size)
+        # libigl's fit has absolute tolerances (garbage below ~1e-14 units): fit a copy centred and scaled
+        # to a unit bounding-box diagonal, then scale the curvatures back.
+        Vu = V[idx]
+        unit = float(np.linalg.norm(Vu.max(axis=0) - Vu.min(axis=0))) or 1.0
         try:
-            pd1, pd2, pv1, pv2, bad = igl.principal_curvature(V[idx], remap[F], radius)
+            pd1, pd2, pv1, pv2, bad = igl.principal_curvature((Vu - Vu.mean(axis=0)) / unit, remap[F], radius)
+            pv1, pv2 = np.asarray(pv1) / unit, np.asarray(pv2) / unit
         except (RuntimeError, ValueError):  # pragma: no cover - libigl rejected the mesh as a whole
             pd1 = pd2 = np.full((idx.size, 3), np.nan)
             pv1 = pv2 = np.full(idx.size, np.nan)
