@@ -171,8 +171,10 @@ class Camera:
 
 def near_far_for(eye: Any, center: Any, radius: float) -> tuple[float, float]:
     """Near/far planes hugging a bounding sphere seen from `eye`."""
-    radius = max(float(radius), 1e-12)
     dist = float(np.linalg.norm(np.asarray(center, dtype=np.float64) - np.asarray(eye, dtype=np.float64)))
+    radius = float(radius)
+    if not radius > 0.0:  # a point: no absolute floor, which would clip meshes smaller than it
+        radius = max(dist * 1e-3, 1e-300)
     near = max(dist - 1.05 * radius, 1e-3 * radius)
     far = max(dist + 1.05 * radius, near * 1.001)
     return near, far
