@@ -252,10 +252,11 @@ def ellipsoid_mesh(level: int) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(m.vertices), np.asarray(m.faces)
 
 
-def ellipsoid_truth(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def ellipsoid_truth(V: np.ndarray, abc: tuple[float, float, float] = ELLIPSOID_ABC
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(kmin, kmax, dmin, normal) of the ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1 at points V (projected
     onto it): eigen-decomposition of the shape operator P H P / |grad| on the tangent plane."""
-    a, b, c = ELLIPSOID_ABC
+    a, b, c = abc
     h = np.array([1 / a**2, 1 / b**2, 1 / c**2])
     s = 1.0 / np.sqrt((V**2 * h).sum(1))
     p = V * s[:, None]
@@ -283,7 +284,7 @@ def curvature_errors(res: Any, kmin: np.ndarray, kmax: np.ndarray, dmin: np.ndar
     """Value errors |k - k_true| / |kmax_true| (both principal values), direction error in degrees between
     the measured and true dmin lines, over vertices where the true direction is defined (anisotropy
     (|kmax| - |kmin|) / (|kmax| + |kmin|) >= aniso_min)."""
-    scale = np.maximum(np.abs(kmax), 1e-12)
+    scale = np.maximum(np.abs(kmax), 1e-300)
     e_max = np.abs(res.kmax - kmax) / scale
     e_min = np.abs(res.kmin - kmin) / scale
     value = np.maximum(e_max, e_min)

@@ -324,8 +324,9 @@ def chart_stability(result: dict[str, Any], out: Path) -> list[Path]:
         if s.get("log_y"):
             ax.set_yscale("log")
         for bx in (s.get("breaks") or {}).values():
-            if bx is not None:
-                ax.axvline(bx, color="#d1495b", lw=0.8, ls=":")
+            for x in bx if isinstance(bx, list) else [bx]:
+                if x is not None:
+                    ax.axvline(x, color="#d1495b", lw=0.8, ls=":")
         if s.get("threshold") is not None:
             ax.axhline(s["threshold"], color="#888888", lw=0.8, ls="--")
         ax.set_title(s.get("title", name), fontsize=8)
