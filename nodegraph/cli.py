@@ -491,23 +491,20 @@ def _gallery_options(f: Any) -> Any:
 @gallery.command("build")
 @_gallery_options
 @click.option("--force", is_flag=True, help="Render every entry, even those the manifest says are up to date.")
-@click.option("--cold", is_flag=True, help="Render everything with a fresh, empty node cache (implies --force).")
+@click.option("--cold", is_flag=True, help="Empty the gallery's node cache first and render everything "
+              "(implies --force): the baseline for build times.")
 @click.option("--inspect", "inspect_", is_flag=True, help="Also dump every entry's intermediates (EXR, PNG, "
               "page) under gallery/out/inspect/.")
-@cache_options
+@click.option("--no-cache", is_flag=True, help="Neither read nor write the node cache.")
+@click.option("--cache-dir", type=click.Path(path_type=Path), help="Node cache folder (default: gallery/out/cache).")
 def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force: bool, cold: bool, inspect_: bool,
                   no_cache: bool, cache_dir: Path | None) -> None:
     """Render every entry that is not up to date; print the time per entry and in total."""
     from . import gallery as gal
 
     g = gal.load(gallery_file)
-    if cold:
-        with gal.TemporaryCache() as fresh:
-            report = gal.build(g, fresh, only=list(only), force=True, inspect=inspect_, echo=click.echo,
-                               progress=not quiet, cold=True)
-    else:
-        report = gal.build(g, open_cache(no_cache, cache_dir), only=list(only), force=force, inspect=inspect_,
-                           echo=click.echo, progress=not quiet)
+    report = gal.build(g, gal.node_cache(g, no_cache, cache_dir, cold), only=list(only), force=force or cold,
+                       inspect=inspect_, echo=click.echo, progress=not quiet, cold=cold)
     click.echo(gal.format_build(report))
     click.echo(f"wrote {g.manifest_path} and {g.root / 'index.html'}")
     if report.failed:
@@ -518,14 +515,15 @@ def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force:
 @_gallery_options
 @click.option("--cache", "use_cache", is_flag=True, help="Let the rebuild use the node cache (default: compute "
               "everything again).")
-@click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder for --cache.")
+@click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder for --cache (default: "
+              "gallery/out/cache).")
 def gallery_verify(gallery_file: Path, only: tuple[str, ...], quiet: bool, use_cache: bool,
                    cache_dir: Path | None) -> None:
     """Render every entry again and compare with manifest.json; exit 1 naming every entry that differs."""
     from . import gallery as gal
 
     g = gal.load(gallery_file)
-    checks, info = gal.verify(g, open_cache(not use_cache, cache_dir), only=list(only), echo=click.echo,
+    checks, info = gal.verify(g, gal.node_cache(g, not use_cache, cache_dir), only=list(only), echo=click.echo,
                               progress=not quiet)
     click.echo(gal.format_verify(checks, info))
     if any(c.status in ("differs", "failed") for c in checks):

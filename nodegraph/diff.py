@@ -158,7 +158,7 @@ def _as_array(value: Any) -> np.ndarray | None:
     return None
 
 
-def compare_values(node: str, port: str, va: Any, vb: Any) -> PortDiff:
+def compare_values(node: str, port: str, va: Any, vb: Any, doc: str = "") -> PortDiff:
     from .values import Arrays
 
     if isinstance(va, Arrays) and isinstance(vb, Arrays):
@@ -195,10 +195,11 @@ def compare_values(node: str, port: str, va: Any, vb: Any) -> PortDiff:
     if per_pixel.ndim == 2:
         img = viz.heat(per_pixel, max_abs)[::-1]
         img[~np.all(fa == fb, axis=-1)[::-1]] = viz.NONFINITE
-        pd.panels = (viz.visualize(va, port).image, viz.visualize(vb, port).image, np.ascontiguousarray(img))
+        pd.panels = (viz.visualize(va, port, doc).image, viz.visualize(vb, port, doc).image,
+                     np.ascontiguousarray(img))
     else:
         strips = [viz.heat(layer, max_abs)[::-1] for layer in per_pixel]
-        pd.panels = (viz.visualize(va, port).image, viz.visualize(vb, port).image,
+        pd.panels = (viz.visualize(va, port, doc).image, viz.visualize(vb, port, doc).image,
                      np.ascontiguousarray(np.concatenate(strips, axis=1)))
     return pd
 
@@ -242,7 +243,8 @@ def diff(a: Pipeline, b: Pipeline, frame: int = 0, cache: Any = None, out: Path 
     va, vb = values
     for nid in changed:
         for port in sorted({p for (n, p) in va if n == nid} & {p for (n, p) in vb if n == nid}):
-            report.ports.append(compare_values(nid, port, va[(nid, port)], vb[(nid, port)]))
+            doc = b.nodes[nid].outputs[port].doc if port in b.nodes[nid].outputs else ""
+            report.ports.append(compare_values(nid, port, va[(nid, port)], vb[(nid, port)], doc))
     if out is not None:
         _write(report, out, cell)
     return report

@@ -149,8 +149,9 @@ _ENTRY_KEYS = {"name", "pipeline", "scene", "set", "size", "frames", "wedge", "o
 
 
 def load(path: str | Path) -> Gallery:
-    """Read gallery.yaml: explicit entries, plus one default entry for every pipeline matched by
-    `pipelines:` (a glob relative to the file) that no explicit entry is named after."""
+    """Read gallery.yaml: its entries, plus a default entry (the pipeline as it is) for every pipeline
+    matched by `pipelines:` (a glob relative to the file), named after the file, unless an entry has
+    that name already."""
     file = Path(path)
     if not file.exists():
         raise SketchgraphError(f"gallery file not found: {file}")
@@ -179,9 +180,8 @@ def load(path: str | Path) -> Gallery:
     names = {e.name for e in entries}
     pipelines_glob = data.get("pipelines")
     if pipelines_glob:
-        named = {e.pipeline.resolve() for e in entries}
         for p in sorted(root.glob(pipelines_glob)):
-            if p.resolve() in named or p.stem in names:
+            if p.stem in names:
                 continue
             entries.append(_entry({"name": p.stem, "pipeline": _rel(p, root)}, root, f"{file}: {p.name}", auto=True))
             names.add(p.stem)
@@ -367,7 +367,7 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
             prev = vex
             result = vex.run(v.frame)
             for o, ref in zip(ep.outputs, refs, strict=True):
-                panel = viz.visualize(result.values[ref], ref[1])
+                panel = viz.visualize(result.values[ref], ref[1], v.pipe.nodes[ref[0]].outputs[ref[1]].doc)
                 if panel.image is None:
                     continue
                 if v.kind == "frame":
@@ -748,7 +748,9 @@ def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryR
             continue
         files = rec.get("files", {})
         present = {rel: f for rel, f in files.items() if (gallery.root / rel).exists()}
-        outs = [rel for rel, f in present.items() if f["what"].startswith("output")]
+        first = rec.get("frames", [0])[0]  # other frames are on the frames sheet
+        outs = [rel for rel, f in present.items() if f["what"].startswith("output")
+                and f["what"].endswith(f", frame {first}")]
         sheets = [rel for rel, f in present.items() if "contact sheet" in f["what"]]
         imgs = "".join(f'<figure><a href="{e(rel)}"><img class="out" src="{e(rel)}" alt="{e(rel)}"></a>'
                        f'<figcaption>{e(present[rel]["what"])}</figcaption></figure>' for rel in outs)
@@ -796,7 +798,24 @@ def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryR
     return path
 
 
-# -- cold builds -----------------------------------------------------------------------------------------
+# -- node caches -----------------------------------------------------------------------------------------
+def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None = None, cold: bool = False) -> Any:
+    """The gallery's own node cache (gallery/out/cache unless `cache_dir`), so that gallery builds neither
+    depend on nor evict what other runs cached. `cold` empties it first."""
+    from .cache import Cache
+
+    if no_cache:
+        if cold:
+            raise SketchgraphError("--cold builds fill the node cache; drop --no-cache")
+        return None
+    root = Path(cache_dir) if cache_dir else gallery.out / "cache"
+    if cold:
+        if cache_dir and root.exists() and any(p.suffix not in (".exr", ".npz") for p in root.glob("*/*")):
+            raise SketchgraphError(f"--cold would empty {root}, which holds files that are not cache entries")
+        shutil.rmtree(root, ignore_errors=True)
+    return Cache(root)
+
+
 class TemporaryCache:
     """A fresh, empty node cache for a cold build (removed afterwards)."""
 

@@ -93,8 +93,9 @@ def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -
             value = result.values.get((nid, port))
             if value is None:
                 continue
+            doc = pipe.nodes[nid].outputs[port].doc
             view.ports.append(PortView(nid, port, value, st.outputs.get(port, type(value).__name__),
-                                       viz.visualize(value, port), value_stats(value)))
+                                       viz.visualize(value, port, doc), value_stats(value)))
         nodes.append(view)
     return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
                       dict(pipe.outputs))
@@ -116,7 +117,9 @@ def value_stats(value: Any) -> list[dict[str, Any]]:
             a = np.asarray(arr)
             if a.dtype.kind not in "fiub" or a.size == 0:
                 continue
-            flat = a.reshape(len(a), -1) if a.ndim > 1 else a[:, None]
+            flat = a.reshape(len(a), -1) if a.ndim > 1 else a.reshape(-1, 1)
+            if flat.shape[1] > 4:  # many columns: one summary over all values
+                flat = flat.reshape(-1, 1)
             for s in viz.channel_stats(flat, [f"{name}[{i}]" for i in range(flat.shape[1])] if flat.shape[1] > 1
                                        else [name]):
                 out.append(s.as_dict())

@@ -9,13 +9,14 @@ fixed order of operations, so the same buffer gives the same bytes on every mach
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-VERSION = "1"  # bump when a visualisation changes: gallery entries built with another version are rebuilt
+VERSION = "2"  # bump when a visualisation changes: gallery entries built with another version are rebuilt
 
 BACKGROUND = np.array([0.05, 0.07, 0.18], np.float32)  # depth background (no surface)
 NONFINITE = np.array([1.0, 0.0, 1.0], np.float32)  # NaN / Inf pixels in every visualisation
@@ -71,13 +72,23 @@ def channel_stats(arr: np.ndarray, names: str | list[str] | None = None) -> list
 
 
 # -- visualisations --------------------------------------------------------------------------------------
-def classify(port: str, channels: int) -> str:
-    """Which visualisation fits a texture output, from its port name and channel count."""
-    name = port.lower()
+def classify(port: str, channels: int, doc: str = "") -> str:
+    """Which visualisation fits a texture output, from its port name and channel count; where the name
+    says nothing (`out`), from the first clause of the port's documentation."""
+    kind = _classify(port.lower(), channels)
+    if kind in ("grey", "color") and doc:
+        first = re.split(r"[.:;]", doc.lower(), maxsplit=1)[0]
+        hint = _classify(first, channels)
+        if hint not in ("grey", "color"):
+            return hint
+    return kind
+
+
+def _classify(name: str, channels: int) -> str:
     if channels == 1:
         if "depth" in name:
             return "depth"
-        if name == "id" or name.endswith("_id") or name == "ids":
+        if name in ("id", "ids") or name.endswith("_id") or "object id" in name:
             return "ids"
         return "grey"
     if channels == 2:
@@ -91,26 +102,26 @@ def classify(port: str, channels: int) -> str:
     return "color"
 
 
-def visualize_texture(arr: np.ndarray, port: str) -> Panel:
+def visualize_texture(arr: np.ndarray, port: str, doc: str = "") -> Panel:
     """An (H, W, C) texture in GL order as a display image."""
     a = np.asarray(arr, np.float32)
-    kind = classify(port, a.shape[2])
+    kind = classify(port, a.shape[2], doc)
     img, note = _DRAW[kind](a)
     return Panel(np.ascontiguousarray(img[::-1]), kind, note)
 
 
-def visualize(value: Any, port: str) -> Panel:
+def visualize(value: Any, port: str, doc: str = "") -> Panel:
     """Any node value: textures by type, texture arrays as a strip, strokes as a preview, the rest as text."""
     from .values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, Tex):
-        return visualize_texture(value.read(), port)
+        return visualize_texture(value.read(), port, doc)
     if isinstance(value, TexArray):
-        return visualize_array(value.read(), port)
+        return visualize_array(value.read(), port, doc=doc)
     if isinstance(value, np.ndarray) and value.ndim == 3:
-        return visualize_texture(value, port)
+        return visualize_texture(value, port, doc)
     if isinstance(value, np.ndarray) and value.ndim == 4:
-        return visualize_array(value, port)
+        return visualize_array(value, port, doc=doc)
     if isinstance(value, Strokes):
         from .strokes import rasterize_strokes
 
@@ -123,9 +134,9 @@ def visualize(value: Any, port: str) -> Panel:
     return Panel(None, "none", type(value).__name__)
 
 
-def visualize_array(arr: np.ndarray, port: str, per_row: int = 16, gap: int = 2) -> Panel:
+def visualize_array(arr: np.ndarray, port: str, per_row: int = 16, gap: int = 2, doc: str = "") -> Panel:
     """A texture array (L, H, W, C) as a strip of its layers, left to right (wrapped every `per_row`)."""
-    layers = [visualize_texture(layer, port) for layer in arr]
+    layers = [visualize_texture(layer, port, doc) for layer in arr]
     tiles = [p.image for p in layers]
     rows = [tiles[i:i + per_row] for i in range(0, len(tiles), per_row)]
     h, w = tiles[0].shape[:2]
@@ -264,16 +275,16 @@ def wheel(x: np.ndarray, y: np.ndarray, peak: float | None = None) -> tuple[np.n
 
 
 def hsv_to_rgb(h: np.ndarray, s: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Hue in turns, saturation and value in [0, 1]. Each channel is v minus the part of v*s that a
+    piecewise-linear ramp of the hue (offset per channel by 1/3 turn) takes away."""
     h6 = np.mod(h, 1.0) * 6.0
-    i = np.floor(h6).astype(np.int64) % 6
-    f = h6 - np.floor(h6)
-    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
-    choices = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)]
-    out = np.zeros(h.shape + (3,), np.float64)
-    for k, (r, g, b) in enumerate(choices):
-        m = i == k
-        out[m, 0], out[m, 1], out[m, 2] = r[m], g[m], b[m]
-    return out.astype(np.float32)
+    vs = v * s
+    out = np.empty(h.shape + (3,), np.float32)
+    for c, offset in enumerate((5.0, 3.0, 1.0)):  # red, green, blue
+        k = np.mod(offset + h6, 6.0)
+        ramp = np.clip(np.minimum(k, 4.0 - k), 0.0, 1.0)
+        out[..., c] = v - vs * ramp
+    return out
 
 
 def heat(x: np.ndarray, peak: float) -> np.ndarray:
@@ -294,6 +305,12 @@ def resize_area(img: np.ndarray, width: int, height: int) -> np.ndarray:
     if (w, h) == (width, height):
         return img.astype(np.float32, copy=True)
     a = img.astype(np.float64)
+    if width <= w and height <= h:  # shrinking: spans tile the image, sum them row-wise then column-wise
+        ys = np.arange(height) * h // height
+        xs = np.arange(width) * w // width
+        sums = np.add.reduceat(np.add.reduceat(a, ys, axis=0), xs, axis=1)
+        area = np.outer(np.diff(np.append(ys, h)), np.diff(np.append(xs, w))).astype(np.float64)
+        return (sums / (area[:, :, None] if sums.ndim == 3 else area)).astype(np.float32)
     ys0 = np.minimum(np.arange(height) * h // height, h - 1)
     xs0 = np.minimum(np.arange(width) * w // width, w - 1)
     ys1 = np.minimum(np.maximum((np.arange(height) + 1) * h // height, ys0 + 1), h)

@@ -114,7 +114,7 @@ def run(load: Callable[[list[str]], Pipeline], axes: list[Axis], output: str | N
                 prev.close()
             prev = ex
             result = ex.run(frame)
-            panel = viz.visualize(result.values[ref], ref[1])
+            panel = viz.visualize(result.values[ref], ref[1], pipe.nodes[ref[0]].outputs[ref[1]].doc)
             if panel.image is None:
                 raise SketchgraphError(f"output '{name}' ({ref[0]}.{ref[1]}) is not an image; pick one with --output")
             cells.append(Cell(r, c, overrides, text, panel.image, result.computed(),
