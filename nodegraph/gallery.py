@@ -290,6 +290,7 @@ def plan_entry(entry: Entry, renderer: str, cell: int, root: Path) -> EntryPlan:
         "wedge": {a.param: list(a.values) for a in entry.wedge} if entry.wedge else None,
         "outputs": {o: ".".join(main.outputs[o]) for o in outputs},
         "shared": entry.uses_shared(),
+        "keys": keys[0]["keys"],  # content keys of the main render's nodes (verify names the ones that changed)
     }
     build_key = digest({"format": FORMAT, "viz": viz.VERSION, "renderer": renderer, "cell": cell,
                         "variants": keys, "record": record})
@@ -501,6 +502,12 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
     if only:  # a partial build keeps the other entries' records
         for name, rec in old.get("entries", {}).items():
             records.setdefault(name, rec)
+    else:  # images of entries that no longer exist
+        images = gallery.root / "images"
+        known = {e.name for e in gallery.entries}
+        for folder in sorted(images.iterdir()) if images.is_dir() else []:
+            if folder.is_dir() and folder.name not in known:
+                shutil.rmtree(folder)
     manifest = {
         "format": FORMAT,
         "gallery": _rel(gallery.file, gallery.root),
@@ -636,9 +643,11 @@ def verify(gallery: Gallery, cache: Any, *, only: list[str] | None = None, echo:
             continue
         check = EntryCheck(entry.name, "ok")
         if ep.build_key != rec.get("build_key"):
-            changed = [k for k in ep.record if ep.record[k] != rec.get(k)]
-            check.note = ("inputs changed since the manifest was built"
-                          + (f" ({', '.join(changed)})" if changed else " (node keys)"))
+            changed = [k for k in ep.record if k != "keys" and ep.record[k] != rec.get(k)]
+            old_keys, new_keys = rec.get("keys", {}), ep.record["keys"]
+            nodes = [n for n in new_keys if old_keys.get(n) != new_keys[n]]
+            what = changed + ([f"keys of {', '.join(nodes)}"] if nodes else [])
+            check.note = "inputs changed since the manifest was built: " + (", ".join(what) or "frames or wedge cells")
         for rel in sorted(set(rec.get("files", {})) | set(res.files)):
             want, got = rec.get("files", {}).get(rel), res.files.get(rel)
             committed = gallery.root / rel

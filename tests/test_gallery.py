@@ -99,7 +99,9 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     assert tiny.manifest_path.read_bytes() == first
     assert all(s in ("disk", "memory") for r in warm.results for s in r.node_status.values())
     assert statuses(again) == statuses(warm) == statuses(cold)
+    (tiny.root / "images" / "gone").mkdir()  # an entry that was removed from gallery.yaml
     incremental = build(tiny, cache)
+    assert not (tiny.root / "images" / "gone").exists()
     assert tiny.manifest_path.read_bytes() == first
     assert statuses(incremental)["still"] == "up to date" and incremental.previous_cold_s == round(cold.total_s, 3)
     assert "x faster" in gal.format_build(incremental)
@@ -147,6 +149,11 @@ def test_verify(gl, tiny, tmp_path, monkeypatch):
     assert f.how == "beyond tolerance" and f.max_abs > 0.5 and f.outliers > 0.1
     assert (tiny.out / "verify/images/still/image.diff.png").exists()
     assert "beyond tolerance" in gal.format_verify(checks, info)
+
+    # the pipeline changed since the build: verify says what changed
+    tiny.entry("still").overrides.append("edges.width=1")
+    checks, _ = gal.verify(tiny, None, progress=False, only=["still"])
+    assert checks[0].status == "differs" and "overrides" in checks[0].note and "keys of edges" in checks[0].note
 
 
 def _recommit(g: gal.Gallery, m: dict, path: Path, img: np.ndarray) -> None:
