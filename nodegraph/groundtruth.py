@@ -14,10 +14,12 @@ Independent of `edge_detect`: the lines come from the triangles, not from any im
   with one normal flipped, so a winding error is neither a crease nor a silhouette.
 * **Visibility against the depth buffer.** Every edge is clipped to the near plane and sampled in
   3D every `step` pixels of its projection (perspective-correct positions and depths). A sample is
-  visible when some pixel of the 3x3 block around it shows a surface no nearer than the sample's
-  view depth less a tolerance (`depth_tolerance` of the depth plus `slope_pixels` pixel footprints
-  for surfaces inclined to the view): the window lets a silhouette sample see past the face that
-  folds away from it, and makes hidden lines within 1 px of an occluding contour count as visible.
+  visible when the depth buffer at the pixel holding it is no nearer than what the edge's own surface
+  would show there, less a tolerance (`depth_tolerance` of the depth plus `slope_pixels` pixel
+  footprints): that surface is the nearest of the sample itself and the planes of the one or two faces
+  beside the edge, cut by the ray through the pixel centre. So a silhouette sample whose pixel centre
+  falls on its own, steeply receding face, or a crease in a valley, counts as visible, and a sample
+  behind anything else does not.
 * **Rasterised as 1-px lines**: each visible sample marks the pixel that contains it.
 
 Images are (H, W) arrays with row 0 the bottom row (the GL texture convention, as `Tex.read()`).
@@ -38,6 +40,7 @@ class FeatureEdges:
     """Feature edges of one mesh for one eye position: vertex index pairs (k, 2) per kind."""
 
     edges: dict[str, np.ndarray]
+    faces: dict[str, np.ndarray]  # kind -> (k, 2) the faces beside each edge (-1: none), into mesh.faces
     n_edges: int  # welded edges of non-degenerate faces
     n_inconsistent: int  # manifold edges whose two faces are wound inconsistently
 
@@ -83,7 +86,7 @@ def feature_edges(mesh: Any, eye_object: np.ndarray | None, crease_angle: float 
     faces_ok = np.flatnonzero(ok)
     empty = np.zeros((0, 2), np.int64)
     if faces_ok.size == 0:
-        return FeatureEdges({k: empty for k in KINDS}, 0, 0)
+        return FeatureEdges({k: empty for k in KINDS}, {k: empty for k in KINDS}, 0, 0)
     of = np.asarray(mesh.faces, np.int64)[faces_ok]
     w = wf[faces_ok]
     # half-edges: (face, a -> b) with a, b welded ids; original ids kept for drawing
@@ -100,9 +103,14 @@ def feature_edges(mesh: Any, eye_object: np.ndarray | None, crease_angle: float 
     first = order[starts]
     pair = np.stack([oa[first], ob[first]], axis=1)
 
+    # the faces beside each edge: the first two half-edges' faces (the second -1 on a boundary)
+    second = np.where(counts > 1, order[np.minimum(starts + 1, len(order) - 1)], -1)
+    beside = np.stack([faces_ok[face[first]], np.where(second >= 0, faces_ok[face[np.maximum(second, 0)]], -1)],
+                      axis=1)
     kinds: dict[str, np.ndarray] = {}
-    kinds["boundary"] = pair[counts == 1]
-    kinds["nonmanifold"] = pair[counts > 2]
+    sides: dict[str, np.ndarray] = {}
+    kinds["boundary"], sides["boundary"] = pair[counts == 1], beside[counts == 1]
+    kinds["nonmanifold"], sides["nonmanifold"] = pair[counts > 2], beside[counts > 2]
     m2 = counts == 2
     h1, h2 = order[starts[m2]], order[starts[m2] + 1]
     f1, f2 = face[h1], face[h2]
@@ -118,10 +126,11 @@ def feature_edges(mesh: Any, eye_object: np.ndarray | None, crease_angle: float 
         sil = np.where(consistent, front[f1] != front[f2], front[f1] == front[f2])
     else:
         sil = np.zeros(len(f1), bool)
-    pairs2 = pair[m2]
-    kinds["silhouette"] = pairs2[sil]
-    kinds["crease"] = pairs2[crease & ~sil]
-    return FeatureEdges({k: kinds[k] for k in KINDS}, int(len(starts)), int((~consistent).sum()))
+    pairs2, beside2 = pair[m2], beside[m2]
+    kinds["silhouette"], sides["silhouette"] = pairs2[sil], beside2[sil]
+    kinds["crease"], sides["crease"] = pairs2[crease & ~sil], beside2[crease & ~sil]
+    return FeatureEdges({k: kinds[k] for k in KINDS}, {k: sides[k] for k in KINDS}, int(len(starts)),
+                        int((~consistent).sum()))
 
 
 def _sample_edges(p0: np.ndarray, p1: np.ndarray, view: np.ndarray, proj: np.ndarray, size: tuple[int, int],
@@ -178,7 +187,7 @@ def window_max(img: np.ndarray, r: int = 1) -> np.ndarray:
 
 
 def line_drawing(scene: Any, size: tuple[int, int], linear_depth: np.ndarray, frame: int = 0, *,
-                 crease_angle: float = 40.0, depth_tolerance: float = 0.005, slope_pixels: float = 2.0,
+                 crease_angle: float = 40.0, depth_tolerance: float = 0.005, slope_pixels: float = 1.0,
                  step: float = 0.25, objects: list[Any] | None = None) -> GroundTruth:
     """The visible feature lines of `scene` seen by its camera at `frame`, as 1-px lines.
 
@@ -193,9 +202,10 @@ def line_drawing(scene: Any, size: tuple[int, int], linear_depth: np.ndarray, fr
     cam = scene.camera_at(frame)
     view = cam.view_matrix()
     proj = cam.projection_matrix(w / h)
-    far_seen = np.where(depth > 0.0, depth, np.inf)
-    seen = window_max(far_seen, 1)
+    seen = np.where(depth > 0.0, depth, np.inf)
     footprint = 2.0 * np.tan(np.radians(cam.fov_y_deg) / 2.0) / h  # world size of a pixel per unit depth
+    tan_y = np.tan(np.radians(cam.fov_y_deg) / 2.0)
+    tan_x = tan_y * w / h
     by_kind = {k: np.zeros((h, w), bool) for k in KINDS}
     counts: dict[str, Any] = {f"{k}_edges": 0 for k in KINDS}
     counts.update(samples=0, visible_samples=0, inconsistent_edges=0)
@@ -205,18 +215,33 @@ def line_drawing(scene: Any, size: tuple[int, int], linear_depth: np.ndarray, fr
         fe = feature_edges(obj.mesh, eye_obj, crease_angle)
         counts["inconsistent_edges"] += fe.n_inconsistent
         verts = np.asarray(obj.mesh.vertices, np.float64) @ m[:3, :3].T + m[:3, 3]
+        vview = verts @ view[:3, :3].T + view[:3, 3]
+        faces = np.asarray(obj.mesh.faces, np.int64)
         for kind in KINDS:
             e = fe.edges[kind]
             counts[f"{kind}_edges"] += int(len(e))
             if len(e) == 0:
                 continue
-            x, y, z, _ = _sample_edges(verts[e[:, 0]], verts[e[:, 1]], view, proj, size, cam.near, step)
+            x, y, z, which = _sample_edges(verts[e[:, 0]], verts[e[:, 1]], view, proj, size, cam.near, step)
             col = np.floor(x).astype(np.int64)
             row = np.floor(y).astype(np.int64)
             inside = (col >= 0) & (col < w) & (row >= 0) & (row < h) & np.isfinite(z)
-            col, row, z = col[inside], row[inside], z[inside]
+            col, row, z, which = col[inside], row[inside], z[inside], which[inside]
+            # the ray through each pixel centre (view space, unit view depth)
+            ray = np.stack([((col + 0.5) / w * 2.0 - 1.0) * tan_x, ((row + 0.5) / h * 2.0 - 1.0) * tan_y,
+                            -np.ones(len(col))], axis=1)
+            own = z.copy()
+            for side in range(2):
+                f = fe.faces[kind][which, side]
+                has = f >= 0
+                tri = vview[faces[np.maximum(f, 0)]]
+                n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    t = np.einsum("ij,ij->i", n, tri[:, 0]) / np.einsum("ij,ij->i", n, ray)
+                hit = has & np.isfinite(t) & (t > 0.0)
+                own = np.where(hit, np.minimum(own, t), own)
             tol = depth_tolerance * z + slope_pixels * footprint * z
-            vis = seen[row, col] >= z - tol
+            vis = seen[row, col] >= own - tol
             counts["samples"] += int(inside.sum())
             counts["visible_samples"] += int(vis.sum())
             by_kind[kind][row[vis], col[vis]] = True
