@@ -53,11 +53,12 @@ def view_light(scene: Any, camera: Any) -> np.ndarray:
 class Contour(Node):
     """Draws the edge map several times, once through each distortion layer (a shaken attempt), with
     pencil tone: attempt k darkens by tone x pressure_k x edge x (1 - light_weight x l), where l =
-    sqrt((N.L) x 0.5 + 0.5) is the light contribution at the attempt's surface point (the report's), so
-    lines in shadow are darker. With a paper texture the darkness is modulated by the dot product of the
-    grain normal and the stroke direction (perpendicular to the projected normal). Attempts combine as
-    value = prod_k (1 - darkness_k): where they overlap the line darkens. Per-attempt pressures are
-    drawn from the node seed in [1 - pressure_jitter, 1]."""
+    sqrt((N.L) x 0.5 + 0.5) is the light contribution of the surface under the pixel (the report's; off
+    the surface, under the first attempt's edge sample), so lines in shadow are darker. With a paper
+    texture the darkness is modulated by the dot product of the grain normal and the stroke direction
+    (across the projected normal). Attempts combine as value = prod_k (1 - darkness_k): where they
+    overlap the line darkens. Per-attempt pressures are drawn from the node seed in
+    [1 - pressure_jitter, 1]."""
 
     version = "1"
     shaders = ("contour.glsl",)
@@ -75,15 +76,15 @@ class Contour(Node):
     }
 
     class Params(NodeParams):
-        tone: float = Field(0.75, ge=0, le=1, description="Darkness of one full-pressure attempt over a full "
+        tone: float = Field(0.85, ge=0, le=1, description="Darkness of one full-pressure attempt over a full "
                             "edge in shadow (pencil tone).")
-        light_weight: float = Field(0.55, ge=0, le=1, description="How much a fully lit surface lightens its "
+        light_weight: float = Field(0.45, ge=0, le=1, description="How much a fully lit surface lightens its "
                                     "contour (0: the light has no effect).")
         pressure_jitter: float = Field(0.35, ge=0, lt=1, description="Per-attempt pressure varies in "
                                        "[1 - pressure_jitter, 1].")
-        grain: float = Field(0.4, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
+        grain: float = Field(0.3, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
                            "(grain normal . stroke direction), clamped to [0, 2].")
-        paper_tint: float = Field(0.06, ge=0, le=1, description="How much the paper relief shows on bare paper "
+        paper_tint: float = Field(0.05, ge=0, le=1, description="How much the paper relief shows on bare paper "
                                   "in `color`.")
         paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
         graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")

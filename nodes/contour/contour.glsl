@@ -30,29 +30,30 @@ void main() {
     vec2 size = vec2(textureSize(t_edges, 0));
     ivec2 maxpx = textureSize(t_normal_depth, 0) - 1;
 #if PAPER
-    ivec2 psize = textureSize(t_paper, 0);
-    vec4 grain = texelFetch(t_paper, px % psize, 0);
+    // float mod: integer % is scalarised on llvmpipe
+    vec4 grain = texelFetch(t_paper, ivec2(mod(gl_FragCoord.xy, vec2(textureSize(t_paper, 0)))), 0);
 #endif
-    // the surface under the pixel gives the light and the stroke direction (the report's choice); an
-    // attempt shaken off the surface reads them where its edge sample came from instead
-    vec4 here = texelFetch(t_normal_depth, px, 0);
+    // The light and the stroke direction come from the surface under the pixel (the report's choice);
+    // where the pixel is off the surface (an attempt shaken past the silhouette) from the surface under
+    // the first attempt's edge sample. Once per pixel: llvmpipe runs both sides of every branch.
+    vec2 p0 = gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, 0), 0).xy;
+    vec4 nd = texelFetch(t_normal_depth, px, 0);
+    vec4 there = texelFetch(t_normal_depth, clamp(ivec2(floor(p0)), ivec2(0), maxpx), 0);
+    nd = nd.w > 0.0 ? nd : there;
+    // light contribution sqrt((N.L) * 0.5 + 0.5) (the report's); background reads as half lit
+    float light = nd.w > 0.0 ? sqrt(clamp(dot(normalize(nd.xyz), u_light) * 0.5 + 0.5, 0.0, 1.0)) : sqrt(0.5);
+    float stroke = u_tone * (1.0 - u_light_weight * light);
+#if PAPER
+    // a contour runs across the projected normal; graphite catches on the side of the paper tooth the
+    // stroke runs into (mean factor 1; the line's sign only mirrors the pattern)
+    vec2 dir = length(nd.xy) > 1e-4 ? normalize(vec2(-nd.y, nd.x)) : vec2(1.0, 0.0);
+    stroke *= clamp(1.0 + u_grain * 2.5 * dot(grain.xy, dir), 0.0, 2.0);
+#endif
     float value = 1.0;
     for (int k = 0; k < LAYERS; ++k) {
-        vec2 p = gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, k), 0).xy;
+        vec2 p = k == 0 ? p0 : gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, k), 0).xy;
         float e = texture(t_edges, p / size).r;
-        if (e <= 0.0) continue;
-        vec4 nd = here.w > 0.0 ? here : texelFetch(t_normal_depth, clamp(ivec2(floor(p)), ivec2(0), maxpx), 0);
-        // light contribution sqrt((N.L) * 0.5 + 0.5) (the report's); background reads as half lit
-        float light = nd.w > 0.0 ? sqrt(clamp(dot(normalize(nd.xyz), u_light) * 0.5 + 0.5, 0.0, 1.0))
-                                 : sqrt(0.5);
-        float dark = u_tone * u_pressure[k] * min(e, 1.0) * (1.0 - u_light_weight * light);
-#if PAPER
-        // a contour runs across the projected normal; graphite catches on the side of the paper tooth
-        // the stroke runs into (mean factor 1; the line's sign only mirrors the pattern)
-        vec2 dir = length(nd.xy) > 1e-4 ? normalize(vec2(-nd.y, nd.x)) : vec2(1.0, 0.0);
-        dark *= clamp(1.0 + u_grain * 2.5 * dot(grain.xy, dir), 0.0, 2.0);
-#endif
-        value *= 1.0 - clamp(dark, 0.0, 1.0);
+        value *= 1.0 - clamp(stroke * u_pressure[k] * clamp(e, 0.0, 1.0), 0.0, 1.0);
     }
 #ifdef LOC_OUT
     o_out = value;

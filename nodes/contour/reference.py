@@ -20,28 +20,31 @@ def light_contribution(normal: np.ndarray, light: np.ndarray) -> np.ndarray:
 def contour(edges: np.ndarray, offsets: np.ndarray, normal_depth: np.ndarray, light: np.ndarray,
             pressures: np.ndarray, *, tone: float, light_weight: float, grain: float = 0.0,
             paper: np.ndarray | None = None) -> np.ndarray:
-    """(H, W) paper value: prod over attempts k of (1 - darkness_k)."""
+    """(H, W) paper value: prod over attempts k of (1 - darkness_k). The light and the stroke direction
+    come from the surface under the pixel, or, off the surface, under the first attempt's edge sample."""
     edges = edges[..., 0] if edges.ndim == 3 else edges
     h, w = edges.shape
     ys, xs = np.mgrid[0:h, 0:w]
     here = normal_depth.astype(np.float64)
+    px0 = xs + 0.5 + offsets[0, ..., 0].astype(np.float64)
+    py0 = ys + 0.5 + offsets[0, ..., 1].astype(np.float64)
+    qx = np.clip(np.floor(px0).astype(np.int64), 0, w - 1)
+    qy = np.clip(np.floor(py0).astype(np.int64), 0, h - 1)
+    nd = np.where((here[..., 3] > 0.0)[..., None], here, here[qy, qx])
+    on = nd[..., 3] > 0.0
+    lit = np.where(on, light_contribution(np.where(on[..., None], nd[..., :3], 1.0), light), np.sqrt(0.5))
+    stroke = tone * (1.0 - light_weight * lit)
+    if paper is not None:
+        g = paper[ys % paper.shape[0], xs % paper.shape[1], :2].astype(np.float64)
+        nxy = nd[..., :2]
+        length = np.linalg.norm(nxy, axis=-1)
+        across = np.stack([-nxy[..., 1], nxy[..., 0]], axis=-1) / np.maximum(length, 1e-30)[..., None]
+        direction = np.where(length[..., None] > 1e-4, across, [1.0, 0.0])  # across the projected normal
+        stroke = stroke * np.clip(1.0 + grain * 2.5 * np.sum(g * direction, axis=-1), 0.0, 2.0)
     value = np.ones((h, w))
     for k in range(offsets.shape[0]):
         px = xs + 0.5 + offsets[k, ..., 0].astype(np.float64)
         py = ys + 0.5 + offsets[k, ..., 1].astype(np.float64)
         e = sampling.bilinear(edges, px / w, py / h)
-        qx = np.clip(np.floor(px).astype(np.int64), 0, w - 1)
-        qy = np.clip(np.floor(py).astype(np.int64), 0, h - 1)
-        nd = np.where((here[..., 3] > 0.0)[..., None], here, here[qy, qx])
-        on = nd[..., 3] > 0.0
-        lit = np.where(on, light_contribution(np.where(on[..., None], nd[..., :3], 1.0), light), np.sqrt(0.5))
-        dark = tone * pressures[k] * np.minimum(e, 1.0) * (1.0 - light_weight * lit)
-        if paper is not None:
-            g = paper[ys % paper.shape[0], xs % paper.shape[1], :2].astype(np.float64)
-            nxy = nd[..., :2]
-            length = np.linalg.norm(nxy, axis=-1)
-            across = np.stack([-nxy[..., 1], nxy[..., 0]], axis=-1) / np.maximum(length, 1e-30)[..., None]
-            direction = np.where(length[..., None] > 1e-4, across, [1.0, 0.0])  # across the projected normal
-            dark = dark * np.clip(1.0 + grain * 2.5 * np.sum(g * direction, axis=-1), 0.0, 2.0)
-        value *= np.where(e > 0.0, 1.0 - np.clip(dark, 0.0, 1.0), 1.0)
+        value *= 1.0 - np.clip(stroke * pressures[k] * np.clip(e, 0.0, 1.0), 0.0, 1.0)
     return value

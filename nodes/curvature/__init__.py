@@ -35,8 +35,10 @@ class Curvature(Node):
     ordered by magnitude: dmin is the direction of least bending, the one hatching follows. Where the
     direction is undefined or unreliable (flat, umbilic, too few neighbours, unreferenced, non-finite)
     the vertex gets a defined fallback: the direction smoothed from reliable neighbours, else the world x
-    axis in its tangent plane, and a confidence of 0 (see `principal`). `smoothing` rounds of line-field
-    averaging over the 1-ring (sign-invariant, confidence-weighted) then even out scanner noise. Output:
+    axis in its tangent plane, and a confidence of 0 (see `principal`). The line-field tensor
+    (confidence x dmin dmin^T) is then diffused over a geodesic length of `smoothing` x the bounding-box
+    diagonal and dmin set to its dominant tangent direction (sign-invariant), as Lee et al. smooth the
+    curvature tensor field after Alliez et al. 2003: hatching follows the form, not scanner noise. Output:
     Arrays with, per object i, o{i}_kmin, o{i}_kmax (n,), o{i}_dmin, o{i}_dmax, o{i}_normal (n, 3),
     o{i}_confidence (n,), o{i}_reason, o{i}_source (n,) uint8 codes, o{i}_key (a digest of the mesh and
     the params); n is the object's mesh vertex count, arrays are in object space. The key covers the mesh
@@ -53,8 +55,9 @@ class Curvature(Node):
     class Params(NodeParams):
         radius: int = Field(DEFAULT_RADIUS, ge=2, le=12, description="libigl's neighbourhood in rings of "
                             "vertices (3 keeps an analytic torus within 5%; larger is smoother but biased).")
-        smoothing: int = Field(2, ge=0, le=50, description="Rounds of 1-ring line-field smoothing of dmin "
-                               "after the fallbacks (0: libigl's directions as measured).")
+        smoothing: float = Field(0.05, ge=0, le=0.5, description="Diffusion length of the line-field "
+                                 "smoothing of dmin, as a fraction of the bounding-box diagonal (0: libigl's "
+                                 "directions as measured); the same on coarse and dense meshes.")
         min_confidence: float = Field(0.5, gt=0, le=1, description="Below this a vertex's own direction is "
                                       "replaced by one smoothed from its neighbours.")
         weld: bool = Field(True, description="Measure on the mesh with coincident vertices merged.")
@@ -103,8 +106,9 @@ class Curvature(Node):
             return {**res, "key": np.array(key)}
         c = compute_curvature(Vm, Fm, p.radius, min_confidence=p.min_confidence)
         dmin = np.array(c.dmin)
-        if p.smoothing:
-            dmin = smooth_line_field(Fm, dmin, c.normal, np.maximum(c.confidence, 0.05), p.smoothing,
+        rounds = smoothing_rounds(Vm, Fm, p.smoothing)
+        if rounds:
+            dmin = smooth_line_field(Fm, dmin, c.normal, np.maximum(c.confidence, 0.05), rounds,
                                      fixed=c.source == DirectionSource.FIXED_FRAME)
         dmax = np.cross(c.normal, dmin)
         out = {"kmin": c.kmin, "kmax": c.kmax, "dmin": dmin, "dmax": dmax, "normal": c.normal,
@@ -116,37 +120,52 @@ class Curvature(Node):
         return res
 
 
+def smoothing_rounds(V: np.ndarray, F: np.ndarray, length: float, cap: int = 400) -> int:
+    """Rounds of 1-ring averaging whose diffusion reaches about `length` x the bounding-box diagonal:
+    (length / mean edge)^2, at most `cap`."""
+    if length <= 0.0 or len(F) == 0:
+        return 0
+    diag = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    edge = float(np.linalg.norm(V[F[:, [1, 2, 0]]] - V[F], axis=2).mean())
+    if edge <= 0.0:
+        return 0
+    return int(min(cap, max(1, round((length * diag / edge) ** 2))))
+
+
 def smooth_line_field(F: np.ndarray, d: np.ndarray, normal: np.ndarray, weight: np.ndarray, rounds: int,
                       fixed: np.ndarray | None = None) -> np.ndarray:
-    """`rounds` of weighted 1-ring averaging of a tangent line field (sign-invariant: the dominant
-    eigenvector of sum w d d^T over the vertex and its neighbours, projected onto the tangent plane).
-    Vertices in `fixed` (no measured direction anywhere near) keep theirs and give no weight."""
+    """Diffuses the line-field tensor w d d^T over the mesh (`rounds` of averaging over each vertex and
+    its 1-ring), then takes at each vertex the dominant eigenvector projected onto its tangent plane:
+    sign-invariant, and vertices of high weight (confidence) dominate their surroundings. Vertices in
+    `fixed` (no measured direction anywhere near) keep theirs and give no weight."""
     n = len(d)
+    d = np.asarray(d, dtype=np.float64).copy()
+    if rounds <= 0 or n == 0:
+        return d
     e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
     ij = (np.r_[e[:, 0], e[:, 1], np.arange(n)], np.r_[e[:, 1], e[:, 0], np.arange(n)])
     adj = sp.csr_matrix((np.ones(2 * len(e) + n), ij), shape=(n, n))
     adj.data[:] = 1.0
+    avg = sp.diags(1.0 / np.asarray(adj.sum(axis=1)).ravel()) @ adj
     w = np.asarray(weight, dtype=np.float64).copy()
     free = np.ones(n, dtype=bool) if fixed is None else ~np.asarray(fixed, dtype=bool)
     w[~free] = 0.0
-    d = np.asarray(d, dtype=np.float64).copy()
+    x, y, z = d.T
+    s = np.stack([x * x, y * y, z * z, x * y, x * z, y * z], axis=1) * w[:, None]
     for _ in range(rounds):
-        x, y, z = d.T
-        t6 = np.stack([x * x, y * y, z * z, x * y, x * z, y * z], axis=1) * w[:, None]
-        s = adj @ t6
-        t = np.empty((n, 3, 3))
-        t[:, 0, 0], t[:, 1, 1], t[:, 2, 2] = s[:, 0], s[:, 1], s[:, 2]
-        t[:, 0, 1] = t[:, 1, 0] = s[:, 3]
-        t[:, 0, 2] = t[:, 2, 0] = s[:, 4]
-        t[:, 1, 2] = t[:, 2, 1] = s[:, 5]
-        proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]
-        _, vecs = np.linalg.eigh(proj @ t @ proj)
-        new = vecs[:, :, 2]
-        new -= np.sum(new * normal, axis=1, keepdims=True) * normal
-        length = np.linalg.norm(new, axis=1)
-        ok = free & (length > 1e-9) & (np.trace(t, axis1=1, axis2=2) > 0.0)
-        new[ok] /= length[ok, None]
-        d[ok] = new[ok]
+        s = avg @ s
+    t = np.empty((n, 3, 3))
+    t[:, 0, 0], t[:, 1, 1], t[:, 2, 2] = s[:, 0], s[:, 1], s[:, 2]
+    t[:, 0, 1] = t[:, 1, 0] = s[:, 3]
+    t[:, 0, 2] = t[:, 2, 0] = s[:, 4]
+    t[:, 1, 2] = t[:, 2, 1] = s[:, 5]
+    proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]
+    _, vecs = np.linalg.eigh(proj @ t @ proj)
+    new = vecs[:, :, 2]
+    new -= np.sum(new * normal, axis=1, keepdims=True) * normal
+    length = np.linalg.norm(new, axis=1)
+    ok = free & (length > 1e-9) & (np.trace(t, axis1=1, axis2=2) > 1e-12)
+    d[ok] = new[ok] / length[ok, None]
     return d
 
 

@@ -65,9 +65,9 @@ class PencilShade(Node):
                                     "exceeds k x layer_offset.")
         layer_angle: float = Field(30.0, ge=0, le=90, description="Layer 1 is turned by +layer_angle, layer 2 "
                                    "by -layer_angle degrees from the curvature frame.")
-        texel_scale: float = Field(1.0, gt=0, le=8, description="Tonal-art-map texels per screen pixel "
-                                   "(above 1: finer strokes, from the mipmaps).")
-        grain: float = Field(0.4, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
+        texel_scale: float = Field(0.7, gt=0, le=8, description="Tonal-art-map texels per screen pixel "
+                                   "(below 1: broader strokes; above 1: finer, from the mipmaps).")
+        grain: float = Field(0.15, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
                            "(grain normal . stroke direction), clamped to [0, 2].")
         fallback_angle: float = Field(45.0, ge=-180, le=180, description="Screen direction in degrees "
                                       "(counter-clockwise from +x) where curvature directions are unreliable.")
@@ -79,7 +79,7 @@ class PencilShade(Node):
                                                     "move) or on the screen origin.")
         crease_angle: float = Field(40.0, ge=0, le=180, description="Dihedral angle in degrees above which "
                                     "normals are split (sharp creases shade flat).")
-        paper_tint: float = Field(0.06, ge=0, le=1, description="How much the paper relief shows on bare paper.")
+        paper_tint: float = Field(0.05, ge=0, le=1, description="How much the paper relief shows on bare paper.")
         paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
         graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")
 
@@ -111,7 +111,7 @@ class PencilShade(Node):
         tam = inputs["tam"]
         paper = inputs.get("paper")
         contour = inputs.get("contour")
-        geo_ports = [port for port in _GEOMETRY_PORTS if port in needed or (port == "shade" and "color" in needed)]
+        geo_ports = ["shade"] + (["blend"] if "blend" in needed else [])  # shade also feeds `color`
         defines: dict[str, Any] = {_GEOMETRY_PORTS[port]: i for i, port in enumerate(geo_ports)}
         defines.update(LAYERS=p.layers, PAPER=int(paper is not None))
         prog = ctx.program("pencil_shade.glsl", defines)
@@ -184,8 +184,8 @@ class PencilShade(Node):
             gl.fullscreen(comp, [color], textures=tex, uniforms={
                 "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint})
             out["color"] = color
-            if "shade" not in needed:
-                gl.release(targets["shade"])
+        if "shade" not in needed:
+            gl.release(targets["shade"])
         return out
 
 

@@ -23,7 +23,8 @@ void main() {
 #endif
     vec3 paper = u_paper_color;
 #if PAPER
-    paper *= 1.0 - u_paper_tint * (1.0 - texelFetch(t_paper, px % textureSize(t_paper, 0), 0).w);
+    ivec2 tile = ivec2(mod(gl_FragCoord.xy, vec2(textureSize(t_paper, 0))));  // float mod: integer % is slow on llvmpipe
+    paper *= 1.0 - u_paper_tint * (1.0 - texelFetch(t_paper, tile, 0).w);
 #endif
     o_color = vec4(mix(u_graphite_color, paper, clamp(value, 0.0, 1.0)), 1.0);
 }

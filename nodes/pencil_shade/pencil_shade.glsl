@@ -111,10 +111,9 @@ void main() {
     vec3 w = f_bary / (f_bary.x + f_bary.y + f_bary.z);
     vec2 tam_size = vec2(textureSize(t_tam, 0).xy);
     vec2 p = (gl_FragCoord.xy - u_anchor) * u_texel_scale / tam_size;
-    vec2 dirs[3] = vec2[3](f_dir0, f_dir1, f_dir2);
-    int strongest = w.x >= w.y ? (w.x >= w.z ? 0 : 2) : (w.y >= w.z ? 1 : 2);
+    vec2 strongest = w.x >= w.y ? (w.x >= w.z ? f_dir0 : f_dir2) : (w.y >= w.z ? f_dir1 : f_dir2);
 #if PAPER
-    vec4 grain = texelFetch(t_paper, ivec2(gl_FragCoord.xy) % textureSize(t_paper, 0), 0);
+    vec4 grain = texelFetch(t_paper, ivec2(mod(gl_FragCoord.xy, vec2(textureSize(t_paper, 0)))), 0);
 #endif
     float value = 1.0;
     for (int k = 0; k < LAYERS; ++k) {
@@ -122,16 +121,16 @@ void main() {
         float share = clamp((darkness - start) / max(1.0 - start, 1e-6), 0.0, 1.0);
         if (share <= 0.0) break;  // lighter layers first: a later layer only where it is darker still
         float t = share * u_max_tone;
-        float layer = 0.0;
-        for (int i = 0; i < 3; ++i) {
-            vec2 d = rot(dirs[i], u_layer_rot[k]);
-            vec2 uv = vec2(dot(p, d), dot(p, vec2(-d.y, d.x))) + u_layer_shift[k];
-            layer += w[i] * tam(uv, t);
-        }
+        vec2 cs = u_layer_rot[k];
+        vec2 sh = u_layer_shift[k];
+        vec2 d0 = rot(f_dir0, cs), d1 = rot(f_dir1, cs), d2 = rot(f_dir2, cs);
+        float layer = w.x * tam(vec2(dot(p, d0), dot(p, vec2(-d0.y, d0.x))) + sh, t)
+                    + w.y * tam(vec2(dot(p, d1), dot(p, vec2(-d1.y, d1.x))) + sh, t)
+                    + w.z * tam(vec2(dot(p, d2), dot(p, vec2(-d2.y, d2.x))) + sh, t);
         float dark = 1.0 - layer;
 #if PAPER
         // graphite catches on the side of the paper tooth the stroke runs into (mean factor 1)
-        dark *= clamp(1.0 + u_grain * 2.5 * dot(grain.xy, rot(dirs[strongest], u_layer_rot[k])), 0.0, 2.0);
+        dark *= clamp(1.0 + u_grain * 2.5 * dot(grain.xy, rot(strongest, u_layer_rot[k])), 0.0, 2.0);
 #endif
         value *= 1.0 - clamp(dark, 0.0, 1.0);
     }

@@ -133,7 +133,8 @@ def test_three_way_blend_matches_reference(gl, tam):
     dark = reference.darkness(np.full(len(xs), brightness), params["light_intensity"])
     assert dark[0] > params["layer_offset"]  # both layers take part
     expected = reference.shade(xs + 0.5, ys + 0.5, dirs, bary[inside], dark, tam, max_tone=0.9 * 15, layers=2,
-                               layer_offset=0.3, layer_angle_deg=30.0, grain=0.4, paper=paper)
+                               layer_offset=0.3, layer_angle_deg=30.0, grain=0.4, paper=paper,
+                               texel_scale=PencilShade.Params().texel_scale)
     got = out["shade"][..., 0][inside]
     err = np.abs(got - expected)
     # 8-bit tones and 8-bit bilinear weights on the GPU, a 16-bit float output
@@ -145,7 +146,7 @@ def test_agreeing_directions_reduce_to_one_rotated_texture(gl, tam):
     scene = top_down_plane()
     for angle in (0.0, 25.0, -60.0):
         out = render(gl, scene, curvature_for(scene.objects[0].mesh, [angle] * 4), tam, anchor="screen",
-                     layers=1, grain=0.0, light_intensity=0.4)
+                     layers=1, grain=0.0, light_intensity=0.4, texel_scale=1.0)
         covered = out["blend"][..., 3] >= 0
         ys, xs = np.nonzero(covered)
         d = np.tile([math.cos(math.radians(angle)), math.sin(math.radians(angle))], (len(xs), 3, 1))
