@@ -1,0 +1,69 @@
+"""paper: seeded, tileable grain normals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError
+from nodegraph.executor import Executor
+from nodegraph.node import HashContext
+from nodes.paper import paper_height, paper_normals
+
+TEXT = """\
+pipeline: t
+size: [40, 30]
+scene: builtin:box
+seed: 8
+nodes:
+  paper: {type: paper, params: {size: 64}}
+outputs:
+  out: paper.out
+"""
+
+
+def load(overrides: list[str] = (), seed: int = 8) -> pl.Pipeline:
+    return pl.loads(TEXT.replace("seed: 8", f"seed: {seed}"), "t.yaml", overrides=list(overrides), load_scene=False)
+
+
+def test_unit_normals_height_and_size(gl):
+    out = Executor(load(), None, gl=gl).run().values[("paper", "out")]
+    assert out.fmt == "RGBA16F" and out.size == (64, 64)  # its own tile size, not the image's
+    a = out.read()
+    np.testing.assert_allclose(np.linalg.norm(a[..., :3], axis=-1), 1.0, atol=2e-3)
+    assert a[..., 2].min() > 0.2  # facing up out of the paper
+    assert a[..., 3].min() >= 0.0 and a[..., 3].max() <= 1.0
+    assert a[..., :2].std() > 0.05  # there is relief
+
+
+def test_same_seed_same_bytes(gl):
+    a = Executor(load(), None, gl=gl).run().values[("paper", "out")].read()
+    b = Executor(load(), None, gl=gl).run().values[("paper", "out")].read()
+    c = Executor(load(seed=9), None, gl=gl).run().values[("paper", "out")].read()
+    assert a.tobytes() == b.tobytes() and a.tobytes() != c.tobytes()
+
+
+def test_tileable_and_normals_match_the_height_field():
+    h = paper_height(64, 3, 1.5, 0.4, 6.0)
+    inner = np.abs(np.diff(h, axis=1)).mean()
+    assert np.abs(h[:, 0] - h[:, -1]).mean() < 1.5 * inner and np.abs(h[0] - h[-1]).mean() < 1.5 * inner
+    n = paper_normals(h, 6.0)
+    # normal from periodic central differences, written out
+    y, x = 10, 63
+    gx = (h[y, 0] - h[y, 62]) * 0.5 * 6.0
+    gy = (h[11, x] - h[9, x]) * 0.5 * 6.0
+    expected = np.array([-gx, -gy, 1.0]) / np.linalg.norm([-gx, -gy, 1.0])
+    np.testing.assert_allclose(n[y, x, :3], expected, atol=1e-6)
+
+
+def test_key_reads_the_seed_not_the_size():
+    node = load().nodes["paper"]
+    k = node.key(HashContext((40, 30), 0, 8, None), {})
+    assert k == node.key(HashContext((800, 600), 5, 8, None), {})
+    assert k != node.key(HashContext((40, 30), 0, 9, None), {})
+
+
+def test_bad_params():
+    with pytest.raises(PipelineError, match="fibres"):
+        load(["paper.fibres=2"])
