@@ -179,15 +179,25 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
             result = ex.run(frame)
             path = write_value(result.values[ref], frame_path(pattern, frame, many))
             if not quiet and not many:
-                computed = result.computed()
-                ms = sum(s.ms for s in result.stats.values())
-                click.echo(f"wrote {path}  ({len(computed)} of {len(result.stats)} nodes computed: "
-                           f"{', '.join(computed) or 'none'}; {ms:.0f} ms in nodes)")
+                click.echo(f"wrote {path}  ({summary(result)})")
     finally:
         ex.close()
     if many and not quiet:
         click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
                    f"in {time.perf_counter() - t0:.1f} s")
+
+
+def summary(result: Any) -> str:
+    """'4 of 5 nodes computed: a, b, c, d; 1 pass-through; 120 ms in nodes'."""
+    computed = result.computed()
+    by_status: dict[str, int] = {}
+    for st in result.stats.values():
+        if st.status not in ("computed", "skipped"):
+            by_status[st.status] = by_status.get(st.status, 0) + 1
+    extra = "".join(f"; {n} {'from ' if s in ('memory', 'disk') else ''}{s}" for s, n in sorted(by_status.items()))
+    ms = sum(s.ms for s in result.stats.values())
+    return (f"{len(computed)} of {len(result.stats)} nodes computed: {', '.join(computed) or 'none'}{extra}; "
+            f"{ms:.0f} ms in nodes")
 
 
 def _progress(items: list[int], disable: bool, unit: str) -> Any:

@@ -87,6 +87,16 @@ class Node:
         self.id = node_id
         self.params = params if params is not None else self.Params()
 
+    @classmethod
+    def check_connections(cls, connected: set[str]) -> str | None:
+        """At load time: a message if this set of connected inputs cannot work (override), else None."""
+        return None
+
+    def passthrough(self, connected: set[str]) -> dict[str, str]:
+        """Outputs that are one of the inputs unchanged, as {output: input} (override). The planner then
+        reads the source directly: the output shares the source's cache entry and the node does not run."""
+        return {}
+
     # -- hashing -----------------------------------------------------------------------------
     @classmethod
     def source_dir(cls) -> Path:

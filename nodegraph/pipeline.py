@@ -181,6 +181,9 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
                 raise PortTypeError(f"node '{nid}' input '{port}': expected {want}, got {got} from {src}.{sport}",
                                     where)
             connections[nid][port] = (src, sport)
+        problem = node.check_connections(set(connections[nid]))
+        if problem:
+            raise PipelineError(f"node '{nid}' ({node.type_name}): {problem}", loc.at(["nodes", nid], key=True))
         for port, inp in node.inputs.items():
             if port not in connections[nid] and not inp.optional:
                 raise PipelineError(f"node '{nid}' ({node.type_name}) is missing input '{port}' ({inp.type}); "

@@ -33,9 +33,9 @@ def test_run_writes_an_image_and_a_second_run_computes_nothing(gl, cli, tmp_path
     img = imageio.read(out)
     assert img.shape == (120, 160, 3)
     assert img.std() > 0.05  # a drawing, not a blank page
-    assert "5 of 5 nodes computed" in r.output
+    assert "4 of 5 nodes computed: gbuf, edges, noise, sketch; 1 pass-through" in r.output
     r = cli("run", PIPE, "-o", str(out), "--size", "160x120")
-    assert "0 of 5 nodes computed" in r.output
+    assert "0 of 5 nodes computed: none; 1 from disk; 1 pass-through" in r.output
 
 
 def test_run_with_a_mesh_scene_and_overrides(gl, cli, tmp_path: Path):

@@ -21,32 +21,53 @@ class DepthSprite(Node):
 
     Repeated edges (paper §3.4) need the depth map read once per edge layer: connect `sketch_depth`
     (sketch.depth, the minimum over every layer's and the shade map's lookup) and it is used as the
-    perturbed depth instead of the two lookups through `offsets`, which then only hold the first layer."""
+    perturbed depth instead of the two lookups through `offsets`, which then only hold the first layer.
+    With `sketch_depth` connected and nothing under the sprite, the node does no GPU work: over paper the
+    depth test passes exactly where the perturbed depth is below the far plane, where the sketch already
+    holds its colour (paper elsewhere), so colour and depth pass through; the sketch pass is then the
+    paper's single final pass (§3.5)."""
 
-    version = "2"
+    version = "4"
     shaders = ("depth_sprite.glsl",)
     inputs = {
-        "color": Input(Texture("RGBA16F"), "The sketch (sketch.color)."),
-        "offsets": Input(Texture("RGBA16F"), "Edge and shade shifts (sketch.offsets)."),
-        "depth": Input(Texture("R32F"), "Window depth of the sketchy objects (rasterize.depth)."),
+        "color": Input(Texture("RGBA8"), "The sketch (sketch.color); 8 bits per channel are enough for a "
+                                         "display colour, so the engine allocates the sketch that way."),
+        "offsets": Input(Texture("RGBA16F"), "Edge and shade shifts (sketch.offsets); needed when "
+                         "`sketch_depth` is not connected.", optional=True),
+        "depth": Input(Texture("R32F"), "Window depth of the sketchy objects (rasterize.depth), read through "
+                       "`offsets`; not needed with `sketch_depth`.", optional=True),
         "sketch_depth": Input(Texture("R32F"), "Perturbed depth over all edge layers and the shade map "
                               "(sketch.depth); replaces the lookups through `offsets`.", optional=True),
         "under_color": Input(Texture("RGBA8"), "Colour of ordinary geometry to compose with.", optional=True),
         "under_depth": Input(Texture("R32F"), "Window depth of that geometry (same camera).", optional=True),
     }
     outputs = {
-        "color": Output(Texture("RGBA16F"), "The composed image."),
+        "color": Output(Texture("RGBA8"), "The composed image (display colour, like its inputs)."),
         "depth": Output(Texture("R32F"), "The composed window depth (1 = nothing drawn)."),
     }
 
     class Params(NodeParams):
         paper: tuple[float, float, float] = Field((0.98, 0.97, 0.94), description="Colour where nothing is drawn.")
 
+    @classmethod
+    def check_connections(cls, connected: set[str]) -> str | None:
+        if ("under_color" in connected) != ("under_depth" in connected):
+            return "connect both under_color and under_depth, or neither"
+        if "sketch_depth" not in connected and not {"offsets", "depth"} <= connected:
+            return ("connect sketch_depth (sketch.depth), or offsets (sketch.offsets) and depth (rasterize.depth), "
+                    "to give the sprite its depth")
+        return None
+
+    def passthrough(self, connected: set[str]) -> dict[str, str]:
+        # Over paper the depth test passes wherever the sprite's depth is below the far plane, and the
+        # sketch (with its `depth` connected) is paper wherever it is not: the sprite is the sketch.
+        if "sketch_depth" in connected and "under_color" not in connected:
+            return {"color": "color", "depth": "sketch_depth"}
+        return {}
+
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         has_under = "under_color" in inputs and "under_depth" in inputs
-        if ("under_color" in inputs) != ("under_depth" in inputs):
-            raise ValueError(f"node '{self.id}': connect both under_color and under_depth, or neither")
         size = inputs["color"].size
         color = ctx.target("color", size)
         depth = ctx.target("depth", size, filter="nearest")
@@ -55,25 +76,28 @@ class DepthSprite(Node):
             rb = gl.resources[("depth_renderbuffer", size)] = gl.ctx.depth_renderbuffer(size)
         fbo = gl.framebuffer([color, depth], rb)
         mgl = gl.ctx
-        textures = {"t_color": inputs["color"], "t_offsets": inputs["offsets"], "t_depth": inputs["depth"]}
+        textures = {f"t_{port}": inputs[port] for port in ("color", "offsets", "depth") if port in inputs}
         has_sketch_depth = "sketch_depth" in inputs
         if has_sketch_depth:
             textures["t_sketch_depth"] = inputs["sketch_depth"]
         if has_under:
             textures.update(t_under_color=inputs["under_color"], t_under_depth=inputs["under_depth"])
         uniforms = {"u_paper": tuple(self.params.paper), "u_has_under": float(has_under)}
+        sprite_defines = {"PASS": 1, "SKETCH_DEPTH": int(has_sketch_depth)}
+        if not has_under:
+            # Over paper at the far plane the depth test always passes where the sprite has depth < 1:
+            # one plain pass gives the same pixels, with no depth buffer, clear or fragment-depth write.
+            gl.fullscreen(ctx.program("depth_sprite.glsl", {**sprite_defines, "OVER_PAPER": 1}), [color, depth],
+                          textures, uniforms)
+            return {"color": color, "depth": depth}
         mgl.enable(mgl.DEPTH_TEST)
         try:
-            if has_under:  # lay down the ordinary geometry's colour and depth
-                mgl.depth_func = "1"
-                gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms,
-                              fbo=fbo)
-            else:  # paper at the far plane: a clear is enough
-                fbo.clear(*self.params.paper, 1.0, depth=1.0)
-                gl.framebuffer([depth]).clear(1.0, 0.0, 0.0, 0.0)
+            mgl.depth_func = "1"  # lay down the ordinary geometry's colour and depth
+            gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms,
+                          fbo=fbo)
             mgl.depth_func = "<"
-            gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 1, "SKETCH_DEPTH": int(has_sketch_depth)}),
-                          [color, depth], textures, uniforms, fbo=fbo)
+            gl.fullscreen(ctx.program("depth_sprite.glsl", sprite_defines), [color, depth], textures, uniforms,
+                          fbo=fbo)
         finally:
             mgl.depth_func = "<"
             mgl.disable(mgl.DEPTH_TEST)

@@ -39,10 +39,16 @@ void main() {
     float z_shade = texelFetch(t_depth, ivec2(clamp(floor((v_uv + off.zw) * size), vec2(0.0), size - 1.0)), 0).r;
     float z = min(z_edge, z_shade);
 #endif
+#if OVER_PAPER
+    bool drawn = z < 1.0;
+    o_color = vec4(drawn ? texelFetch(t_color, ivec2(gl_FragCoord.xy), 0).rgb : u_paper, 1.0);
+    o_depth = drawn ? z : 1.0;
+#else
     if (z >= 1.0) discard;
     gl_FragDepth = z;
-    o_color = vec4(texture(t_color, v_uv).rgb, 1.0);
+    o_color = vec4(texelFetch(t_color, ivec2(gl_FragCoord.xy), 0).rgb, 1.0);
     o_depth = z;
+#endif
 #endif
 }
 #endif

@@ -33,9 +33,12 @@ class Sketch(Node):
     map read (nearest texel) once per edge layer at that layer's shifted coordinates and once at the
     shade map's (when `use_shade`), the minimum of them all (paper §3.3 and §3.4: "depth information
     must be adjusted by accessing the depth map multiple times"). Connect it to
-    `depth_sprite.sketch_depth`; `offsets` only holds the first layer's shift."""
+    `depth_sprite.sketch_depth`; `offsets` only holds the first layer's shift. With `depth` connected,
+    pixels whose perturbed depth is the far plane are paper (nothing of the object lands there), which is
+    exactly what the depth sprite shows over paper: `depth_sprite` with nothing under it then passes this
+    colour through, and the sketch pass is the paper's single final pass (§3.5)."""
 
-    version = "2"
+    version = "3"
     shaders = ("sketch.glsl",)
     inputs = {
         "edges": Input(Texture("R16F"), "Edge intensities (edge_detect.out)."),
@@ -81,14 +84,15 @@ class Sketch(Node):
         if "depth" in ports and "depth" not in inputs:
             raise ValueError(f"node '{self.id}': output 'depth' needs input 'depth' (connect rasterize.depth)")
         layers = self.layers()
-        defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
+        defines: dict[str, Any] = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
         defines["LAYERS"] = len(layers)
-        prog = ctx.program("sketch.glsl", defines)
         size = inputs["shade"].size
         targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
         textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
-        if "depth" in ports:
+        if "depth" in inputs:  # the key depends on the connection, so the colour does too, never on `needed`
             textures["t_depth"] = inputs["depth"]
+            defines["HAS_DEPTH"] = 1
+        prog = ctx.program("sketch.glsl", defines)
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32).T for layer in layers])  # GLSL: column-major
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],

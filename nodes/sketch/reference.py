@@ -34,6 +34,10 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
         if depth is not None:
             z = np.minimum(z, nearest(depth, u + e_off[..., 0], v + e_off[..., 1]))
     assert first is not None
+    if depth is not None:  # no surface behind the pixel: paper (what the depth sprite shows)
+        far = z >= 1.0
+        color = np.where(far[..., None], np.asarray(paper, dtype=np.float64), color)
+        cover = np.where(far, 0.0, cover)
     out = {"color": np.concatenate([color, cover[..., None]], axis=-1),
            "offsets": np.concatenate([first, s_off], axis=-1)}
     if depth is not None:

@@ -22,8 +22,10 @@ layout(location = LOC_COLOR) out vec4 o_color;
 layout(location = LOC_OFFSETS) out vec4 o_offsets;
 #endif
 #ifdef LOC_DEPTH
-uniform sampler2D t_depth;
 layout(location = LOC_DEPTH) out float o_depth;
+#endif
+#ifdef HAS_DEPTH
+uniform sampler2D t_depth;
 // nearest lookup, as depth_sprite does: depth must not be blended across a silhouette
 float depth_at(vec2 uv) {
     vec2 size = vec2(textureSize(t_depth, 0));
@@ -31,13 +33,13 @@ float depth_at(vec2 uv) {
 }
 #endif
 void main() {
-    vec2 off = texture(t_offset, v_uv).rg;
+    vec2 off = texelFetch(t_offset, ivec2(gl_FragCoord.xy), 0).rg;  // same grid as the output: no filtering
     vec2 shade_off = u_shade_matrix * off;
     vec4 shade = texture(t_shade, v_uv + shade_off) * u_use_shade;
     vec3 color = mix(u_paper, shade.rgb, shade.a);
     float cover = shade.a;
     vec2 first_edge_off = u_edge_matrix[0] * off;
-#ifdef LOC_DEPTH
+#ifdef HAS_DEPTH
     float z = u_use_shade > 0.5 ? depth_at(v_uv + shade_off) : 1.0;
 #endif
     for (int i = 0; i < LAYERS; ++i) {
@@ -45,10 +47,16 @@ void main() {
         float e = clamp(texture(t_edges, v_uv + edge_off).r * u_edge_strength, 0.0, 1.0);
         color = mix(color, u_edge_color[i], e);
         cover = max(cover, e);
-#ifdef LOC_DEPTH
+#ifdef HAS_DEPTH
         z = min(z, depth_at(v_uv + edge_off));
 #endif
     }
+#ifdef HAS_DEPTH
+    if (z >= 1.0) {  // no surface behind this pixel: paper, as the depth sprite would show
+        color = u_paper;
+        cover = 0.0;
+    }
+#endif
 #ifdef LOC_COLOR
     o_color = vec4(color, cover);
 #endif

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _position(gl, scene, size, enlarge=0.0, frame=0, cull=False):
-    node = Rasterize("g", Rasterize.Params(enlarge=enlarge, cull_backfaces=cull))
+    node = Rasterize("g", Rasterize.Params(enlarge=enlarge, backfaces="cull" if cull else "draw"))
     return run_node(gl, node, {}, size, scene=scene, frame=frame, needed=frozenset({"position"}))["position"].read()
 
 
