@@ -24,6 +24,8 @@ from .errors import SketchgraphError
 NAMED: dict[str, str] = {
     "shower-door": "nodegraph.showerdoor:command",
     "accuracy": "nodegraph.accuracy:command",
+    "hatching": "nodegraph.bench_pencil:hatching_command",
+    "curvature": "nodegraph.bench_pencil:curvature_command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
