@@ -240,6 +240,7 @@ def diff(a: Pipeline, b: Pipeline, frame: int = 0, cache: Any = None, out: Path 
             values.append({ref: _snapshot(v) for ref, v in result.values.items() if ref[0] in changed})
         finally:
             ex.close()
+            ex.clear_memory()
     va, vb = values
     for nid in changed:
         for port in sorted({p for (n, p) in va if n == nid} & {p for (n, p) in vb if n == nid}):

@@ -363,7 +363,7 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
         for v in ep.variants[1:]:
             refs = [v.pipe.outputs[o] for o in ep.outputs]
             vex = Executor(v.pipe, cache, requested=refs)
-            adopt_memory(vex, prev)
+            adopt_memory(vex, prev, v.frame)
             prev.close()
             prev = vex
             result = vex.run(v.frame)
@@ -570,7 +570,7 @@ def format_build(report: BuildReport) -> str:
     for r in report.results:
         counts[r.status] = counts.get(r.status, 0) + 1
     hits = sum(1 for r in report.results for s in r.node_status.values() if s in ("disk", "memory"))
-    nodes = sum(len(r.node_status) for r in report.results)
+    nodes = sum(1 for r in report.results for s in r.node_status.values() if s != "pass-through")
     lines.append(f"total {report.total_s:.2f} s ({report.kind} build: "
                  + ", ".join(f"{n} {s}" for s, n in counts.items())
                  + (f"; {hits} of {nodes} nodes of rendered entries came from the cache" if nodes else "") + ")")

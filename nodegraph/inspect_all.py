@@ -61,9 +61,15 @@ class Inspection:
 
 
 def all_ports(pipe: Pipeline) -> list[PortRef]:
-    """Every output port the ordinary run of the pipeline's outputs produces, in topological order."""
+    """Every output port the ordinary run of the pipeline's outputs produces or reads, in topological
+    order: the ports nodes compute, and pass-through outputs that a node or a pipeline output reads."""
     base = plan(pipe)
-    return [(nid, port) for nid in base.order for port in sorted(base.needed[nid])]
+    used = set(base.requested)
+    for nid in base.order:
+        if base.needed[nid]:  # a node that runs reads every input it has connected
+            used.update(pipe.connections[nid].values())
+    return [(nid, port) for nid in base.order for port in pipe.nodes[nid].outputs
+            if port in base.needed[nid] or (nid, port) in used]
 
 
 def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = None) -> Executor:
@@ -89,16 +95,26 @@ def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -
         st = result.stats[nid]
         view = NodeView(nid, st.type, st.status, st.ms, st.key,
                         {p: f"{s}.{sp}" for p, (s, sp) in sorted(pipe.connections[nid].items())}, params.get(nid, {}))
-        for port in sorted(ex.plan.needed[nid]):
+        for port in sorted(p for n, p in ex.plan.requested if n == nid):
             value = result.values.get((nid, port))
             if value is None:
                 continue
             doc = pipe.nodes[nid].outputs[port].doc
-            view.ports.append(PortView(nid, port, value, st.outputs.get(port, type(value).__name__),
+            view.ports.append(PortView(nid, port, value, st.outputs.get(port) or describe(value),
                                        viz.visualize(value, port, doc), value_stats(value)))
         nodes.append(view)
     return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
                       dict(pipe.outputs))
+
+
+def describe(value: Any) -> str:
+    from .values import Tex, TexArray
+
+    if isinstance(value, Tex):
+        return value.fmt
+    if isinstance(value, TexArray):
+        return f"{value.fmt}x{value.layers}"
+    return type(value).__name__
 
 
 def pipe_params(pipe: Pipeline) -> dict[str, dict[str, Any]]:
@@ -219,6 +235,7 @@ a { color: var(--accent); }
 .badge { display: inline-block; padding: 0 6px; border-radius: 9px; font-size: 11px; margin-left: 4px;
          background: #444; }
 .badge.computed { background: #7a4b1c; } .badge.disk { background: #255a3a; } .badge.memory { background: #24486e; }
+.badge.pass-through { background: #4a3a6e; }
 figure { margin: 8px 0 0; }
 figure img { display: block; max-width: 100%; max-height: 240px; background: #111; image-rendering: auto; }
 figcaption { font-size: 12px; margin-top: 3px; }

@@ -21,7 +21,7 @@ from .executor import Executor
 from .pipeline import Pipeline
 
 
-def adopt_memory(new: Executor, old: Executor | None) -> int:
+def adopt_memory(new: Executor, old: Executor | None, frame: int = 0) -> int:
     """Hand `old`'s in-memory values to `new` (same GL context). Values whose planned format differs in
     `new` are dropped, so a reused buffer always has the precision the new plan gives it. Returns the
     number of values adopted."""
@@ -30,7 +30,7 @@ def adopt_memory(new: Executor, old: Executor | None) -> int:
     from .values import Tex, TexArray, nbytes
 
     formats: dict[tuple[str, str], str] = {}
-    for nid, key in new.keys(0).items():
+    for nid, key in new.keys(frame).items():
         for port in new.plan.needed.get(nid, ()):
             fmt = new.plan.formats.get((nid, port))
             if fmt:
@@ -169,7 +169,7 @@ class Watcher:
             raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
         ref = pipe.outputs[name]
         ex = Executor(pipe, self.cache, mode="loop", requested=[ref], gl=self.executor._gl if self.executor else None)
-        adopt_memory(ex, self.executor)
+        adopt_memory(ex, self.executor, self.frame)
         if self.executor is not None:
             self.executor.close()
         self.executor = ex

@@ -109,7 +109,7 @@ def run(load: Callable[[list[str]], Pipeline], axes: list[Axis], output: str | N
                 raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
             ref = pipe.outputs[name]
             ex = Executor(pipe, cache, requested=[ref])
-            adopt_memory(ex, prev)
+            adopt_memory(ex, prev, frame)
             if prev is not None:
                 prev.close()
             prev = ex

@@ -106,7 +106,7 @@ def test_inspect_all_writes_every_planned_output(inspected):
     order = [n["node"] for n in stats["nodes"]]
     assert order == ["gbuf", "edges", "noise", "sketch", "sprite"]  # topological
     ports = [(n["node"], p["port"]) for n in stats["nodes"] for p in n["ports"]]
-    assert ("gbuf", "normal_depth") in ports and ("sketch", "offsets") in ports and ("sprite", "color") in ports
+    assert ("gbuf", "normal_depth") in ports and ("sketch", "color") in ports and ("sprite", "color") in ports
     for node, port in ports:
         assert (inspected / f"{node}.{port}.png").exists()
         assert (inspected / f"{node}.{port}.exr").exists()
