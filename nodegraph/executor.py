@@ -154,13 +154,19 @@ class Executor:
 
     def __init__(self, pipeline: Pipeline, cache: Cache | None = None, *, mode: str = "single",
                  requested: list[PortRef] | None = None, gl: Any = None, timing: bool = False,
-                 memory_limit: int = 1024**3, persist_all: bool = False):
+                 memory_limit: int = 1024**3, persist_all: bool = False, like: Plan | None = None):
+        """`like`: allocate every texture as that plan does (inspecting intermediates must not raise their
+        precision and so change what the next node sees)."""
         self.pipeline = pipeline
         self.cache = cache
         self.mode = mode
         self.timing = timing
         self.persist_all = persist_all
         self.plan = plan(pipeline, requested)
+        if like is not None:
+            self.plan.formats.clear()
+            self.plan.formats.update(like.formats)
+            self.plan.reasons = like.reasons
         self._gl = gl
         self._memory: OrderedDict[tuple[str, str], Any] = OrderedDict()
         self._memory_bytes = 0
@@ -216,7 +222,7 @@ class Executor:
         node = self.pipeline.nodes[nid]
         if self.cache is not None and node.persist != "never" and not node.side_effect:
             t0 = time.perf_counter()
-            loaded = self.cache.load(keys[nid], port, f"node '{nid}'")
+            loaded = self.cache.load(keys[nid], self._entry(nid, port), f"node '{nid}'")
             if loaded is not None:
                 value = self._upload(loaded, nid, port)
                 self._remember(mkey, value, pinned)
@@ -252,8 +258,8 @@ class Executor:
             mkey = (keys[nid], port)
             self._remember(mkey, value, pinned)
             st.outputs[port] = _describe(value)
-            if persist and port in needed and self.cache.find(keys[nid], port) is None:
-                self._persist(node, keys[nid], port, value)
+            if persist and port in needed and self.cache.find(keys[nid], self._entry(nid, port)) is None:
+                self._persist(node, keys[nid], self._entry(nid, port), value)
 
     # -- memory cache ----------------------------------------------------------------------
     def _remember(self, mkey: tuple[str, str], value: Any, pinned: set[tuple[str, str]]) -> None:
@@ -284,11 +290,44 @@ class Executor:
         if isinstance(value, (Tex, TexArray)) and self._gl is not None and not in_use:
             self.gl.release(value)
 
+    def adopt_memory(self, old: Executor | None, frame: int = 0) -> int:
+        """Take over `old`'s in-memory values (same GL context). Values are content-addressed, so one is
+        reused only where a node's key is unchanged; a texture whose planned format differs here is
+        released instead. Returns the number adopted."""
+        if old is None or old is self:
+            return 0
+        formats: dict[tuple[str, str], str] = {}
+        for nid, key in self.keys(frame).items():
+            for port in self.plan.needed.get(nid, ()):
+                fmt = self.plan.formats.get((nid, port))
+                if fmt:
+                    formats[(key, port)] = fmt
+        adopted = 0
+        for mkey, value in old._memory.items():
+            want = formats.get(mkey)
+            if isinstance(value, Tex) and want is not None and value.fmt != want:
+                old._release(value)
+                continue
+            if isinstance(value, (Tex, TexArray)) and self._gl is None:
+                self._gl = old._gl
+            self._memory[mkey] = value
+            self._memory_bytes += nbytes(value)
+            adopted += 1
+        old._memory.clear()
+        old._memory_bytes = 0
+        return adopted
+
     def clear_memory(self) -> None:
         for value in self._memory.values():
             self._release(value)
         self._memory.clear()
         self._memory_bytes = 0
+
+    def _entry(self, nid: str, port: str) -> str:
+        """A cache entry's name within its key: the port, and for textures the planned format, so an
+        entry of lower precision is never read where more is planned."""
+        fmt = self.plan.formats.get((nid, port))
+        return f"{port}.{fmt}" if fmt else port
 
     # -- disk cache ------------------------------------------------------------------------
     def _persist(self, node: Node, key: str, port: str, value: Any) -> None:

@@ -18,7 +18,7 @@ def explain(ex: Any, frame: int = 0) -> str:
         where = "compute"
         if ex.cache is not None and node.persist != "never":
             ports = plan.needed[nid]
-            if ports and all(ex.cache.find(keys[nid], p) for p in ports):
+            if ports and all(ex.cache.find(keys[nid], ex._entry(nid, p)) for p in ports):
                 where = "disk cache"
         reasons = ", ".join(dict.fromkeys(plan.reasons.get(nid, [])))
         lines.append(f"  {nid} ({node.type_name}): {where}; needed by {reasons}")

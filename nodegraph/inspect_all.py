@@ -75,11 +75,8 @@ def all_ports(pipe: Pipeline) -> list[PortRef]:
 def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = None) -> Executor:
     """An executor that keeps every planned output, each in the format the ordinary run allocates."""
     base = plan(pipe)
-    ex = Executor(pipe, cache, mode=mode, requested=all_ports(pipe), gl=gl)
+    ex = Executor(pipe, cache, mode=mode, requested=all_ports(pipe), gl=gl, like=base)
     assert ex.plan.order == base.order, "requesting intermediates must not change the plan"
-    ex.plan.formats.clear()
-    ex.plan.formats.update(base.formats)
-    ex.plan.reasons = base.reasons
     return ex
 
 

@@ -22,34 +22,8 @@ from .pipeline import Pipeline
 
 
 def adopt_memory(new: Executor, old: Executor | None, frame: int = 0) -> int:
-    """Hand `old`'s in-memory values to `new` (same GL context). Values whose planned format differs in
-    `new` are dropped, so a reused buffer always has the precision the new plan gives it. Returns the
-    number of values adopted."""
-    if old is None or old is new:
-        return 0
-    from .values import Tex, TexArray, nbytes
-
-    formats: dict[tuple[str, str], str] = {}
-    for nid, key in new.keys(frame).items():
-        for port in new.plan.needed.get(nid, ()):
-            fmt = new.plan.formats.get((nid, port))
-            if fmt:
-                formats[(key, port)] = fmt
-    adopted = 0
-    for mkey, value in old._memory.items():
-        want = formats.get(mkey)
-        if isinstance(value, Tex) and want is not None and value.fmt != want:
-            if old._gl is not None:
-                old.gl.release(value)
-            continue
-        if isinstance(value, (Tex, TexArray)) and new._gl is None:
-            new._gl = old._gl
-        new._memory[mkey] = value
-        new._memory_bytes += nbytes(value)
-        adopted += 1
-    old._memory.clear()
-    old._memory_bytes = 0
-    return adopted
+    """`new` takes over `old`'s in-memory values (see Executor.adopt_memory)."""
+    return new.adopt_memory(old, frame)
 
 
 def scene_files(scene_spec: str, base: Path) -> list[Path]:

@@ -133,7 +133,7 @@ def test_corrupt_cache_entry_is_recomputed_with_a_warning(gl, tmp_path: Path):
     ex = Executor(load(), cache, gl=gl)
     keys = ex.keys()
     ex.run()
-    path = cache.find(keys["abc"], "out")
+    path = cache.find(keys["abc"], ex._entry("abc", "out"))
     assert path is not None and path.suffix == ".exr"
     path.write_bytes(b"not an exr at all")
     COUNTS.clear()
@@ -149,7 +149,7 @@ def test_mismatched_header_key_is_recomputed(gl, tmp_path: Path):
     keys = ex.keys()
     ex.run()
     # put ab's entry where abc's should be: a readable EXR whose header names another key
-    src, dst = cache.find(keys["ab"], "out"), cache.find(keys["abc"], "out")
+    src, dst = cache.find(keys["ab"], ex._entry("ab", "out")), cache.find(keys["abc"], ex._entry("abc", "out"))
     dst.write_bytes(src.read_bytes())
     COUNTS.clear()
     with pytest.warns(CacheWarning, match="does not match"):
@@ -165,7 +165,7 @@ def test_exr_header_explains_the_entry(gl, tmp_path: Path):
     ex = Executor(load(), cache, gl=gl)
     keys = ex.keys()
     ex.run()
-    spec = oiio.ImageInput.open(str(cache.find(keys["abc"], "out"))).spec()
+    spec = oiio.ImageInput.open(str(cache.find(keys["abc"], ex._entry("abc", "out")))).spec()
     assert spec.get_string_attribute("sketchgraph:key") == keys["abc"]
     assert spec.get_string_attribute("sketchgraph:type") == "add"
     assert '"offset": 1.0' in spec.get_string_attribute("sketchgraph:params")
@@ -204,3 +204,15 @@ def test_cache_writes_are_atomic_names(gl, tmp_path: Path):
         warnings.simplefilter("error")
         names = [p.name for p in (tmp_path / "c").rglob("*") if p.is_file()]
     assert not any(n.startswith(".tmp") for n in names)
+
+
+def test_a_lower_precision_cache_entry_is_not_read_where_more_is_planned(gl, tmp_path: Path):
+    cache = Cache(tmp_path / "c")
+    first = Executor(load(), cache, requested=[("abc", "out")], gl=gl)
+    assert first.plan.formats[("ab", "out")] == "RGBA16F"  # only abc reads it, at half precision
+    first.run()
+    COUNTS.clear()
+    second = Executor(load(), cache, requested=[("ab", "out")], gl=gl)
+    assert second.plan.formats[("ab", "out")] == "RGBA32F"  # requested: full precision
+    second.run()
+    assert COUNTS == {"ab": 1}  # recomputed from a and b (read from disk), not read at half precision
