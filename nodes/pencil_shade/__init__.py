@@ -174,7 +174,9 @@ class PencilShade(Node):
             sampler.clear(location=0)
         out = {port: targets[port] for port in geo_ports if port in needed}
         if "color" in needed:
-            comp = ctx.program("composite.glsl", {"CONTOUR": int(contour is not None), "PAPER": int(paper is not None)})
+            same = contour is not None and contour.size == (w, h)
+            comp = ctx.program("composite.glsl", {"CONTOUR": int(contour is not None), "PAPER": int(paper is not None),
+                                                  "CONTOUR_SAME_SIZE": int(same)})
             color = ctx.target("color")
             tex = {"t_shade": targets["shade"]}
             if contour is not None:

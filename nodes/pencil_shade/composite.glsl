@@ -19,7 +19,11 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     float value = texelFetch(t_shade, px, 0).r;
 #if CONTOUR
+#if CONTOUR_SAME_SIZE
+    value *= texelFetch(t_contour, px, 0).r;
+#else
     value *= texture(t_contour, v_uv).r;
+#endif
 #endif
     vec3 paper = u_paper_color;
 #if PAPER
