@@ -611,12 +611,30 @@ def _bounds_of(objects: list[SceneObject]) -> tuple[np.ndarray, np.ndarray]:
     return np.min([lo for lo, _ in b], axis=0), np.max([hi for _, hi in b], axis=0)
 
 
+def best_view_direction(mesh: Mesh, elevation_deg: float = 25.0, azimuths: int = 16) -> np.ndarray:
+    """Of `azimuths` directions about +Y at `elevation_deg`, the one from which the mesh shows the
+    largest projected area (sum over faces of area x max(0, n . d)): a cow is seen from the side, not
+    end-on, whatever way its file faces. Ties go to the first azimuth (from +Z towards +X)."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces)
+    if len(f) == 0:
+        return _unit(np.array([0.55, 0.45, 1.0]))
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # 2 x area x unit normal
+    el = math.radians(elevation_deg)
+    az = np.arange(azimuths) * (2.0 * math.pi / azimuths)
+    dirs = np.stack([np.sin(az) * math.cos(el), np.full_like(az, math.sin(el)), np.cos(az) * math.cos(el)], axis=1)
+    visible = np.maximum(cross @ dirs.T, 0.0).sum(axis=0)
+    return dirs[int(np.argmax(visible))]
+
+
 def mesh_scene(path: str | Path) -> Scene:
-    """One sketchy object from a mesh file, framed, with a 6 degrees/frame orbit about +Y."""
+    """One sketchy object from a mesh file, seen from its most revealing side (best_view_direction),
+    framed, with a 6 degrees/frame orbit about +Y."""
     mesh = load_mesh(path)
     lo, hi = mesh.bounds()
+    camera = frame_camera(lo, hi, direction=best_view_direction(mesh))
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
-                 camera=frame_camera(lo, hi), orbit=Orbit(), source=str(path))
+                 camera=camera, orbit=Orbit(), source=str(path))
 
 
 # --- built-in scenes ----------------------------------------------------------------------------

@@ -617,3 +617,16 @@ def test_cloister() -> None:
     inside = (np.abs(ndc[:, :2]) <= 1.0).all(axis=1)
     assert inside.mean() > 0.6  # the camera sees most of it
     assert s.content_hash() == load_scene("builtin:cloister").content_hash()
+
+
+def test_mesh_files_are_seen_from_their_most_revealing_side():
+    """A long box along X is seen from the side (largest projected area), not end-on."""
+    from nodegraph import primitives
+    from nodegraph.scene import best_view_direction
+
+    long_x = primitives.box((4.0, 1.0, 1.0))
+    d = best_view_direction(long_x)
+    assert abs(d[0]) < 0.5 * abs(d[2])  # looking along Z, at the long side
+    long_z = primitives.box((1.0, 1.0, 4.0))
+    d = best_view_direction(long_z)
+    assert abs(d[2]) < 0.5 * abs(d[0])
