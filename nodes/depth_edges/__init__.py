@@ -1,0 +1,92 @@
+"""depth_edges: Curtis' edge map from a depth map (seed 004): tent blur, Sobel, magnitude, threshold."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, model_validator
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import Texture
+
+_PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MAGNITUDE"}
+
+
+class DepthEdges(Node):
+    """The template of where ink is needed, exactly as the seed's pseudocode computes it: the depth map
+    blurred by the 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, the seed's Sobel pair (gx, gy) of the blurred depth
+    (= -8 x its gradient, x right, y up; see nodes/particle_sketch/core.py), mag = sqrt(gx^2 + gy^2), and
+    edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
+    s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
+
+    The method wants depth in [0, 1] with 1 = background. `mode: linear` (default) takes
+    rasterize.linear_depth (view distance, 0 = background) and maps [near, far] to [0, 1]: the same depth
+    difference gives the same edge strength near and far. `mode: window` takes a depth that is already in
+    [0, 1] with 1 = background (rasterize.depth, a depth image) and uses it as it is; window depth is
+    hyperbolic, so far edges come out weaker."""
+
+    version = "1"
+    shaders = ("depth_edges.glsl",)
+    context_keys = frozenset({"size", "camera"})
+    inputs = {
+        "depth": Input(Texture("R32F"), "mode: linear: rasterize.linear_depth (0 = background); mode: window: "
+                       "a depth in [0, 1] with 1 = background (rasterize.depth)."),
+    }
+    outputs = {
+        "edges": Output(Texture("R8"), "Binary edge map: 1 where mag >= threshold, else 0."),
+        "gradient": Output(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth; feeds "
+                           "force_field."),
+        "magnitude": Output(Texture("R32F"), "mag = sqrt(gx^2 + gy^2)."),
+    }
+
+    class Params(NodeParams):
+        threshold: float = Field(0.03, gt=0, description="Edge where the gradient magnitude of the blurred "
+                                 "depth (in [0, 1] depth units, times 8) is at least this; a depth step s peaks "
+                                 "at 3 s.")
+        mode: Literal["linear", "window"] = Field(
+            "linear", description="linear: the input is linear view depth (0 = background), mapped to [0, 1] by "
+            "`range`; window: the input already is depth in [0, 1] with 1 = background, used as it is.")
+        range: tuple[float, float] | None = Field(
+            None, description="mode: linear only: the view distances mapped to 0 and 1 (clamped); default: the "
+            "camera's near and far planes.")
+
+        @model_validator(mode="after")
+        def _range(self) -> DepthEdges.Params:
+            if self.range is not None and not self.range[1] > self.range[0]:
+                raise ValueError(f"range: expected [near, far] with far > near, got {list(self.range)}")
+            return self
+
+    def depth_range(self, ctx: Any) -> tuple[float, float]:
+        """The linear depths mapped to 0 and 1."""
+        if self.params.range is not None:
+            return self.params.range
+        cam = ctx.camera
+        if cam is None:
+            raise ValueError(f"node '{self.id}': mode: linear needs the scene's camera or an explicit `range` "
+                             "[near, far]; set range, or use mode: window for a depth in [0, 1]")
+        return float(cam.near), float(cam.far)
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        gl = ctx.gl
+        depth = inputs["depth"]
+        size = depth.size
+        linear = p.mode == "linear"
+        blur = gl.texture(size, "R32F", filter="nearest")
+        try:
+            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear)}), [blur],
+                          textures={"t_depth": depth},
+                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0)})
+            ports = [port for port in _PORTS if port in needed]
+            defines: dict[str, Any] = {_PORTS[port]: i for i, port in enumerate(ports)}
+            defines["PASS"] = 1
+            targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
+                       for port in ports}
+            gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
+                          textures={"t_blur": blur}, uniforms={"u_threshold": p.threshold})
+        finally:
+            gl.release(blur)
+        return targets
+
+
+NODE = DepthEdges

@@ -1,0 +1,23 @@
+"""float64 NumPy version of depth_edges.glsl (through the particle core's filters)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodes.particle_sketch import core
+
+
+def normalised_depth(depth: np.ndarray, mode: str = "window", near: float = 0.0, far: float = 1.0) -> np.ndarray:
+    """Depth in [0, 1] with 1 = background, as pass 0 of the shader reads it."""
+    d = np.asarray(depth, np.float64)
+    if mode == "window":
+        return d
+    return np.where(d > 0.0, np.clip((d - near) / (far - near), 0.0, 1.0), 1.0)
+
+
+def depth_edges(depth: np.ndarray, threshold: float = 0.03, mode: str = "window", near: float = 0.0,
+                far: float = 1.0) -> dict[str, np.ndarray]:
+    """edges (bool), gradient (H, W, 2: the seed's gx, gy) and magnitude of a (H, W) depth map."""
+    gx, gy = core.sobel(core.tent3(normalised_depth(depth, mode, near, far)))
+    mag = np.sqrt(gx * gx + gy * gy)
+    return {"edges": mag >= threshold, "gradient": np.stack([gx, gy], axis=-1), "magnitude": mag}

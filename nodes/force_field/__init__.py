@@ -1,0 +1,70 @@
+"""force_field: Curtis' force field ff = ff1 - ff2 from the depth gradient (seed 004)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import Texture
+
+
+class ForceField(Node):
+    """The field that steers the particles of `particle_sketch`, from depth_edges.gradient, the seed's Sobel
+    pair g = (gx, gy) of the blurred depth: ff1 = g rotated by 90 degrees, (-gy, gx); ff2 = the Sobel pair
+    of the magnitude image min(|g|, clamp) blurred by a 9x9 tent ([1 2 3 4 5 4 3 2 1] outer itself, / 625),
+    rotated by 90 degrees; ff = ff1 - ff2. Borders clamp to the edge pixel.
+
+    Both parts are rotated gradients, so ff runs along the edges (clockwise around a near object on a far
+    background) and nothing in it points towards an edge: the seed's prose says ff2 "forces the particle
+    back onto the edge", its pseudocode computes a shear. `restoring: gradient` is the prose's reading
+    (ff2 unrotated: a pull up the blurred magnitude, onto the edge); docs/particles.md measures both and
+    explains why the default stays the pseudocode's.
+
+    `saturate` s > 0 divides ff by max(|ff|, s): the streamlines stay, the speed is capped at 1, so a faint
+    inner edge and a strong silhouette are drawn at the same pace (with the raw field a silhouette runs
+    ten times faster than an inner edge and no single time step suits both). Set it to the edge threshold
+    of depth_edges; 0 gives the seed's raw field."""
+
+    version = "1"
+    shaders = ("force_field.glsl",)
+    inputs = {
+        "gradient": Input(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth: "
+                          "depth_edges.gradient."),
+    }
+    outputs = {
+        "out": Output(Texture("RG32F"), "The force field (ffx, ffy), x right, y up, in pixels."),
+    }
+
+    class Params(NodeParams):
+        clamp: float = Field(1.0, gt=0, description="Magnitude clamp before the 9x9 blur: the seed's 255 for "
+                             "8-bit depth, on depth in [0, 1].")
+        saturate: float = Field(0.03, ge=0, description="Divide ff by max(|ff|, saturate): same directions, speed "
+                                "at most 1 (use depth_edges.threshold); 0 = the seed's raw field.")
+        restoring: Literal["rotated", "gradient"] = Field(
+            "rotated", description="ff2 as the seed's pseudocode computes it (rotated by 90 degrees: a shear "
+            "along the edge) or as its prose describes it (gradient: unrotated, pulls particles onto the edge; "
+            "furry lines, see docs/particles.md).")
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        gl = ctx.gl
+        grad = inputs["gradient"]
+        size = grad.size
+        across = gl.texture(size, "R32F", filter="nearest")
+        blur = gl.texture(size, "R32F", filter="nearest")
+        try:
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0}), [across], textures={"t_src": grad},
+                          uniforms={"u_clamp": p.clamp})
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1}), [blur], textures={"t_src": across})
+            out = ctx.target("out", size)
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 2, "RESTORING": int(p.restoring == "gradient")}),
+                          [out], textures={"t_gradient": grad, "t_blur": blur}, uniforms={"u_saturate": p.saturate})
+        finally:
+            gl.release(across)
+            gl.release(blur)
+        return {"out": out}
+
+
+NODE = ForceField

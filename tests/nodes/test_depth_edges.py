@@ -1,0 +1,97 @@
+"""depth_edges on the GPU against a float64 SciPy computation of the seed's pseudocode."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+from scipy import ndimage
+
+from nodes.depth_edges import DepthEdges
+from nodes.depth_edges.reference import depth_edges as depth_edges_ref
+from nodes.particle_sketch import synthetic
+from tests.conftest import run_node
+
+# The seed's kernels exactly as printed; k[x][y] with y down the image (see nodes/particle_sketch/core.py).
+SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)
+SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)
+SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
+
+
+def _weights(k: np.ndarray) -> np.ndarray:
+    """k[x][y] (y down) as a weight array over [row (y up), col (x)] for scipy.ndimage.convolve."""
+    return np.flipud(k.T)
+
+
+def _pseudocode(depth: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """blur with the tent, convolve with the Sobel pair, magnitude, threshold; float64, borders clamped."""
+    blur = ndimage.convolve(depth.astype(np.float64), SEED_TENT / 16.0, mode="nearest")
+    gx = ndimage.convolve(blur, _weights(SEED_GX), mode="nearest")
+    gy = ndimage.convolve(blur, _weights(SEED_GY), mode="nearest")
+    mag = np.sqrt(gx * gx + gy * gy)
+    return gx, gy, mag, mag >= threshold
+
+
+@pytest.fixture(scope="module")
+def depth() -> np.ndarray:
+    """Non-square and asymmetric: a tilted ramp under two ellipsoids of different depths."""
+    d = synthetic.ellipsoids_depth((70, 96), [(30, 40, 22, 15, 20, 0.5, 0.1), (64, 25, 18, 24, -30, 0.6, 0.05)])
+    y, x = np.mgrid[0:70, 0:96]
+    return np.where(d < 1.0, d, 0.95 - 0.001 * x + 0.0007 * y).astype(np.float32)
+
+
+def _run(gl, depth: np.ndarray, scene=None, **params) -> dict[str, np.ndarray]:
+    node = DepthEdges("de", DepthEdges.Params(**params))
+    h, w = depth.shape
+    out = run_node(gl, node, {"depth": gl.upload(depth.astype(np.float32), "R32F")}, (w, h), scene=scene)
+    return {port: tex.read() for port, tex in out.items()} | {"fmt": {p: t.fmt for p, t in out.items()}}
+
+
+def test_tent_and_sobel_match_the_pseudocode_in_float64(gl, depth):
+    thr = 0.03
+    gx, gy, mag, edges = _pseudocode(depth, thr)
+    got = _run(gl, depth, mode="window", threshold=thr)
+    assert got["fmt"] == {"edges": "R8", "gradient": "RG32F", "magnitude": "R32F"}
+    assert got["gradient"].shape == depth.shape + (2,) and got["edges"].shape == depth.shape + (1,)
+    np.testing.assert_allclose(got["gradient"][..., 0], gx, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(got["gradient"][..., 1], gy, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(got["magnitude"][..., 0], mag, rtol=0, atol=2e-6)
+    e = got["edges"][..., 0]
+    assert set(np.unique(e)) <= {0.0, 1.0}
+    differ = (e > 0.5) != edges
+    assert not (differ & (np.abs(mag - thr) > 1e-5)).any()  # only where float32 rounding decides
+    assert 0.02 < edges.mean() < 0.5
+    # the node's reference (the particle core's filters) is the same computation
+    ref = depth_edges_ref(depth, thr)
+    np.testing.assert_allclose(ref["gradient"], np.stack([gx, gy], -1), rtol=0, atol=1e-13)
+
+
+def test_orientation_on_a_ramp(gl):
+    """(gx, gy) = -8 x the gradient with x = column, y = row, row 0 at the bottom (GL)."""
+    y, x = np.mgrid[0:24, 0:32]
+    got = _run(gl, (0.2 + 0.01 * x + 0.02 * y).astype(np.float32), mode="window")["gradient"]
+    np.testing.assert_allclose(got[2:-2, 2:-2, 0], -0.08, atol=1e-5)
+    np.testing.assert_allclose(got[2:-2, 2:-2, 1], -0.16, atol=1e-5)
+
+
+def test_linear_depth_is_mapped_by_the_range(gl, depth):
+    near, far = 2.0, 6.0
+    lin = np.where(depth < 0.95 - 0.2, near + depth * (far - near), 0.0).astype(np.float32)  # 0 = background
+    got = _run(gl, lin, mode="linear", range=(near, far), threshold=0.05)
+    ref = depth_edges_ref(lin, 0.05, mode="linear", near=near, far=far)
+    np.testing.assert_allclose(got["gradient"], ref["gradient"], rtol=0, atol=1e-5)
+    assert ((got["edges"][..., 0] > 0.5) == ref["edges"]).mean() > 0.999
+
+
+def test_linear_depth_needs_a_camera_or_a_range(gl, depth):
+    with pytest.raises(ValueError, match="needs the scene's camera or an explicit `range`"):
+        _run(gl, depth, mode="linear")
+
+
+def test_params_are_validated():
+    with pytest.raises(ValidationError, match="far > near"):
+        DepthEdges.Params(range=(5.0, 2.0))
+    with pytest.raises(ValidationError):
+        DepthEdges.Params(threshold=0.0)
+    with pytest.raises(ValidationError):
+        DepthEdges.Params(mode="log")

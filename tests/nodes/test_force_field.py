@@ -1,0 +1,90 @@
+"""force_field on the GPU: float64 references, and the field of a depth disc circulating around its rim."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+from scipy import ndimage
+
+from nodes.depth_edges import DepthEdges
+from nodes.force_field import ForceField
+from nodes.force_field.reference import force_field as force_field_ref
+from nodes.particle_sketch import core, synthetic
+from tests.conftest import run_node
+
+SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)
+SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
+TENT9 = np.array([1, 2, 3, 4, 5, 4, 3, 2, 1], float)
+
+
+def _field(gl, depth: np.ndarray, **params) -> tuple[np.ndarray, np.ndarray]:
+    """(gradient, force) of a depth map in [0, 1] through depth_edges and force_field on the GPU."""
+    h, w = depth.shape
+    de = run_node(gl, DepthEdges("de", DepthEdges.Params(mode="window")),
+                  {"depth": gl.upload(depth.astype(np.float32), "R32F")}, (w, h), needed=frozenset({"gradient"}))
+    out = run_node(gl, ForceField("ff", ForceField.Params(**params)), {"gradient": de["gradient"]}, (w, h))
+    assert out["out"].fmt == "RG32F"
+    return de["gradient"].read().astype(np.float64), out["out"].read().astype(np.float64)
+
+
+def _disc_frame(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    y, x = np.mgrid[0:size, 0:size] + 0.5
+    dx, dy = x - size / 2, y - size / 2
+    r = np.hypot(dx, dy)
+    return r, dx / r, dy / r
+
+
+def test_matches_the_pseudocode_in_float64(gl):
+    d = synthetic.ellipsoids_depth((64, 90), [(30, 36, 22, 15, 20, 0.5, 0.1), (62, 22, 18, 24, -30, 0.3, 0.05)])
+    g, raw = _field(gl, d, saturate=0.0, clamp=0.3)
+    # ff1 - ff2 written out with SciPy from the (GPU) gradient: magnitude, clamp, 9x9 tent, Sobel, rotations
+    gx, gy = g[..., 0], g[..., 1]
+    b = ndimage.convolve(np.minimum(np.hypot(gx, gy), 0.3), np.outer(TENT9, TENT9) / 625.0, mode="nearest")
+    hx = ndimage.convolve(b, np.flipud(SEED_GX.T), mode="nearest")
+    hy = ndimage.convolve(b, np.flipud(SEED_GY.T), mode="nearest")
+    ff1 = np.stack([-1.0 * gy, 1.0 * gx], -1)
+    ff2 = np.stack([-1.0 * hy, 1.0 * hx], -1)
+    np.testing.assert_allclose(raw, ff1 - ff2, rtol=0, atol=1e-5)
+    # and against the particle core's float64 force field of the same depth
+    np.testing.assert_allclose(raw, core.force_field(d, clamp=0.3), rtol=0, atol=1e-5)
+    for restoring in ("rotated", "gradient"):
+        _, sat = _field(gl, d, saturate=0.03, restoring=restoring)
+        np.testing.assert_allclose(sat, force_field_ref(g, 1.0, 0.03, restoring), rtol=0, atol=1e-5)
+        assert np.hypot(sat[..., 0], sat[..., 1]).max() <= 1.0 + 1e-6
+
+
+def test_a_depth_disc_circulates_tangentially_around_its_rim(gl):
+    size, radius = 128, 40.0
+    _, ff = _field(gl, synthetic.disc_depth(size, radius, 0.5), saturate=0.0)
+    r, ux, uy = _disc_frame(size)
+    radial = ff[..., 0] * ux + ff[..., 1] * uy
+    tangential = ff[..., 0] * -uy + ff[..., 1] * ux  # counter-clockwise positive
+    rim = np.abs(r - (radius + 1.0)) <= 1.0  # the rim and the ring just outside it
+    assert rim.sum() > 500
+    assert (tangential[rim] < 0).all()  # clockwise all the way round
+    assert np.abs(radial[rim]).mean() < 0.1 * np.abs(tangential[rim]).mean()
+    far = (r < radius - 12) | (r > radius + 12)
+    assert np.abs(ff[far]).max() < 1e-6  # no force away from edges
+
+
+def test_restoring_gradient_pulls_towards_the_rim(gl):
+    size, radius = 128, 40.0
+    _, ff = _field(gl, synthetic.disc_depth(size, radius, 0.5), restoring="gradient")
+    r, ux, uy = _disc_frame(size)
+    radial = ff[..., 0] * ux + ff[..., 1] * uy
+    inside = np.abs(r - (radius - 4.0)) <= 0.5
+    outside = np.abs(r - (radius + 5.0)) <= 0.5
+    assert (radial[inside] > 0).all() and (radial[outside] < 0).all()  # both sides point at the ridge
+    _, rot = _field(gl, synthetic.disc_depth(size, radius, 0.5), restoring="rotated")
+    rot_radial = rot[..., 0] * ux + rot[..., 1] * uy
+    assert np.abs(rot_radial[inside | outside]).mean() < 0.1 * np.abs(radial[inside | outside]).mean()
+
+
+def test_params_are_validated():
+    with pytest.raises(ValidationError):
+        ForceField.Params(clamp=0.0)
+    with pytest.raises(ValidationError):
+        ForceField.Params(saturate=-1.0)
+    with pytest.raises(ValidationError):
+        ForceField.Params(restoring="normal")
