@@ -1,5 +1,142 @@
-"""particle_sketch: Curtis' loose and sketchy particle drawing from a depth map (seed 004).
+"""particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
 
-The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`; the node
-class that wraps it comes with the engine. `python -m nodes.particle_sketch.bench` measures it.
+The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`; this node wraps
+its lock-step NumPy sketcher. `python -m nodes.particle_sketch.bench` measures the core on synthetic
+depth, `sketchgraph bench particles` the node chain on a real scene (docs/particles.md).
 """
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import STROKES, Texture
+from nodegraph.values import Strokes
+
+from . import core
+
+Color = tuple[float, float, float]
+_CORE_FIELDS = ("strokes", "n", "m", "mass", "drag", "randomness", "step", "max_steps", "line_width",
+                "erase_width", "integrator", "retries", "batch")
+
+
+class ParticleSketch(Node):
+    """Draws a fixed number of strokes, one particle each (seed 004). A particle starts at a random
+    position that is within `n` px of an edge pixel and not within `m` px of a drawn line (at most
+    `retries` tries; when none is found the drawing is complete and the run ends early). From rest it
+    moves with acceleration (ff - drag v + r) / mass, r a random force of amplitude `randomness` per
+    component, integrated by RK4 (or Euler) with time step `step`; each step draws an antialiased segment
+    `line_width` wide and erases the same segment from the edge map, so an edge is not traced twice. It
+    dies when it leaves the image, when it is no longer within `n` px of a remaining edge pixel, or after
+    `max_steps` steps.
+
+    The method is sequential: each particle erases what the next would trace. `batch` particles advance in
+    lock-step with NumPy; every lock-step inks and erases all its segments before the next one, and a
+    finished lane restarts at once against the maps as they are then (batch 1 = strictly sequential, equal
+    to the pure-Python reference). Concurrent strokes do not see each other's start, so batching adds
+    parallel strokes: docs/particles.md measures what it changes.
+
+    Random numbers come from the pipeline seed, the node id, `seed` and the frame the seeds are held from:
+    frame // hold * hold (`hold` 1: new strokes every frame, the classic squiggle; k: the same particle seeds
+    for k frames; 0: never new ones). Within a hold the drawing changes only where its inputs do, and the
+    node's key is the same, so held frames come from the cache."""
+
+    version = "1"
+    shaders = ("particle_sketch.glsl",)
+    context_keys = frozenset({"size", "seed"})
+    inputs = {
+        "edges": Input(Texture("R8"), "Binary edge map, 1 = ink needed (depth_edges.edges)."),
+        "force": Input(Texture("RG32F"), "Force field in pixels, x right, y up (force_field.out)."),
+    }
+    outputs = {
+        "image": Output(Texture("RGBA8"), "The drawing: `color` lines on `paper`, alpha 1."),
+        "ink": Output(Texture("R8"), "Ink coverage in [0, 1] (antialiased), for compositing (composite.mask)."),
+        "strokes": Output(STROKES, "One polyline per stroke, the particle positions in pixels (x right, y up); "
+                          "strokes_svg writes them as SVG."),
+        "remaining": Output(Texture("R8"), "The edge map left after erasing (1 = never traced)."),
+    }
+
+    class Params(NodeParams):
+        strokes: int = Field(2000, ge=0, le=1_000_000, description="Particles to launch; fewer are drawn when "
+                             "the edge map runs out of valid starts first.")
+        n: float = Field(2.0, ge=0, le=32, allow_inf_nan=False, description="A start, and every later position, "
+                         "must be within n px of a remaining edge pixel.")
+        m: float = Field(2.0, ge=0, le=32, allow_inf_nan=False, description="A start must not be within m px "
+                         "of a drawn line.")
+        mass: float = Field(6.0, gt=0, allow_inf_nan=False, description="Particle mass: more is more inertia "
+                            "(strokes overshoot corners and curves).")
+        drag: float = Field(1.0, ge=0, allow_inf_nan=False, description="Drag coefficient: more keeps strokes "
+                            "closer to the edge map (and slower: speed about 1 / drag px per unit time).")
+        randomness: float = Field(0.35, ge=0, allow_inf_nan=False, description="Amplitude of the random force "
+                                  "per component (drawn anew each step): livelier, wobblier strokes.")
+        step: float = Field(3.0, gt=0, le=64, allow_inf_nan=False, description="Time step; with the saturated "
+                            "force field a particle moves about step / drag px per step.")
+        max_steps: int = Field(25, ge=1, le=100_000, description="Steps after which a stroke ends anyway.")
+        line_width: float = Field(1.2, gt=0, le=16, allow_inf_nan=False, description="Ink line width in px "
+                                  "(antialiased).")
+        erase_width: float | None = Field(None, ge=0, le=32, allow_inf_nan=False, description="Width erased "
+                                          "from the edge map along each segment; default: line_width. Keep it "
+                                          "below 2 n.")
+        color: Color = Field((0.1, 0.1, 0.12), description="Line colour (RGB, 0..1).")
+        paper: Color = Field((0.98, 0.97, 0.94), description="Paper colour of `image` (RGB, 0..1).")
+        integrator: Literal["rk4", "euler"] = Field("rk4", description="Classic RK4, or explicit Euler (cheaper, "
+                                                    "drifts more off curved edges).")
+        hold: int = Field(1, ge=0, le=100_000, description="Keep the particle seeds for this many frames (1: "
+                          "new strokes every frame; 0: never new ones).")
+        seed: int = Field(0, ge=0, le=2**32 - 1, description="Mixed into the seed from the pipeline seed and the "
+                          "node id: another drawing with the same pipeline.")
+        batch: int = Field(256, ge=1, le=65_536, description="Particles advanced in lock-step (1 = strictly "
+                           "sequential; larger is faster and adds parallel strokes).")
+        retries: int = Field(5000, ge=1, le=10_000_000, description="Random start positions tried per stroke "
+                             "before the drawing counts as complete.")
+
+    def core_params(self) -> core.ParticleParams:
+        return core.ParticleParams(**{name: getattr(self.params, name) for name in _CORE_FIELDS})
+
+    def seed_frame(self, frame: int) -> int:
+        """The frame whose seed the particles use at `frame`."""
+        hold = self.params.hold
+        return 0 if hold == 0 else frame // hold * hold
+
+    def hash_extra(self, ctx: Any) -> Any:
+        return {"seed_frame": self.seed_frame(ctx.frame)}
+
+    def rng(self, ctx: Any) -> np.random.Generator:
+        return np.random.default_rng([ctx.seed_for_frame(self.seed_frame(ctx.frame)), self.params.seed])
+
+    def simulate(self, ctx: Any, edges: Any, force: Any) -> core.SketchResult:
+        """Read back the edge map and the field, and draw (CPU)."""
+        if edges.size != force.size:
+            raise ValueError(f"node '{self.id}': inputs 'edges' {edges.size[0]}x{edges.size[1]} and 'force' "
+                             f"{force.size[0]}x{force.size[1]} differ in size; feed both from one depth map")
+        e = edges.read()[..., 0] >= 0.5
+        ff = force.read()[..., :2].astype(np.float64)
+        return core.simulate(e, ff, self.core_params(), self.rng(ctx))
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        gl = ctx.gl
+        res = self.simulate(ctx, inputs["edges"], inputs["force"])
+        size = inputs["edges"].size
+        out: dict[str, Any] = {}
+        if "strokes" in needed:
+            out["strokes"] = Strokes(list(res.strokes), size, p.line_width, p.color)
+        if "remaining" in needed:
+            out["remaining"] = gl.upload(res.edges.astype(np.float32), ctx.format("remaining"), filter="nearest")
+        if "ink" in needed or "image" in needed:
+            ink = gl.upload(res.sketch, ctx.format("ink"))
+            if "image" in needed:
+                out["image"] = ctx.target("image", size)
+                gl.fullscreen(ctx.program("particle_sketch.glsl"), [out["image"]], textures={"t_ink": ink},
+                              uniforms={"u_color": tuple(p.color), "u_paper": tuple(p.paper)})
+            if "ink" in needed:
+                out["ink"] = ink
+            else:
+                gl.release(ink)
+        return out
+
+
+NODE = ParticleSketch

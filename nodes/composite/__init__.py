@@ -1,0 +1,60 @@
+"""composite: lay an image or an ink mask over (or multiply it onto) a colour image."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import Texture
+
+Color = tuple[float, float, float]
+
+
+class Composite(Node):
+    """Plain compositing of one layer onto `base`, pixel by pixel (all inputs the same size). The layer's
+    colour is `top`'s RGB, or the `color` param when `top` is not connected; its alpha is `mask`'s red
+    channel when connected (an ink coverage such as particle_sketch.ink), else `top`'s alpha; both times
+    `opacity`. `over`: rgb = mix(base, layer, a), alpha = a + base alpha (1 - a) (straight alpha).
+    `multiply`: rgb = base x mix(1, layer, a), alpha = base alpha (dark ink darkens, white leaves the base
+    unchanged)."""
+
+    version = "1"
+    shaders = ("composite.glsl",)
+    inputs = {
+        "base": Input(Texture("RGBA8"), "The image underneath (e.g. sketch.color)."),
+        "top": Input(Texture("RGBA8"), "The layer's colour and, without `mask`, its alpha.", optional=True),
+        "mask": Input(Texture("R8"), "The layer's alpha (e.g. particle_sketch.ink).", optional=True),
+    }
+    outputs = {"color": Output(Texture("RGBA8"), "The composite.")}
+
+    class Params(NodeParams):
+        mode: Literal["over", "multiply"] = Field("over", description="over: the layer covers the base by its "
+                                                  "alpha; multiply: the layer darkens the base.")
+        color: Color = Field((0.1, 0.1, 0.12), description="Layer colour when `top` is not connected (RGB, 0..1).")
+        opacity: float = Field(1.0, ge=0, le=1, description="Multiplies the layer's alpha.")
+
+    @classmethod
+    def check_connections(cls, connected: set[str]) -> str | None:
+        if not connected & {"top", "mask"}:
+            return "connect `top` (an RGBA layer), `mask` (an alpha such as particle_sketch.ink), or both"
+        return None
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        base = inputs["base"]
+        for name in ("top", "mask"):
+            if name in inputs and inputs[name].size != base.size:
+                raise ValueError(f"node '{self.id}': input '{name}' is {inputs[name].size[0]}x{inputs[name].size[1]}"
+                                 f", 'base' is {base.size[0]}x{base.size[1]}; composite needs equal sizes")
+        defines = {"MODE": int(p.mode == "multiply"), "HAS_TOP": int("top" in inputs),
+                   "HAS_MASK": int("mask" in inputs)}
+        out = ctx.target("color", base.size)
+        ctx.gl.fullscreen(ctx.program("composite.glsl", defines), [out],
+                          textures={f"t_{name}": inputs[name] for name in ("base", "top", "mask") if name in inputs},
+                          uniforms={"u_color": tuple(p.color), "u_opacity": p.opacity})
+        return {"color": out}
+
+
+NODE = Composite

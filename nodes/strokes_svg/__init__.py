@@ -1,0 +1,38 @@
+"""strokes_svg: save strokes as an SVG drawing (one path per stroke) when the pipeline runs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import Field
+
+from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.types import FILE, STROKES
+
+
+class StrokesSvg(Node):
+    """Writes its strokes to `path` (relative to the current directory; `####` becomes the frame number) as
+    an SVG document, one `<path>` per stroke in the strokes' colour and width, y flipped so it looks like
+    the image: a drawing to edit in a vector program. Outputs the path written. Like `write`, it always
+    runs when its output is requested, even when the strokes come from the cache."""
+
+    version = "1"
+    context_keys = frozenset({"size", "frame"})
+    persist = "never"
+    side_effect = True
+    inputs = {"strokes": Input(STROKES, "Polylines in pixels, y up (particle_sketch.strokes).")}
+    outputs = {"file": Output(FILE, "The path written.")}
+
+    class Params(NodeParams):
+        path: str = Field(description="SVG file to write (must end in .svg); #### = frame number.")
+
+    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        from nodegraph.cli import frame_path, write_value
+
+        path = frame_path(self.params.path, ctx.frame, False)
+        if path.suffix.lower() != ".svg":
+            raise ValueError(f"node '{self.id}': path {self.params.path!r}: expected a file ending in .svg")
+        return {"file": write_value(inputs["strokes"], path)}
+
+
+NODE = StrokesSvg
