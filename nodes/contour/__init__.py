@@ -110,7 +110,7 @@ class Contour(Node):
         light = view_light(ctx.scene, ctx.camera) if ctx.scene is not None else np.array([0.0, 0.0, 1.0])
         uniforms = {"u_light": tuple(float(c) for c in light), "u_tone": p.tone, "u_light_weight": p.light_weight,
                     "u_grain": p.grain, "u_pressure": self.pressures(ctx.seed, layers).astype(np.float32),
-                    "u_paper": p.paper_color, "u_graphite": p.graphite_color, "u_paper_tint": p.paper_tint}
+                    "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint}
         fbo = ctx.gl.framebuffer([targets[port] for port in ports])
         box = None
         if ctx.scene is not None and "color" not in targets:

@@ -15,8 +15,8 @@ uniform float u_tone;                 // darkness of one full-pressure attempt o
 uniform float u_light_weight;         // how much the light lightens the line
 uniform float u_grain;                // paper grain strength
 uniform float u_pressure[LAYERS];     // per-attempt pressure in (0, 1]
-uniform vec3 u_paper;                 // paper colour
-uniform vec3 u_graphite;              // graphite colour
+uniform vec3 u_paper_color;           // paper colour
+uniform vec3 u_graphite_color;        // graphite colour
 uniform float u_paper_tint;           // visibility of the paper relief on bare paper
 #ifdef LOC_OUT
 layout(location = LOC_OUT) out float o_out;
@@ -59,11 +59,11 @@ void main() {
     o_out = value;
 #endif
 #ifdef LOC_COLOR
-    vec3 paper = u_paper;
+    vec3 paper = u_paper_color;
 #if PAPER
     paper *= 1.0 - u_paper_tint * (1.0 - grain.w);  // valleys of the tooth read slightly darker
 #endif
-    o_color = vec4(mix(u_graphite, paper, value), 1.0);
+    o_color = vec4(mix(u_graphite_color, paper, value), 1.0);
 #endif
 }
 #endif
