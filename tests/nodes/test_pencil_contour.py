@@ -130,3 +130,11 @@ def test_color_is_graphite_on_paper(gl):
     upper = g + (pc - g) * v
     assert np.all(color[..., :3] >= lower - 2e-3) and np.all(color[..., :3] <= upper + 2e-3)
     assert np.all(color[..., 3] == 1.0)
+
+
+def test_wrong_connection_is_a_load_error():
+    from nodegraph.errors import PortTypeError
+
+    bad = TEXT.replace("distortion: dist.out", "distortion: edges.out")
+    with pytest.raises(PortTypeError, match=r"input 'distortion': expected TextureArray\[RG16F\]"):
+        pl.loads(bad, "t.yaml")
