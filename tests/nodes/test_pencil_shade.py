@@ -248,3 +248,26 @@ def test_frame_loop_reuses_hatching_and_curvature(gl):
     counts = ex.compute_counts
     assert counts["tam"] == 1 and counts["curv"] == 1 and counts["paper"] == 1 and counts["distortion"] == 1
     assert counts["shade"] == 4 and counts["contour"] == 4 and counts["gbuf"] == 4
+
+
+def test_golden_pencil_torus(gl, request):
+    """pencil.yaml on builtin:torus at 128x96 against tests/golden/pencil_torus.exr (regenerate with
+    --regen-golden; a failure writes the image and a diff to tests/_failures/)."""
+    from nodegraph import imageio
+    from tests.conftest import FAILURES, GOLDEN
+
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(128, 96))
+    img = Executor(pipe, None, gl=gl).run().values[("shade", "color")].read()
+    golden = GOLDEN / "pencil_torus.exr"
+    if request.config.getoption("--regen-golden"):
+        imageio.write(golden, img)
+        pytest.skip(f"wrote {golden}")
+    assert golden.exists(), f"{golden} is missing: run pytest with --regen-golden"
+    want = imageio.read(golden)
+    diff = np.abs(img - want)
+    # llvmpipe versions may round bilinear weights differently: a tolerance, not bit equality
+    ok = diff.mean() < 0.01 and np.percentile(diff, 99) < 0.1
+    if not ok:
+        imageio.write(FAILURES / "pencil_torus.exr", img)
+        imageio.write(FAILURES / "pencil_torus_diff.exr", diff)
+    assert ok, f"mean {diff.mean():.4f}, p99 {np.percentile(diff, 99):.4f}; see {FAILURES}"
