@@ -26,6 +26,7 @@ NAMED: dict[str, str] = {
     "accuracy": "nodegraph.accuracy:command",
     "hatching": "nodegraph.bench_pencil:hatching_command",
     "curvature": "nodegraph.bench_pencil:curvature_command",
+    "particles": "nodegraph.bench_particles:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -183,3 +183,17 @@ def test_composite_needs_a_layer():
         "in: {base: shade.color, mask: particles.ink}", "in: {base: shade.color}")
     with pytest.raises(PipelineError, match="connect `top`"):
         pl.loads(text, "<t>", load_scene=False)
+
+
+def test_bench_particles_reports_the_figures(gl, tmp_path):
+    from nodegraph import bench
+    from nodegraph.bench_particles import run
+
+    assert bench.NAMED["particles"] == "nodegraph.bench_particles:command"
+    r = run("builtin:cloister", 300, (160, 160), repeat=1, python_repeat=1, overrides=("max_steps=10",),
+            out=tmp_path)
+    for key in ("strokes", "seconds", "coverage", "precision", "python_reference_seconds", "speedup_vs_python"):
+        assert key in r and r[key] > 0
+    assert r["requested_strokes"] == 300 and r["params"]["max_steps"] == 10
+    assert r["sequential_equals_python"]  # batch 1 draws exactly what the pure-Python reference draws
+    assert (tmp_path / "particles.png").exists() and (tmp_path / "particles.svg").exists()
