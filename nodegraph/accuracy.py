@@ -303,7 +303,7 @@ def curvature_errors(res: Any, kmin: np.ndarray, kmax: np.ndarray, dmin: np.ndar
     }
 
 
-def bench_curvature(quick: bool) -> dict[str, Any]:
+def bench_curvature(quick: bool, meshes_dir: Path | None = None) -> dict[str, Any]:
     from nodes.curvature.principal import compute_curvature
 
     tori = [(48, 12), (100, 25), (200, 50)] if quick else [(48, 12), (100, 25), (200, 50), (400, 100)]
@@ -328,7 +328,20 @@ def bench_curvature(quick: bool) -> dict[str, Any]:
         row = [e for e in entries if e["tessellation"] == tess and e["surface"] == surface]
         log(f"  curvature {surface} {tess} ({len(V)} v): p95 direction "
             + ", ".join(f"r{e['radius']} {e['direction_p95_deg']:.1f}deg" for e in row))
-    return {"entries": entries, "torus": {"R": TORUS_R, "r": TORUS_r}, "ellipsoid_abc": list(ELLIPSOID_ABC)}
+    shared = {}
+    if not quick and meshes_dir is not None:
+        from .meshes import load_mesh
+
+        for p in sorted(meshes_dir.glob("*.obj")):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                m = load_mesh(p)
+            t0 = time.perf_counter()
+            res = compute_curvature(m.vertices, m.faces)
+            shared[p.name] = {"vertices": m.n_vertices, "s": time.perf_counter() - t0, "fallbacks": res.counts}
+        log("  curvature on the shared meshes: " + ", ".join(f"{k} {v['s']:.2f}s" for k, v in shared.items()))
+    return {"entries": entries, "torus": {"R": TORUS_R, "r": TORUS_r}, "ellipsoid_abc": list(ELLIPSOID_ABC),
+            "shared_meshes": shared}
 
 
 # -- particles -----------------------------------------------------------------------------------
@@ -355,7 +368,7 @@ def bench_particles(meshes_dir: Path, quick: bool) -> dict[str, Any] | None:
         return {"skipped": f"particle core not importable: {exc}"}
     from .groundtruth import precision_recall
 
-    size = 400
+    size = 400 if quick else 800
     depth, spec, truth = particle_depth(meshes_dir, size)
     threshold = 0.03
     edges, ff = core.prepare(depth, threshold)
@@ -382,8 +395,10 @@ def bench_particles(meshes_dir: Path, quick: bool) -> dict[str, Any] | None:
         log(f"  particles {integrator}: " + ", ".join(
             f"{e['strokes']}@{e['step']:g} cov {e['coverage']:.2f} {e['s']:.1f}s"
             for e in entries if e["integrator"] == integrator)[:400])
+    base = core.ParticleParams()
     return {"entries": entries, "scene": spec, "size": size, "threshold": threshold,
-            "edge_pixels": int(edges.sum())}
+            "edge_pixels": int(edges.sum()),
+            "defaults": {k: getattr(base, k) for k in ("mass", "drag", "randomness", "step", "max_steps", "batch")}}
 
 
 # -- hatching ------------------------------------------------------------------------------------
@@ -515,7 +530,7 @@ def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, A
             result["edges"] = e.pop("entries")
             result["edges_info"] = e
         elif fam == "curvature":
-            c = bench_curvature(quick)
+            c = bench_curvature(quick, meshes_dir)
             result["curvature"] = c.pop("entries")
             result["curvature_info"] = c
         elif fam == "particles":

@@ -511,8 +511,11 @@ def sweep_broken_meshes(meshes_dir: Path) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         for name, path in broken_mesh_cases(Path(tmp), meshes_dir).items():
             r = broken_mesh_report(path)
-            if "message" in r:
-                r["message"] = r["message"].replace(str(Path(tmp)), "<tmp>")
+            for key in ("message", "warnings", "render_warnings"):  # no temporary folder names in the record
+                if isinstance(r.get(key), str):
+                    r[key] = r[key].replace(str(Path(tmp)), "<tmp>")
+                elif isinstance(r.get(key), list):
+                    r[key] = [w.replace(str(Path(tmp)), "<tmp>") for w in r[key]]
             cases[name] = r
             log(f"  broken {name}: {r['outcome']}" + (f" F1 {r['edges_f1']:.3f}" if "edges_f1" in r else "")
                 + (f" ({r.get('message', '')[:90]})" if "message" in r else ""))
@@ -534,10 +537,11 @@ def sweep_particles(meshes_dir: Path, quick: bool) -> dict[str, Any]:
 
     depth, _, _ = particle_depth(meshes_dir, 400)
     edges, ff = core.prepare(depth, 0.03)
+    base = core.ParticleParams()  # each sweep starts at the core's default and moves one parameter away
     sweeps = {
-        "drag": [2.0, 0.5, 0.1, 0.0] if quick else [2.0, 1.0, 0.5, 0.2, 0.1, 0.01, 0.0],
-        "randomness": [0.6, 10.0, 1000.0] if quick else [0.6, 2.0, 10.0, 100.0, 1000.0, 1e6],
-        "mass": [1.0, 1e-3, 1e-6] if quick else [1.0, 0.1, 1e-2, 1e-3, 1e-4, 1e-6],
+        "drag": [base.drag, 0.1, 0.0] if quick else [base.drag, 0.5, 0.2, 0.1, 0.01, 0.0],
+        "randomness": [base.randomness, 10.0, 1000.0] if quick else [base.randomness, 2.0, 10.0, 100.0, 1000.0, 1e6],
+        "mass": [base.mass, 0.1, 1e-6] if quick else [base.mass, 1.0, 0.1, 1e-2, 1e-3, 1e-6],
     }
     points = []
     for name, values in sweeps.items():
@@ -554,13 +558,14 @@ def sweep_particles(meshes_dir: Path, quick: bool) -> dict[str, Any]:
                            "segments": res.steps, "launched": res.launched, "s": sec, "finite": finite})
     log("  particles: " + ", ".join(f"{p['series']}={p['param']:g} F1 {p['value']:.2f} {p['s']:.1f}s"
                                     for p in points))
-    return _sweep("Particles at extreme parameters (400 strokes, cow.obj 400 px)",
+    defaults = {k: getattr(base, k) for k in ("mass", "drag", "randomness", "step", "max_steps", "integrator")}
+    return {**_sweep("Particles at extreme parameters (400 strokes, cow.obj 400 px)",
                   "parameter value (drag 0 drawn at 1e-3)", "F1 of coverage and precision", points, drop=0.2,
                   log_x=True,
                   finding="Without drag, with tiny mass or huge random forces particles leave the edges (or the "
                           "image) at once: coverage collapses but the run stays bounded.",
                   behaviour="simulate: strokes that leave the image or overflow end undrawn; finite ink, bounded "
-                            "time.")
+                            "time."), "defaults": defaults}
 
 
 def run_sweeps(meshes_dir: Path, quick: bool) -> dict[str, Any]:

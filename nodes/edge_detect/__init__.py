@@ -32,7 +32,8 @@ class EdgeDetect(Node):
     class Params(NodeParams):
         operator: Literal["four_neighbour", "sobel"] = Field(
             "four_neighbour", description="four_neighbour: 4 neighbours, depth by second differences (no "
-            "false edges on slanted planes); sobel: 3x3 Sobel of normal chords and relative depth.")
+            "false edges on slanted planes); sobel: 3x3 Sobel of normal chords and relative depth (its first "
+            "derivative marks planes seen at 85 degrees or more, e.g. a receding floor: see docs/stability.md).")
         mode: Literal["normal_depth", "normal", "depth"] = Field(
             "normal_depth", description="Which discontinuities make edges.")
         normal_threshold: float = Field(0.4, gt=0, le=2, description="Normal chord |n_a - n_b| above which an "
