@@ -269,8 +269,10 @@ def _read_exr(path: Path, key: str) -> Loaded:
 def _write_npz(path: str, kind: str, data: Any, key: str, port: str, meta: dict[str, Any], fmt: str | None) -> None:
     payload: dict[str, Any] = {"__meta__": np.array(json.dumps({**_meta_attrs(key, port, meta), "kind": kind,
                                                                  "fmt": fmt}))}
-    if kind == "texture_array":
-        payload["data"] = np.asarray(data, dtype=np.float32)
+    if kind == "texture_array":  # stored in the texture's own precision (8-bit tones stay 8-bit)
+        arr = np.asarray(data, dtype=np.float32)
+        dt = types.numpy_dtype(fmt) if fmt else np.dtype(np.float32)
+        payload["data"] = np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8) if dt == np.uint8 else arr.astype(dt)
     elif kind == "strokes":
         s: Strokes = data
         lengths = np.array([len(p) for p in s.polylines], dtype=np.int64)
@@ -296,7 +298,9 @@ def _read_npz(path: Path, key: str) -> Loaded:
             raise ValueError("header key does not match")
         kind = meta["kind"]
         if kind == "texture_array":
-            return Loaded(kind, np.array(z["data"]), meta.get("fmt"))
+            data = np.array(z["data"])
+            data = data.astype(np.float32) / 255.0 if data.dtype == np.uint8 else data.astype(np.float32)
+            return Loaded(kind, data, meta.get("fmt"))
         if kind == "strokes":
             pts, lengths = np.array(z["points"]), np.array(z["lengths"])
             splits = np.cumsum(lengths)[:-1]
