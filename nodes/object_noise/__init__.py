@@ -59,16 +59,11 @@ class ObjectNoise(Node):
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
-        perm = gl.resources.get("perlin_perm")
-        if perm is None:
-            perm = gl.ctx.texture((256, 1), 1, reference.perm_texture_bytes(), dtype="u1")
-            perm.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
-            gl.resources["perlin_perm"] = perm
         prog = ctx.program("object_noise.glsl")
         cell, frac = reference.seed_offset_parts(ctx.seed)
         size = inputs["position"].size
         out = ctx.target("out", size)
-        gl.fullscreen(prog, [out], textures={"t_position": inputs["position"], "t_perm": perm},
+        gl.fullscreen(prog, [out], textures={"t_position": inputs["position"]},
                       uniforms={"u_scale": float(np.float32(self.frequency(ctx.scene))),
                                 "u_seed_cell": tuple(int(c) for c in cell),
                                 "u_seed_frac": tuple(float(f) for f in frac),

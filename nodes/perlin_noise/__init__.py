@@ -48,18 +48,12 @@ class PerlinNoise(Node):
 
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
-        gl = ctx.gl
-        perm = gl.resources.get("perlin_perm")
-        if perm is None:
-            perm = gl.ctx.texture((256, 1), 1, reference.perm_texture_bytes(), dtype="u1")
-            perm.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
-            gl.resources["perlin_perm"] = perm
         prog = ctx.program("perlin_noise.glsl", {"KIND": 0 if p.kind == "perlin" else 1})
         seed = ctx.seed
         cell, frac = reference.seed_offset_parts(seed)
         out = ctx.target("out")
         w, h = ctx.size
-        ctx.gl.fullscreen(prog, [out], textures={"t_perm": perm},
+        ctx.gl.fullscreen(prog, [out],
                           uniforms={"u_scale_split": reference.split_scale(p.scale),
                                     "u_seed_cell": tuple(int(c) for c in cell),
                                     "u_seed_frac": tuple(float(f) for f in frac),
