@@ -95,6 +95,7 @@ class Rasterize(Node):
         mgl = gl.ctx
         mgl.enable(mgl.DEPTH_TEST)
         cam = scene.camera_at(ctx.frame)
+        _warn_depth_range_once(cam, "depth" in ports)
         view = cam.view_matrix()
         proj = cam.projection_matrix(w / h)
         light = np.asarray(scene.light_direction, dtype=np.float64)
@@ -225,6 +226,22 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0) -> np.ndarray:
 
 
 _WARNED: set[str] = set()
+# far/near beyond which float32 window depth no longer separates nearby surfaces (measured break at
+# 5e5 in docs/stability.md; linear view depth, used by edge_detect, holds to 1e6)
+DEPTH_RANGE_WARN = 1e5
+
+
+def _warn_depth_range_once(cam: Any, window_depth: bool) -> None:
+    ratio = cam.far / cam.near
+    key = f"depth-range:{ratio:.3g}:{window_depth}"
+    if ratio <= DEPTH_RANGE_WARN or key in _WARNED:
+        return
+    _WARNED.add(key)
+    what = ("window depth (rasterize.depth, used by depth sprites) loses precision beyond 1e5 and fails at 5e5"
+            if window_depth else "linear depth holds to about 1e6")
+    warnings.warn(f"camera far/near = {ratio:.3g}: {what}; bring the near plane closer to the geometry",
+                  RuntimeWarning, stacklevel=3)
+
 
 
 def _warn_enlarge_once(mesh: Any) -> None:

@@ -230,3 +230,21 @@ def test_object_noise_shape_format_and_port_type_error(gl):
     assert bad != text
     with pytest.raises(PipelineError, match="position"):
         pl.loads(bad, file="bad.yaml", load_scene=False)
+
+
+def test_a_huge_depth_range_warns_once(gl):
+    from nodegraph.scene import Camera
+    from nodes import rasterize as rmod
+
+    scene = load_scene("builtin:box")
+    cam = scene.camera_at(0)
+    wide = Camera(eye=cam.eye, target=cam.target, up=cam.up, fov_y_deg=cam.fov_y_deg, near=1e-5, far=cam.far)
+    rmod._WARNED.discard(f"depth-range:{wide.far / wide.near:.3g}:True")
+    with pytest.warns(RuntimeWarning, match="far/near = .*window depth"):
+        rmod._warn_depth_range_once(wide, True)
+    import warnings as w
+
+    with w.catch_warnings():
+        w.simplefilter("error")
+        rmod._warn_depth_range_once(wide, True)  # once only
+        rmod._warn_depth_range_once(cam, True)  # an ordinary range is silent
