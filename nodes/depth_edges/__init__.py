@@ -19,6 +19,13 @@ class DepthEdges(Node):
     edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
     s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
 
+    The seed thresholds a per-pixel gradient, so a sloped surface (a floor at a grazing angle) that stays
+    under the threshold at 800 px crosses it at 400 px, where each pixel spans twice the depth, and the
+    floor turns into edges. With `reference_height` (default 800) the gradient is expressed per pixel of
+    an image that tall: multiplied by height / reference_height. At 800 px this is the seed's computation
+    exactly; at other sizes slopes of the same steepness give the same edges, and a depth step counts when
+    s >= threshold / 3 x reference_height / height (smaller images keep only larger steps).
+
     The method wants depth in [0, 1] with 1 = background. `mode: linear` (default) takes
     rasterize.linear_depth (view distance, 0 = background) and maps [near, far] to [0, 1]: the same depth
     difference gives the same edge strength near and far. `mode: window` takes a depth that is already in
@@ -34,8 +41,8 @@ class DepthEdges(Node):
     }
     outputs = {
         "edges": Output(Texture("R8"), "Binary edge map: 1 where mag >= threshold, else 0."),
-        "gradient": Output(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth; feeds "
-                           "force_field."),
+        "gradient": Output(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth (times height / "
+                           "reference_height); feeds force_field."),
         "magnitude": Output(Texture("R32F"), "mag = sqrt(gx^2 + gy^2)."),
     }
 
@@ -46,6 +53,10 @@ class DepthEdges(Node):
         mode: Literal["linear", "window"] = Field(
             "linear", description="linear: the input is linear view depth (0 = background), mapped to [0, 1] by "
             "`range`; window: the input already is depth in [0, 1] with 1 = background, used as it is.")
+        reference_height: int | None = Field(
+            800, ge=1, description="Express the gradient per pixel of an image this tall (times height / "
+            "reference_height), so `threshold` means the same slope at every size; None: per pixel of this "
+            "image, the seed's.")
         range: tuple[float, float] | None = Field(
             None, description="mode: linear only: the view distances mapped to 0 and 1 (clamped); default: the "
             "camera's near and far planes.")
@@ -66,6 +77,10 @@ class DepthEdges(Node):
                              "[near, far]; set range, or use mode: window for a depth in [0, 1]")
         return float(cam.near), float(cam.far)
 
+    def gradient_scale(self, height: int) -> float:
+        ref = self.params.reference_height
+        return 1.0 if ref is None else height / ref
+
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
@@ -83,7 +98,8 @@ class DepthEdges(Node):
             targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
                        for port in ports}
             gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
-                          textures={"t_blur": blur}, uniforms={"u_threshold": p.threshold})
+                          textures={"t_blur": blur},
+                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1])})
         finally:
             gl.release(blur)
         return targets

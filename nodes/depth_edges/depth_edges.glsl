@@ -2,7 +2,8 @@
 // Curtis' edge map (seed 004): 3x3 tent blur of the depth map, Sobel gradient, magnitude, threshold.
 // PASS 0: depth in [0, 1] (1 = background; DEPTH_MODE 1 converts linear view depth, 0 = background,
 //         with the near and far planes) blurred by [1 2 1; 2 4 2; 1 2 1] / 16, edge-clamped.
-// PASS 1: (gx, gy) = the seed's Sobel pair of the blurred depth, mag = |(gx, gy)|, edge = mag >= threshold.
+// PASS 1: (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height / reference height:
+//         per pixel of an image of the reference height), mag = |(gx, gy)|, edge = mag >= threshold.
 #if defined FRAGMENT_SHADER
 #if PASS == 0
 uniform sampler2D t_depth;
@@ -31,6 +32,7 @@ void main() {
 #include "seed_sobel.glsl"
 uniform sampler2D t_blur;
 uniform float u_threshold;
+uniform float u_scale;
 #ifdef LOC_EDGES
 layout(location = LOC_EDGES) out float o_edges;
 #endif
@@ -42,7 +44,7 @@ layout(location = LOC_MAGNITUDE) out float o_magnitude;
 #endif
 
 void main() {
-    vec2 g = seed_sobel(t_blur, ivec2(gl_FragCoord.xy));
+    vec2 g = seed_sobel(t_blur, ivec2(gl_FragCoord.xy)) * u_scale;
     float mag = sqrt(g.x * g.x + g.y * g.y);
 #ifdef LOC_EDGES
     o_edges = mag >= u_threshold ? 1.0 : 0.0;

@@ -16,8 +16,10 @@ def normalised_depth(depth: np.ndarray, mode: str = "window", near: float = 0.0,
 
 
 def depth_edges(depth: np.ndarray, threshold: float = 0.03, mode: str = "window", near: float = 0.0,
-                far: float = 1.0) -> dict[str, np.ndarray]:
-    """edges (bool), gradient (H, W, 2: the seed's gx, gy) and magnitude of a (H, W) depth map."""
-    gx, gy = core.sobel(core.tent3(normalised_depth(depth, mode, near, far)))
+                far: float = 1.0, reference_height: int | None = None) -> dict[str, np.ndarray]:
+    """edges (bool), gradient (H, W, 2: the seed's gx, gy, times H / reference_height if given) and magnitude
+    of a (H, W) depth map."""
+    scale = 1.0 if reference_height is None else np.shape(depth)[0] / reference_height
+    gx, gy = (scale * g for g in core.sobel(core.tent3(normalised_depth(depth, mode, near, far))))
     mag = np.sqrt(gx * gx + gy * gy)
     return {"edges": mag >= threshold, "gradient": np.stack([gx, gy], axis=-1), "magnitude": mag}

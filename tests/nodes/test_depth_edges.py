@@ -41,6 +41,7 @@ def depth() -> np.ndarray:
 
 
 def _run(gl, depth: np.ndarray, scene=None, **params) -> dict[str, np.ndarray]:
+    params.setdefault("reference_height", None)  # per pixel, as the seed
     node = DepthEdges("de", DepthEdges.Params(**params))
     h, w = depth.shape
     out = run_node(gl, node, {"depth": gl.upload(depth.astype(np.float32), "R32F")}, (w, h), scene=scene)
@@ -81,6 +82,21 @@ def test_linear_depth_is_mapped_by_the_range(gl, depth):
     ref = depth_edges_ref(lin, 0.05, mode="linear", near=near, far=far)
     np.testing.assert_allclose(got["gradient"], ref["gradient"], rtol=0, atol=1e-5)
     assert ((got["edges"][..., 0] > 0.5) == ref["edges"]).mean() > 0.999
+
+
+def test_reference_height_keeps_a_slope_the_same_at_every_size(gl):
+    """A plane seen at the same angle: twice the pixels, half the depth change per pixel."""
+    got = {}
+    for h in (200, 400, 800):
+        y, x = np.mgrid[0:h, 0:8]
+        plane = (0.2 + 0.5 * (y + 0.5) / h).astype(np.float32)  # 0.5 across the image height
+        got[h] = _run(gl, plane, mode="window", reference_height=800, threshold=0.004)
+        np.testing.assert_allclose(got[h]["gradient"][2:-2, 2:-2, 1], -8 * 0.5 / 800, rtol=1e-3)
+        assert (got[h]["edges"][2:-2] > 0.5).all()  # 0.005 >= 0.004 at every size
+    per_pixel = _run(gl, plane[::4], mode="window", reference_height=None)["gradient"]  # 200 px, the seed's
+    np.testing.assert_allclose(per_pixel[2:-2, 2:-2, 1], -8 * 0.5 / 200, rtol=1e-3)
+    ref = depth_edges_ref(plane[::4], 0.004, reference_height=800)
+    np.testing.assert_allclose(got[200]["gradient"], ref["gradient"], rtol=0, atol=1e-6)
 
 
 def test_linear_depth_needs_a_camera_or_a_range(gl, depth):

@@ -21,7 +21,7 @@ TENT9 = np.array([1, 2, 3, 4, 5, 4, 3, 2, 1], float)
 def _field(gl, depth: np.ndarray, **params) -> tuple[np.ndarray, np.ndarray]:
     """(gradient, force) of a depth map in [0, 1] through depth_edges and force_field on the GPU."""
     h, w = depth.shape
-    de = run_node(gl, DepthEdges("de", DepthEdges.Params(mode="window")),
+    de = run_node(gl, DepthEdges("de", DepthEdges.Params(mode="window", reference_height=None)),
                   {"depth": gl.upload(depth.astype(np.float32), "R32F")}, (w, h), needed=frozenset({"gradient"}))
     out = run_node(gl, ForceField("ff", ForceField.Params(**params)), {"gradient": de["gradient"]}, (w, h))
     assert out["out"].fmt == "RG32F"
