@@ -1,0 +1,49 @@
+"""composite against a float64 computation of over and multiply, with and without a mask."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from nodes.composite import Composite
+from tests.conftest import run_node
+
+W, H = 37, 23
+
+
+def _expected(mode: str, base: np.ndarray, layer: np.ndarray, a: np.ndarray) -> np.ndarray:
+    a = a[..., None]
+    if mode == "over":
+        return np.concatenate([base[..., :3] * (1 - a) + layer * a, a + base[..., 3:] * (1 - a)], axis=-1)
+    return np.concatenate([base[..., :3] * (1 - a + layer * a), base[..., 3:]], axis=-1)
+
+
+@pytest.mark.parametrize("mode", ["over", "multiply"])
+@pytest.mark.parametrize("inputs", ["top", "mask", "top+mask"])
+def test_matches_float64(gl, rng, mode, inputs):
+    q = lambda a: np.round(a * 255) / 255  # noqa: E731 - the RGBA8 / R8 quantisation of the uploads
+    base, top, mask = q(rng.random((H, W, 4))), q(rng.random((H, W, 4))), q(rng.random((H, W)))
+    ins = {"base": gl.upload(base, "RGBA8")}
+    if "top" in inputs:
+        ins["top"] = gl.upload(top, "RGBA8")
+    if "mask" in inputs:
+        ins["mask"] = gl.upload(mask, "R8")
+    params = Composite.Params(mode=mode, color=(0.2, 0.4, 0.6), opacity=0.75)
+    out = run_node(gl, Composite("c", params), ins, (W, H))["color"]
+    assert out.fmt == "RGBA8"
+    layer = top[..., :3] if "top" in inputs else np.broadcast_to(np.array([0.2, 0.4, 0.6]), (H, W, 3))
+    alpha = (mask if "mask" in inputs else top[..., 3] if "top" in inputs else 1.0) * 0.75
+    np.testing.assert_allclose(out.read(), _expected(mode, base, layer, alpha), atol=1.01 / 255)
+
+
+def test_errors(gl):
+    assert Composite.check_connections({"base"}) is not None
+    assert Composite.check_connections({"base", "mask"}) is None
+    small = gl.upload(np.zeros((5, 5)), "R8")
+    with pytest.raises(ValueError, match="composite needs equal sizes"):
+        run_node(gl, Composite("c"), {"base": gl.upload(np.zeros((H, W, 4)), "RGBA8"), "mask": small}, (W, H))
+    with pytest.raises(ValidationError):
+        Composite.Params(opacity=2.0)
+    with pytest.raises(ValidationError):
+        Composite.Params(mode="screen")
