@@ -630,3 +630,19 @@ def test_mesh_files_are_seen_from_their_most_revealing_side():
     long_z = primitives.box((1.0, 1.0, 4.0))
     d = best_view_direction(long_z)
     assert abs(d[2]) < 0.5 * abs(d[0])
+
+
+def test_hole_share_bounds_what_holes_can_show():
+    from nodegraph import primitives
+
+    assert primitives.box((1.0, 1.0, 1.0)).hole_share() == 0.0
+    # a unit square: one loop of length 4 over area 1 -> 16 / (4 pi)
+    assert primitives.plane(1.0, 4).hole_share() == pytest.approx(16 / (4 * np.pi), rel=1e-6)
+    # a torus with a thin slot cut out: one loop around the cut, small against the surface
+    t = primitives.torus(1.0, 0.3, 64, 24)
+    keep = np.ones(len(t.faces), bool)
+    keep[:4] = False
+    from nodegraph.meshes import Mesh
+
+    cut = Mesh("cut", t.vertices, t.faces[keep])
+    assert 0 < cut.hole_share() < 0.01
