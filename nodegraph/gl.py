@@ -108,6 +108,14 @@ class GL:
             return fbo
         return entry[0]
 
+    def depth_buffer(self, size: tuple[int, int]) -> Any:
+        """A depth renderbuffer of `size`, shared by the passes that need one (each clears or overwrites it)."""
+        key = ("depth_renderbuffer", (int(size[0]), int(size[1])))
+        rb = self.resources.get(key)
+        if rb is None:
+            rb = self.resources[key] = self.ctx.depth_renderbuffer(key[1])
+        return rb
+
     def upload(self, arr: np.ndarray, fmt: str, filter: str = "linear") -> Tex:
         """(H, W[, C]) array, row 0 = bottom, into a new texture of `fmt`."""
         h, w = arr.shape[:2]

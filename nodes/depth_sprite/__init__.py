@@ -71,9 +71,7 @@ class DepthSprite(Node):
         size = inputs["color"].size
         color = ctx.target("color", size)
         depth = ctx.target("depth", size, filter="nearest")
-        rb = gl.resources.get(("depth_renderbuffer", size))
-        if rb is None:
-            rb = gl.resources[("depth_renderbuffer", size)] = gl.ctx.depth_renderbuffer(size)
+        rb = gl.depth_buffer(size)
         fbo = gl.framebuffer([color, depth], rb)
         mgl = gl.ctx
         textures = {f"t_{port}": inputs[port] for port in ("color", "offsets", "depth") if port in inputs}

@@ -117,7 +117,7 @@ class PencilShade(Node):
         prog = ctx.program("pencil_shade.glsl", defines)
         w, h = ctx.size
         targets = {port: ctx.target(port, filter="nearest") for port in geo_ports}
-        fbo = gl.framebuffer([targets[port] for port in geo_ports], _depth_buffer(gl, (w, h)))
+        fbo = gl.framebuffer([targets[port] for port in geo_ports], gl.depth_buffer((w, h)))
         fbo.clear(depth=1.0)
         gl.framebuffer([targets["shade"]]).clear(1.0, 1.0, 1.0, 1.0)
         if "blend" in targets:
@@ -205,14 +205,6 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
         gl.resources[key] = smp
     return smp
 
-
-def _depth_buffer(gl: Any, size: tuple[int, int]) -> Any:
-    key = ("pencil_shade.depth", size)
-    rb = gl.resources.get(key)
-    if rb is None:
-        rb = gl.ctx.depth_renderbuffer(size)
-        gl.resources[key] = rb
-    return rb
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node_id: str) -> Any:

@@ -85,7 +85,7 @@ class Rasterize(Node):
         prog = ctx.program("rasterize.glsl", defines)
         targets = {p: ctx.target(p, filter="nearest" if p == "object_id" else "linear") for p in ports}
         w, h = ctx.size
-        depth_rb = _depth_buffer(gl, (w, h))
+        depth_rb = gl.depth_buffer((w, h))
         fbo = gl.framebuffer([targets[p] for p in ports], depth_rb)
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         for p in ports:  # buffers whose background is not zero get their own clear
@@ -163,14 +163,6 @@ def _set(prog: Any, name: str, value: Any) -> None:
     else:
         prog[name].value = value
 
-
-def _depth_buffer(gl: Any, size: tuple[int, int]) -> Any:
-    key = ("depth_renderbuffer", size)
-    rb = gl.resources.get(key)
-    if rb is None:
-        rb = gl.ctx.depth_renderbuffer(size)
-        gl.resources[key] = rb
-    return rb
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float]:
