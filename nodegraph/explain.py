@@ -61,6 +61,6 @@ def explain(ex: Any, frame: int = 0) -> str:
                 lines.append(f"      {port}: {node.outputs[port].type}")
     skipped = [n for n in pipe.nodes if n not in plan.order]
     if skipped:
-        lines.append(f"  not needed by the requested outputs: {', '.join(skipped)}")
+        lines.append(f"  not needed: {', '.join(skipped)} (no requested output depends on them)")
     lines.append(f"  texture memory: {total / 1024**2:.1f} MiB")
     return "\n".join(lines)
