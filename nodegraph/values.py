@@ -28,13 +28,20 @@ class Tex:
     def read(self) -> np.ndarray:
         """Read back as float32 (H, W, C); 8-bit formats are scaled to [0, 1]."""
         w, h = self.size
-        comps = types.components(self.fmt)
-        dt = types.numpy_dtype(self.fmt)
-        raw = np.frombuffer(self.texture.read(alignment=1), dtype=dt)  # type: ignore[attr-defined]
-        arr = raw.reshape(h, w, comps).astype(np.float32)
-        if dt == np.uint8:
-            arr /= 255.0
-        return arr
+        return _read(self.texture, (h, w, types.components(self.fmt)), self.fmt)
+
+
+def _read(texture: object, shape: tuple[int, ...], fmt: str) -> np.ndarray:
+    """One copy from GL into a writable array; float32 formats come back as they are."""
+    dt = types.numpy_dtype(fmt)
+    raw = np.empty(shape, dtype=dt)
+    texture.read_into(raw, alignment=1)  # type: ignore[attr-defined]
+    if dt == np.float32:
+        return raw
+    arr = raw.astype(np.float32)
+    if dt == np.uint8:
+        arr /= 255.0
+    return arr
 
 
 @dataclass(eq=False)
@@ -61,13 +68,7 @@ class TexArray:
     def read(self) -> np.ndarray:
         """(layers, H, W, C) float32."""
         w, h = self.size
-        comps = types.components(self.fmt)
-        dt = types.numpy_dtype(self.fmt)
-        raw = np.frombuffer(self.texture.read(alignment=1), dtype=dt)  # type: ignore[attr-defined]
-        arr = raw.reshape(self.layers, h, w, comps).astype(np.float32)
-        if dt == np.uint8:
-            arr /= 255.0
-        return arr
+        return _read(self.texture, (self.layers, h, w, types.components(self.fmt)), self.fmt)
 
 
 @dataclass(eq=False)
