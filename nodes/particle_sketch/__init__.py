@@ -44,7 +44,7 @@ class ParticleSketch(Node):
     for k frames; 0: never new ones). Within a hold the drawing changes only where its inputs do, and the
     node's key is the same, so held frames come from the cache."""
 
-    version = "1"
+    version = "2"
     shaders = ("particle_sketch.glsl",)
     context_keys = frozenset({"size", "seed"})
     inputs = {
@@ -129,7 +129,8 @@ class ParticleSketch(Node):
         if "remaining" in needed:
             out["remaining"] = gl.upload(res.edges.astype(np.float32), ctx.format("remaining"), filter="nearest")
         if "ink" in needed or "image" in needed:
-            ink = gl.upload(res.sketch, ctx.format("ink"))
+            # the ink at its planned format when it is an output; otherwise float32, uploaded as is
+            ink = gl.upload(res.sketch, ctx.format("ink") if "ink" in needed else "R32F")
             if "image" in needed:
                 out["image"] = ctx.target("image", size)
                 gl.fullscreen(ctx.program("particle_sketch.glsl"), [out["image"]], textures={"t_ink": ink},
