@@ -167,7 +167,6 @@ class Cache:
 
     def info(self) -> dict[str, Any]:
         ents = self.entries()
-        nodes: dict[str, int] = {}
         return {
             "root": str(self.root),
             "entries": len(ents),
@@ -175,7 +174,6 @@ class Cache:
             "limit": self.limit,
             "by_kind": {"exr": sum(1 for e in ents if e.path.suffix == ".exr"),
                         "npz": sum(1 for e in ents if e.path.suffix == ".npz")},
-            "nodes": nodes,
         }
 
     def prune(self, limit: int | None = None) -> tuple[int, int]:

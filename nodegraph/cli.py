@@ -401,11 +401,6 @@ def _mb(n: int) -> str:
 
 
 # -- bench ----------------------------------------------------------------------------------
-BENCHMARKS: dict[str, str] = {}  # name -> "module:function", filled by benchmark modules below
-
-
-class _BenchCommand(click.Command):
-    pass
 
 
 @main.command(context_settings={"ignore_unknown_options": True, "allow_extra_args": True})
