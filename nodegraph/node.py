@@ -87,9 +87,8 @@ class Node:
         self.id = node_id
         self.params = params if params is not None else self.Params()
 
-    @classmethod
-    def check_connections(cls, connected: set[str]) -> str | None:
-        """At load time: a message if this set of connected inputs cannot work (override), else None."""
+    def check_connections(self, connected: set[str]) -> str | None:
+        """At load time: a message if these connected inputs (with these params) cannot work (override)."""
         return None
 
     def passthrough(self, connected: set[str]) -> dict[str, str]:

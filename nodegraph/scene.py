@@ -627,14 +627,18 @@ def best_view_direction(mesh: Mesh, elevation_deg: float = 25.0, azimuths: int =
     return dirs[int(np.argmax(visible))]
 
 
-def mesh_scene(path: str | Path) -> Scene:
-    """One sketchy object from a mesh file, seen from its most revealing side (best_view_direction),
-    framed, with a 6 degrees/frame orbit about +Y."""
-    mesh = load_mesh(path)
+def scene_for_mesh(mesh: Mesh, source: str | None = None) -> Scene:
+    """One sketchy object, seen from its most revealing side (best_view_direction), framed, with a
+    6 degrees/frame orbit about +Y."""
     lo, hi = mesh.bounds()
     camera = frame_camera(lo, hi, direction=best_view_direction(mesh))
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
-                 camera=camera, orbit=Orbit(), source=str(path))
+                 camera=camera, orbit=Orbit(), source=source or mesh.source)
+
+
+def mesh_scene(path: str | Path) -> Scene:
+    """A mesh file as a one-object scene (scene_for_mesh)."""
+    return scene_for_mesh(load_mesh(path), str(path))
 
 
 # --- built-in scenes ----------------------------------------------------------------------------

@@ -49,8 +49,7 @@ class DepthSprite(Node):
     class Params(NodeParams):
         paper: tuple[float, float, float] = Field((0.98, 0.97, 0.94), description="Colour where nothing is drawn.")
 
-    @classmethod
-    def check_connections(cls, connected: set[str]) -> str | None:
+    def check_connections(self, connected: set[str]) -> str | None:
         if ("under_color" in connected) != ("under_depth" in connected):
             return "connect both under_color and under_depth, or neither"
         if "sketch_depth" not in connected and not {"offsets", "depth"} <= connected:
