@@ -403,14 +403,17 @@ def _mb(n: int) -> str:
 # -- bench ----------------------------------------------------------------------------------
 
 
-@main.command(context_settings={"ignore_unknown_options": True, "allow_extra_args": True})
-@click.argument("target")
+@main.command(context_settings={"ignore_unknown_options": True, "allow_extra_args": True, "help_option_names": []})
+@click.argument("target", required=False)
 @click.pass_context
-def bench(ctx: click.Context, target: str) -> None:
+def bench(ctx: click.Context, target: str | None) -> None:
     """Benchmarks: `bench PIPELINE [--scene M] [--frames N] [--size WxH] [--json F]`, or a named one:
     shower-door, particles, accuracy, hatching, curvature (`bench NAME --help`)."""
     from . import bench as benchmod
 
+    if target in (None, "-h", "--help"):  # --help after a name goes to that benchmark
+        click.echo(ctx.get_help())
+        return
     command = benchmod.command_for(target)
     command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
 

@@ -102,3 +102,12 @@ def test_cache_info_and_prune(gl, cli, tmp_path: Path):
     r = cli("cache", "prune", "--max-size", "0")
     assert r.exit_code == 0 and "removed" in r.output
     assert json.loads(cli("cache", "info", "--json").output)["entries"] == 0
+
+
+def test_bench_help_reaches_the_named_benchmark(cli):
+    r = cli("bench", "accuracy", "--help")
+    assert r.exit_code == 0 and "sketchgraph bench accuracy" in r.output and "--families" in r.output
+    r = cli("bench", "--help")
+    assert r.exit_code == 0 and "shower-door, particles, accuracy" in r.output
+    r = cli("bench", "nope")
+    assert r.exit_code == 2 and "neither a pipeline file nor a named benchmark" in r.output
