@@ -203,9 +203,8 @@ def line_drawing(scene: Any, size: tuple[int, int], linear_depth: np.ndarray, fr
     view = cam.view_matrix()
     proj = cam.projection_matrix(w / h)
     seen = np.where(depth > 0.0, depth, np.inf)
-    footprint = 2.0 * np.tan(np.radians(cam.fov_y_deg) / 2.0) / h  # world size of a pixel per unit depth
-    tan_y = np.tan(np.radians(cam.fov_y_deg) / 2.0)
-    tan_x = tan_y * w / h
+    tan_x, tan_y = cam.tan_half(w / h)
+    footprint = 2.0 * tan_y / h  # world size of a pixel per unit depth
     by_kind = {k: np.zeros((h, w), bool) for k in KINDS}
     counts: dict[str, Any] = {f"{k}_edges": 0 for k in KINDS}
     counts.update(samples=0, visible_samples=0, inconsistent_edges=0)

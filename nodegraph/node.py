@@ -152,8 +152,9 @@ class HashContext:
             if self.scene is None:
                 return None
             cam = self.scene.camera_at(self.frame)
-            return digest([list(map(float, cam.eye)), list(map(float, cam.target)), list(map(float, cam.up)),
-                           cam.fov_y_deg, cam.near, cam.far])
+            # the matrices themselves, at this aspect: a change in how a camera projects changes the key
+            w, h = self.size
+            return digest([cam.view_matrix().tolist(), cam.projection_matrix(w / h).tolist()])
         raise KeyError(f"unknown context value {name!r}; known: {sorted(CONTEXT_KEYS)}")
 
 

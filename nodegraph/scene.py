@@ -143,13 +143,19 @@ class Camera:
         m[:3, 3] = -m[:3, :3] @ self.eye
         return m
 
+    def tan_half(self, aspect: float = 1.0) -> tuple[float, float]:
+        """tan of the half field of view across x and y. `fov_y_deg` spans the shorter image side, so a
+        framed subject stays in the picture whether the image is wide or tall."""
+        t = math.tan(math.radians(self.fov_y_deg) / 2.0)
+        return (t * aspect, t) if aspect >= 1.0 else (t, t / aspect)
+
     def projection_matrix(self, aspect: float = 1.0) -> np.ndarray:
         """Perspective projection to clip space; z_ndc in [-1, 1] maps near to -1 and far to +1."""
-        f = 1.0 / math.tan(math.radians(self.fov_y_deg) / 2.0)
+        tan_x, tan_y = self.tan_half(aspect)
         n, fa = self.near, self.far
         m = np.zeros((4, 4))
-        m[0, 0] = f / aspect
-        m[1, 1] = f
+        m[0, 0] = 1.0 / tan_x
+        m[1, 1] = 1.0 / tan_y
         m[2, 2] = (fa + n) / (n - fa)
         m[2, 3] = 2.0 * fa * n / (n - fa)
         m[3, 2] = -1.0
@@ -181,18 +187,17 @@ def near_far_for(eye: Any, center: Any, radius: float) -> tuple[float, float]:
 
 
 def frame_camera(bmin: Any, bmax: Any, fov_y_deg: float = 35.0, direction: Any = (0.55, 0.45, 1.0),
-                 aspect: float = 1.0, margin: float = 1.08, up: Any = (0.0, 1.0, 0.0)) -> Camera:
+                 margin: float = 1.08, up: Any = (0.0, 1.0, 0.0)) -> Camera:
     """A camera looking at the bounding box's centre from `direction` (target -> eye), far enough
-    that the bounding sphere (times `margin`) fits the narrower of the two fields of view."""
+    that the bounding sphere (times `margin`) fits the field of view, which spans the shorter image
+    side (Camera.tan_half): framed for every aspect ratio."""
     lo, hi = np.asarray(bmin, dtype=np.float64), np.asarray(bmax, dtype=np.float64)
     center = (lo + hi) / 2.0
     radius = float(np.linalg.norm(hi - lo)) / 2.0
     if not radius > 0.0:
         radius = max(float(np.abs(center).max()) * 1e-3, 1e-3)
     d = _unit(direction, "camera direction")
-    half_y = math.radians(fov_y_deg) / 2.0
-    half_x = math.atan(math.tan(half_y) * aspect)
-    dist = radius * margin / math.sin(min(half_y, half_x))
+    dist = radius * margin / math.sin(math.radians(fov_y_deg) / 2.0)
     eye = center + d * dist
     upv = np.asarray(up, dtype=np.float64)
     if np.linalg.norm(np.cross(d, upv)) < 1e-6:

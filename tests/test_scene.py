@@ -408,7 +408,7 @@ def test_camera_conventions() -> None:
 def test_frame_camera_fits_the_bounding_sphere(scale: float, aspect: float) -> None:
     lo = np.array([-0.6, 0.2, -0.4]) * scale + 7.0 * scale
     hi = np.array([0.4, 1.2, 0.4]) * scale + 7.0 * scale
-    cam = frame_camera(lo, hi, aspect=aspect)
+    cam = frame_camera(lo, hi)  # the field of view spans the shorter side: one camera fits every aspect
     center, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
     ndc = cam.project(sphere_points(center, radius), aspect)
     assert np.abs(ndc[:, :2]).max() <= 1.0
@@ -646,3 +646,15 @@ def test_hole_share_bounds_what_holes_can_show():
 
     cut = Mesh("cut", t.vertices, t.faces[keep])
     assert 0 < cut.hole_share() < 0.01
+
+
+def test_the_field_of_view_spans_the_shorter_side():
+    """A framed subject stays inside tall images as well as wide ones."""
+    from nodegraph.scene import Camera
+
+    cam = Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=40.0, near=1, far=10)
+    edge = np.tan(np.radians(20.0)) * 5  # a point at the edge of the field of view, at the target's depth
+    for aspect in (0.4, 1.0, 2.5):
+        ndc = cam.project([[edge, 0, 0], [0, edge, 0]], aspect)
+        assert max(abs(ndc[0, 0]), abs(ndc[1, 1])) == pytest.approx(1.0)  # the shorter side is exactly filled
+        assert abs(ndc[0, 0]) <= 1 + 1e-9 and abs(ndc[1, 1]) <= 1 + 1e-9
