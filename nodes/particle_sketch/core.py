@@ -397,8 +397,27 @@ class _Maps:
 
     def valid_mask(self) -> np.ndarray:
         """(H, W) pixels where a start is valid now: dilations by the n and m discs."""
-        near = _dilate_disc(self.edge, self.n, self.pad, self.h, self.w)
-        return near & ~_dilate_disc(self.ink >= LINE_LEVEL, self.m, self.pad, self.h, self.w)
+        near = self._dilate_flat(self.edge_f, self.n)
+        near &= ~self._dilate_flat(self.ink_f >= LINE_LEVEL, self.m)
+        p, w = self.pad, self.w
+        return near.reshape(self.h, self.wp)[:, p:p + w]
+
+    def _dilate_flat(self, src: np.ndarray, r: float) -> np.ndarray:
+        """`_dilate_disc` of the flat padded map `src` on whole padded rows pad .. pad + h (the window's
+        columns are exact: pad >= floor(r) + 2, so no run wraps into them), with contiguous 1D ORs."""
+        k = int(math.floor(r))
+        n, wp = src.size, self.wp
+        runs = [src[k:n - k]]  # runs[j][q - k] = OR of src[q - j .. q + j]
+        for j in range(1, k + 1):
+            runs.append(runs[-1] | src[k - j:n - k - j] | src[k + j:n - k + j])
+        q0, q1 = self.pad * wp - k, (self.pad + self.h) * wp - k
+        out = runs[k][q0:q1].copy()
+        for dy in range(1, k + 1):
+            kx = max(dx for dx in range(k + 1) if dx * dx + dy * dy <= r * r)
+            run = runs[kx]
+            out |= run[q0 - dy * wp:q1 - dy * wp]
+            out |= run[q0 + dy * wp:q1 + dy * wp]
+        return out
 
     def draw(self, a: np.ndarray, b: np.ndarray) -> None:
         """Ink and erase the segments a[k] -> b[k] (complex positions inside the image)."""
@@ -429,19 +448,25 @@ class _Maps:
 
 
 def _bilinear_np(fc: np.ndarray, w: int, h: int, p: np.ndarray) -> np.ndarray:
-    """Complex field fc (flat, row-major) sampled bilinearly between pixel centres at complex positions
-    p, clamped at the border. A NaN position gives NaN (its particle dies anyway)."""
-    u = np.minimum(np.maximum(p.real - 0.5, 0.0), w - 1.0)
-    v = np.minimum(np.maximum(p.imag - 0.5, 0.0), h - 1.0)
-    i = np.minimum(np.maximum(u.astype(np.int64), 0), w - 2)
-    j = np.minimum(np.maximum(v.astype(np.int64), 0), h - 2)
-    tx = u - i
-    ty = v - j
-    b = j * w + i
-    f00, f10, f01, f11 = fc[b], fc[b + 1], fc[b + w], fc[b + (w + 1)]
-    a0 = f00 + ty * (f01 - f00)  # column i, interpolated in y
-    a1 = f10 + ty * (f11 - f10)  # column i + 1
-    return a0 + tx * (a1 - a0)
+    """Complex field fc (flat, row-major; complex64 is widened exactly after the gather) sampled
+    bilinearly between pixel centres at complex positions p, clamped at the border. A NaN position
+    gives NaN (its particle dies anyway). x and y go through the same operations side by side."""
+    uv = np.ascontiguousarray(p).view(np.float64).reshape(-1, 2) - 0.5  # (u, v)
+    np.maximum(uv, 0.0, out=uv)
+    np.minimum(uv, (w - 1.0, h - 1.0), out=uv)
+    ij = uv.astype(np.int64)
+    np.maximum(ij, 0, out=ij)
+    np.minimum(ij, (w - 2, h - 2), out=ij)
+    t = uv - ij  # (tx, ty)
+    b = ij[:, 1] * w
+    b += ij[:, 0]
+    f = fc[b[:, None] + np.array((0, 1, w, w + 1))]  # f00, f10, f01, f11
+    if f.dtype != np.complex128:
+        f = f.astype(np.complex128)
+    lo = f[:, :2]
+    a = lo + t[:, 1:] * (f[:, 2:] - lo)  # columns i and i + 1, interpolated in y
+    a0 = a[:, 0]
+    return a0 + t[:, 0] * (a[:, 1] - a0)
 
 
 class _Dynamics:
@@ -450,7 +475,9 @@ class _Dynamics:
     def __init__(self, ff: np.ndarray, params: ParticleParams):
         h, w = ff.shape[:2]
         self.w, self.h = w, h
-        self.fc = np.ascontiguousarray(ff, np.float64).reshape(-1, 2).view(np.complex128)[:, 0]  # x + iy
+        # x + iy; float32 stays complex64 (5 MB instead of a 10 MB copy), widened after each gather
+        ffc = np.ascontiguousarray(ff, np.float32 if ff.dtype == np.float32 else np.float64)
+        self.fc = ffc.reshape(-1, 2).view(np.complex64 if ffc.dtype == np.float32 else np.complex128)[:, 0]
         self.dt, self.hdt, self.dt6 = params.step, 0.5 * params.step, params.step / 6.0
         self.drag, self.inv_mass, self.rnd = params.drag, 1.0 / params.mass, params.randomness
         self.rk4 = params.integrator == "rk4"
@@ -542,7 +569,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
     key = _draw_key(rng)
     maps = _Maps(edges, params)
     starts = _Starts(maps, key, params.retries)
-    dyn = _Dynamics(np.asarray(ff, np.float64), params)
+    dyn = _Dynamics(np.asarray(ff), params)
     nb = max(1, min(params.batch, params.strokes))
     group = max(1, nb // 16)
     max_steps = params.max_steps
@@ -554,7 +581,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
     fkey = np.zeros(nb, np.uint64)
     active = np.zeros(nb, bool)
     buf = np.zeros((nb, min(max_steps, 63) + 1), np.complex128)  # polylines; grows on demand
-    out: dict[int, np.ndarray] = {}
+    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (stroke ids, points, flat points)
     nxt = launched = total_steps = 0
     stopped = params.strokes == 0
     exhausted = False
@@ -604,15 +631,24 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
                 total_steps += a.size
                 alive[a] &= t + 1 < max_steps
             dead = np.flatnonzero(active & ~alive)
-            for lane in dead.tolist():
-                k = int(steps[lane]) + 1
-                if k >= 2:
-                    out[int(sid[lane])] = buf[lane, :k].view(np.float64).reshape(k, 2).astype(np.float32)
-            active[dead] = False
+            if dead.size:
+                k = steps[dead] + 1
+                drawn = k >= 2
+                d, k = dead[drawn], k[drawn]
+                if d.size:  # their polylines, lane by lane: buf[lane, :k]
+                    done.append((sid[d], k, buf[d][np.arange(buf.shape[1]) < k[:, None]]))
+                active[dead] = False
 
+    strokes: list[np.ndarray] = []
+    if done:  # one float32 array, sliced into the strokes in stroke order
+        ids, ks, pts = (np.concatenate(x) for x in zip(*done, strict=True))
+        pts = pts.view(np.float64).reshape(-1, 2).astype(np.float32)
+        ends = np.cumsum(ks)
+        order = np.argsort(ids)
+        strokes = [pts[i:j] for i, j in zip((ends - ks)[order].tolist(), ends[order].tolist(), strict=True)]
     p = maps.pad
     return SketchResult(sketch=maps.ink[p:p + h, p:p + w].astype(np.float32),
-                        edges=maps.edge[p:p + h, p:p + w].copy(), strokes=[out[s] for s in sorted(out)],
+                        edges=maps.edge[p:p + h, p:p + w].copy(), strokes=strokes,
                         launched=launched, steps=total_steps, exhausted=exhausted)
 
 
