@@ -385,6 +385,7 @@ class _Maps:
         self.hw = params.line_width / 2.0
         self.re = params.erase / 2.0
         self.reach = max(self.hw + 0.5, self.re)
+        self._scratch: dict = {}  # valid_mask's buffers
 
     def flat(self, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
         return (iy + self.pad) * self.wp + (ix + self.pad)
@@ -395,23 +396,39 @@ class _Maps:
     def near_ink(self, c: np.ndarray) -> np.ndarray:
         return (self.ink_f[c[:, None] + self.m_off] >= LINE_LEVEL).any(axis=1)
 
-    def valid_mask(self) -> np.ndarray:
-        """(H, W) pixels where a start is valid now: dilations by the n and m discs."""
-        near = self._dilate_flat(self.edge_f, self.n)
-        near &= ~self._dilate_flat(self.ink_f >= LINE_LEVEL, self.m)
+    def valid_mask(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(H, W) pixels where a start is valid now: dilations by the n and m discs (into `out`)."""
+        scratch = self._scratch
+        if not scratch:  # reused by every refresh: no large allocations (and page faults) per call
+            size, rows = self.edge_f.size, self.h * self.wp
+            k = int(math.floor(max(self.n, self.m)))
+            scratch.update(line=np.empty(size, bool), near=np.empty(rows, bool), inked=np.empty(rows, bool),
+                           runs=[np.empty(size, bool) for _ in range(k)])
+        line = np.greater_equal(self.ink_f, LINE_LEVEL, out=scratch["line"])
+        near = self._dilate_flat(self.edge_f, self.n, scratch["near"])
+        inked = self._dilate_flat(line, self.m, scratch["inked"])
+        near &= np.logical_not(inked, out=inked)
         p, w = self.pad, self.w
-        return near.reshape(self.h, self.wp)[:, p:p + w]
+        view = near.reshape(self.h, self.wp)[:, p:p + w]
+        if out is None:
+            return view.copy()
+        np.copyto(out.reshape(self.h, self.w), view)
+        return out
 
-    def _dilate_flat(self, src: np.ndarray, r: float) -> np.ndarray:
-        """`_dilate_disc` of the flat padded map `src` on whole padded rows pad .. pad + h (the window's
-        columns are exact: pad >= floor(r) + 2, so no run wraps into them), with contiguous 1D ORs."""
+    def _dilate_flat(self, src: np.ndarray, r: float, out: np.ndarray) -> np.ndarray:
+        """`_dilate_disc` of the flat padded map `src` into `out`, whole padded rows pad .. pad + h (the
+        window's columns are exact: pad >= floor(r) + 2, so no run wraps into them), with contiguous 1D
+        ORs."""
         k = int(math.floor(r))
         n, wp = src.size, self.wp
         runs = [src[k:n - k]]  # runs[j][q - k] = OR of src[q - j .. q + j]
         for j in range(1, k + 1):
-            runs.append(runs[-1] | src[k - j:n - k - j] | src[k + j:n - k + j])
+            run = self._scratch["runs"][j - 1][:n - 2 * k]
+            np.bitwise_or(runs[-1], src[k - j:n - k - j], out=run)
+            run |= src[k + j:n - k + j]
+            runs.append(run)
         q0, q1 = self.pad * wp - k, (self.pad + self.h) * wp - k
-        out = runs[k][q0:q1].copy()
+        np.copyto(out, runs[k][q0:q1])
         for dy in range(1, k + 1):
             kx = max(dx for dx in range(k + 1) if dx * dx + dy * dy <= r * r)
             run = runs[kx]
@@ -522,7 +539,9 @@ class _Starts:
         self.stale = True
 
     def _refresh(self) -> None:
-        self.valid = self.maps.valid_mask().reshape(-1)
+        if self.valid.size == 0:
+            self.valid = np.empty(self.maps.h * self.maps.w, bool)
+        self.maps.valid_mask(self.valid)
         self.frac = np.count_nonzero(self.valid) / self.valid.size
         self.tested = self.failed = 0
         self.stale = False
