@@ -301,11 +301,24 @@ def _unit_np(key: np.ndarray, i: np.ndarray) -> np.ndarray:
 
 def _point_np(key: np.ndarray, i: np.ndarray, w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
     """(hash z, flat pixel index) of `_point_py`'s points: the pixel is (hi32(z) w >> 32,
-    lo32(z) h >> 32), exactly the floor of the float coordinates (u32 * w < 2^53 is exact)."""
-    z = _mix_np(key + i * _GOLD_U)
-    ix = ((z >> _S32) * _U64(w)) >> _S32
-    iy = ((z & _LOW32) * _U64(h)) >> _S32
-    return z, (iy * _U64(w) + ix).astype(np.int64)
+    lo32(z) h >> 32), exactly the floor of the float coordinates (u32 * w < 2^53 is exact).
+    `_mix_np`'s operations, in place."""
+    z = key + i * _GOLD_U
+    z += _GOLD_U
+    z ^= z >> _S30
+    z *= _M1_U
+    z ^= z >> _S27
+    z *= _M2_U
+    z ^= z >> _S31
+    ix = z >> _S32
+    ix *= _U64(w)
+    ix >>= _S32
+    flat = z & _LOW32
+    flat *= _U64(h)
+    flat >>= _S32
+    flat *= _U64(w)
+    flat += ix
+    return z, flat.view(np.int64)  # < 2^63
 
 
 def _point_of(z: np.ndarray, w: int, h: int) -> np.ndarray:
@@ -464,26 +477,34 @@ class _Maps:
         self.edge_f[c[d <= self.re]] = False
 
 
-def _bilinear_np(fc: np.ndarray, w: int, h: int, p: np.ndarray) -> np.ndarray:
+def _bilinear_np(fc: np.ndarray, w: int, h: int, p: np.ndarray,
+                 consts: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Complex field fc (flat, row-major; complex64 is widened exactly after the gather) sampled
     bilinearly between pixel centres at complex positions p, clamped at the border. A NaN position
-    gives NaN (its particle dies anyway). x and y go through the same operations side by side."""
+    gives NaN (its particle dies anyway). x and y go through the same operations side by side.
+    `consts` is `_bilinear_consts(w, h)`, precomputed."""
+    umax, imax, corners = consts if consts is not None else _bilinear_consts(w, h)
     uv = np.ascontiguousarray(p).view(np.float64).reshape(-1, 2) - 0.5  # (u, v)
     np.maximum(uv, 0.0, out=uv)
-    np.minimum(uv, (w - 1.0, h - 1.0), out=uv)
+    np.minimum(uv, umax, out=uv)
     ij = uv.astype(np.int64)
     np.maximum(ij, 0, out=ij)
-    np.minimum(ij, (w - 2, h - 2), out=ij)
+    np.minimum(ij, imax, out=ij)
     t = uv - ij  # (tx, ty)
     b = ij[:, 1] * w
     b += ij[:, 0]
-    f = fc[b[:, None] + np.array((0, 1, w, w + 1))]  # f00, f10, f01, f11
+    f = fc[b[:, None] + corners]  # f00, f10, f01, f11
     if f.dtype != np.complex128:
         f = f.astype(np.complex128)
     lo = f[:, :2]
     a = lo + t[:, 1:] * (f[:, 2:] - lo)  # columns i and i + 1, interpolated in y
     a0 = a[:, 0]
     return a0 + t[:, 0] * (a[:, 1] - a0)
+
+
+def _bilinear_consts(w: int, h: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`_bilinear_np`'s bounds of (u, v) and (i, j), and the flat offsets of the four corners."""
+    return np.array((w - 1.0, h - 1.0)), np.array((w - 2, h - 2), np.int64), np.array((0, 1, w, w + 1), np.int64)
 
 
 class _Dynamics:
@@ -498,6 +519,7 @@ class _Dynamics:
         self.dt, self.hdt, self.dt6 = params.step, 0.5 * params.step, params.step / 6.0
         self.drag, self.inv_mass, self.rnd = params.drag, 1.0 / params.mass, params.randomness
         self.rk4 = params.integrator == "rk4"
+        self.consts = _bilinear_consts(w, h)
 
     def force(self, fkey: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The random force of step t of the streams fkey (complex)."""
@@ -505,7 +527,7 @@ class _Dynamics:
         return (self.rnd * (2.0 * u - 1.0)).view(np.complex128)[:, 0]
 
     def acc(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
-        return (_bilinear_np(self.fc, self.w, self.h, p) - self.drag * v + r) * self.inv_mass
+        return (_bilinear_np(self.fc, self.w, self.h, p, self.consts) - self.drag * v + r) * self.inv_mass
 
     def step(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         dt, hdt = self.dt, self.hdt
