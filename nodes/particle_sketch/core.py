@@ -451,21 +451,32 @@ class _Maps:
 
     def draw(self, a: np.ndarray, b: np.ndarray) -> None:
         """Ink and erase the segments a[k] -> b[k] (complex positions inside the image)."""
-        ax, ay, bx, by = a.real, a.imag, b.real, b.imag
+        pa = np.ascontiguousarray(a).view(np.float64).reshape(-1, 2)  # (ax, ay)
+        pb = np.ascontiguousarray(b).view(np.float64).reshape(-1, 2)
         r = self.reach
-        i0 = np.ceil(np.minimum(ax, bx) - 0.5 - r).astype(np.int64)
-        j0 = np.ceil(np.minimum(ay, by) - 0.5 - r).astype(np.int64)
-        nx = np.floor(np.maximum(ax, bx) - 0.5 + r).astype(np.int64) - i0 + 1
-        cnt = nx * (np.floor(np.maximum(ay, by) - 0.5 + r).astype(np.int64) - j0 + 1)
-        sdx, sdy = bx - ax, by - ay
+        lo = np.minimum(pa, pb)
+        lo -= 0.5
+        lo -= r
+        ij0 = np.ceil(lo, out=lo).astype(np.int64)  # (i0, j0)
+        hi = np.maximum(pa, pb)
+        hi -= 0.5
+        hi += r
+        nxy = np.floor(hi, out=hi).astype(np.int64)
+        nxy -= ij0
+        nxy += 1  # (nx, ny): the box of candidate pixels
+        nx = nxy[:, 0]
+        cnt = nx * nxy[:, 1]
+        sd = b - a  # (bx - ax) + i (by - ay)
+        sdx, sdy = sd.real, sd.imag
         l2 = sdx * sdx + sdy * sdy
         l2 = np.where(l2 > 0.0, l2, 1.0)  # a zero-length segment has t = 0 / 1
         seg = np.repeat(np.arange(a.size), cnt)  # segment of each candidate pixel
         qy, qx = np.divmod(np.arange(seg.size) - (np.cumsum(cnt) - cnt)[seg], nx[seg])
-        i = i0[seg] + qx
-        j = j0[seg] + qy
-        dx, dy = sdx[seg], sdy[seg]
-        ex, ey = (i + 0.5) - ax[seg], (j + 0.5) - ay[seg]
+        i = ij0[:, 0][seg] + qx
+        j = ij0[:, 1][seg] + qy
+        ds, az = sd[seg], a[seg]
+        dx, dy = ds.real, ds.imag
+        ex, ey = (i + 0.5) - az.real, (j + 0.5) - az.imag
         t = np.minimum(np.maximum((ex * dx + ey * dy) / l2[seg], 0.0), 1.0)
         ex = ex - t * dx
         ey = ey - t * dy
