@@ -399,6 +399,7 @@ class _Maps:
         self.re = params.erase / 2.0
         self.reach = max(self.hw + 0.5, self.re)
         self._scratch: dict = {}  # valid_mask's buffers
+        self.inked = False  # whether `draw` ran: before, the ink map is all zero
 
     def flat(self, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
         return (iy + self.pad) * self.wp + (ix + self.pad)
@@ -417,10 +418,11 @@ class _Maps:
             k = int(math.floor(max(self.n, self.m)))
             scratch.update(line=np.empty(size, bool), near=np.empty(rows, bool), inked=np.empty(rows, bool),
                            runs=[np.empty(size, bool) for _ in range(k)])
-        line = np.greater_equal(self.ink_f, LINE_LEVEL, out=scratch["line"])
         near = self._dilate_flat(self.edge_f, self.n, scratch["near"])
-        inked = self._dilate_flat(line, self.m, scratch["inked"])
-        near &= np.logical_not(inked, out=inked)
+        if self.inked:
+            line = np.greater_equal(self.ink_f, LINE_LEVEL, out=scratch["line"])
+            inked = self._dilate_flat(line, self.m, scratch["inked"])
+            near &= np.logical_not(inked, out=inked)
         p, w = self.pad, self.w
         view = near.reshape(self.h, self.wp)[:, p:p + w]
         if out is None:
@@ -451,6 +453,7 @@ class _Maps:
 
     def draw(self, a: np.ndarray, b: np.ndarray) -> None:
         """Ink and erase the segments a[k] -> b[k] (complex positions inside the image)."""
+        self.inked = True
         pa = np.ascontiguousarray(a).view(np.float64).reshape(-1, 2)  # (ax, ay)
         pb = np.ascontiguousarray(b).view(np.float64).reshape(-1, 2)
         r = self.reach
