@@ -629,6 +629,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
     group = max(1, nb // 16)
     max_steps = params.max_steps
 
+    wh = np.array((w, h), np.float64)
     pos = np.zeros(nb, np.complex128)
     vel = np.zeros(nb, np.complex128)
     steps = np.zeros(nb, np.int64)
@@ -668,8 +669,9 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
                 break
             p, v, t = pos[a], vel[a], steps[a]
             p1, v1 = dyn.step(p, v, dyn.force(fkey[a], t))
-            x1, y1 = p1.real, p1.imag
-            ok = (x1 >= 0.0) & (x1 < w) & (y1 >= 0.0) & (y1 < h) & np.isfinite(v1)
+            xy1 = np.ascontiguousarray(p1).view(np.float64).reshape(-1, 2)
+            inside = (xy1 >= 0.0) & (xy1 < wh)
+            ok = inside[:, 0] & inside[:, 1] & np.isfinite(v1)
             if not ok.all():  # a step out of the image (or overflowing) is not drawn; the lane dies
                 a, p, t, p1, v1 = a[ok], p[ok], t[ok], p1[ok], v1[ok]
             alive = np.zeros(nb, bool)
@@ -677,7 +679,8 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
                 if t.max() + 1 >= buf.shape[1]:
                     buf = np.concatenate([buf, np.zeros_like(buf)], axis=1)[:, :max_steps + 1]
                 # the end test reads the edge map before this step's erasure (module docstring)
-                alive[a] = maps.near_edge(maps.flat(p1.real.astype(np.int64), p1.imag.astype(np.int64)))
+                ij = np.ascontiguousarray(p1).view(np.float64).reshape(-1, 2).astype(np.int64)
+                alive[a] = maps.near_edge(maps.flat(ij[:, 0], ij[:, 1]))
                 maps.draw(p, p1)
                 buf[a, t + 1] = p1
                 steps[a] = t + 1
