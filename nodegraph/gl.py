@@ -44,8 +44,10 @@ class GL:
         """A texture of `fmt`, from the pool when one of the same shape is free."""
         w, h = int(size[0]), int(size[1])
         pool = self._pool[(w, h, fmt)]
-        if pool and data is None:
+        if pool:  # allocation costs more than a full-screen pass on llvmpipe: reuse, and write if needed
             tex = pool.pop()
+            if data is not None:
+                tex.write(_to_bytes(data, fmt), alignment=1)
         else:
             comps, _, dtype, _ = types.FORMATS[fmt]
             payload = None if data is None else _to_bytes(data, fmt)
