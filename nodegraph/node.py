@@ -99,9 +99,14 @@ class Node:
     # -- hashing -----------------------------------------------------------------------------
     @classmethod
     def source_dir(cls) -> Path:
-        import inspect
+        """The node's folder (its GLSL lives there); looked up once per class."""
+        found = cls.__dict__.get("_source_dir")
+        if found is None:
+            import inspect
 
-        return Path(inspect.getfile(cls)).parent
+            found = Path(inspect.getfile(cls)).parent
+            cls._source_dir = found  # type: ignore[attr-defined]
+        return found
 
     def hash_extra(self, ctx: HashContext) -> Any:
         """Anything else the output depends on (override; must be cheap)."""

@@ -290,11 +290,20 @@ class Scene:
         """The camera for `frame`: eye, target and up turned rigidly about the orbit axis."""
         if self.orbit is None or frame == 0 or self.orbit.degrees_per_frame == 0.0:
             return self.camera
+        key = ("camera", int(frame))  # asked for several times per frame (keys, nodes): build it once
+        cached = self._cache.get(key)
+        if cached is not None:
+            return cached
+        if len(self._cache) > 256:
+            for k in [k for k in self._cache if isinstance(k, tuple) and k[0] == "camera"]:
+                del self._cache[k]
         cam = self.camera
         center = cam.target if self.orbit.center is None else self.orbit.center
         r = rotation(self.orbit.axis, frame * self.orbit.degrees_per_frame)[:3, :3]
-        return replace(cam, eye=center + r @ (cam.eye - center), target=center + r @ (cam.target - center),
-                       up=r @ cam.up)
+        out = replace(cam, eye=center + r @ (cam.eye - center), target=center + r @ (cam.target - center),
+                      up=r @ cam.up)
+        self._cache[key] = out
+        return out
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space bounding box of all objects."""
