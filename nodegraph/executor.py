@@ -229,7 +229,7 @@ class Executor:
                 if stats[nid].status in ("skipped", "memory"):
                     stats[nid].status = "disk"
                 stats[nid].ms += (time.perf_counter() - t0) * 1000
-                stats[nid].outputs[port] = _describe(value)
+                stats[nid].outputs[port] = describe(value)
                 return value
         self._compute(nid, keys, stats, pinned, frame)
         return self._memory[mkey]
@@ -257,7 +257,7 @@ class Executor:
         for port, value in outs.items():
             mkey = (keys[nid], port)
             self._remember(mkey, value, pinned)
-            st.outputs[port] = _describe(value)
+            st.outputs[port] = describe(value)
             if persist and port in needed and self.cache.find(keys[nid], self._entry(nid, port)) is None:
                 self._persist(node, keys[nid], self._entry(nid, port), value)
 
@@ -367,7 +367,8 @@ class Executor:
                 self.cache.prune()
 
 
-def _describe(value: Any) -> str:
+def describe(value: Any) -> str:
+    """A value's format for listings: 'RGBA16F', 'R8x32' for texture arrays, else its type name."""
     if isinstance(value, Tex):
         return value.fmt
     if isinstance(value, TexArray):

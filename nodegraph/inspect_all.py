@@ -17,7 +17,7 @@ import networkx as nx
 import numpy as np
 
 from . import viz
-from .executor import Executor, RunResult, plan
+from .executor import Executor, RunResult, describe, plan
 from .pipeline import Pipeline, PortRef
 
 
@@ -102,16 +102,6 @@ def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -
         nodes.append(view)
     return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
                       dict(pipe.outputs))
-
-
-def describe(value: Any) -> str:
-    from .values import Tex, TexArray
-
-    if isinstance(value, Tex):
-        return value.fmt
-    if isinstance(value, TexArray):
-        return f"{value.fmt}x{value.layers}"
-    return type(value).__name__
 
 
 def pipe_params(pipe: Pipeline) -> dict[str, dict[str, Any]]:
