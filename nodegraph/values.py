@@ -30,13 +30,18 @@ class Tex:
         w, h = self.size
         return _read(self.texture, (h, w, types.components(self.fmt)), self.fmt)
 
+    def read_native(self) -> np.ndarray:
+        """Read back in the format's own dtype (uint8 for 8-bit formats, unscaled), without a conversion."""
+        w, h = self.size
+        return _read(self.texture, (h, w, types.components(self.fmt)), self.fmt, native=True)
 
-def _read(texture: object, shape: tuple[int, ...], fmt: str) -> np.ndarray:
-    """One copy from GL into a writable array; float32 formats come back as they are."""
+
+def _read(texture: object, shape: tuple[int, ...], fmt: str, native: bool = False) -> np.ndarray:
+    """One copy from GL into a writable array; float32 formats (and `native` reads) come back as they are."""
     dt = types.numpy_dtype(fmt)
     raw = np.empty(shape, dtype=dt)
     texture.read_into(raw, alignment=1)  # type: ignore[attr-defined]
-    if dt == np.float32:
+    if dt == np.float32 or native:
         return raw
     arr = raw.astype(np.float32)
     if dt == np.uint8:

@@ -1,8 +1,9 @@
 """particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
 
-The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`; this node wraps
-its lock-step NumPy sketcher. `python -m nodes.particle_sketch.bench` measures the core on synthetic
-depth, `sketchgraph bench particles` the node chain on a real scene (docs/particles.md).
+The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`, the compiled
+sequential sketcher in `jit`; this node wraps `core.simulate`. `python -m nodes.particle_sketch.bench`
+measures the core on synthetic depth, `sketchgraph bench particles` the node chain on a real scene
+(docs/particles.md).
 """
 
 from __future__ import annotations
@@ -33,18 +34,19 @@ class ParticleSketch(Node):
     dies when it leaves the image, when it is no longer within `n` px of a remaining edge pixel, or after
     `max_steps` steps.
 
-    The method is sequential: each particle erases what the next would trace. `batch` particles advance in
-    lock-step with NumPy; every lock-step inks and erases all its segments before the next one, and a
-    finished lane restarts at once against the maps as they are then (batch 1 = strictly sequential, equal
-    to the pure-Python reference). Concurrent strokes do not see each other's start, so batching adds
-    parallel strokes: docs/particles.md measures what it changes.
+    The method is sequential: each particle erases what the next would trace. With `batch` 1 (default) it
+    runs so, one particle at a time, compiled with Numba; the output equals the pure-Python reference's
+    bit for bit. With `batch` B > 1, B particles advance in lock-step with NumPy; every lock-step inks
+    and erases all its segments before the next one, and a finished lane restarts at once against the
+    maps as they are then. Concurrent strokes do not see each other's start, so batching adds parallel
+    strokes (a heavier outline at large B): docs/particles.md measures what it changes.
 
     Random numbers come from the pipeline seed, the node id, `seed` and the frame the seeds are held from:
     frame // hold * hold (`hold` 1: new strokes every frame, the classic squiggle; k: the same particle seeds
     for k frames; 0: never new ones). Within a hold the drawing changes only where its inputs do, and the
     node's key is the same, so held frames come from the cache."""
 
-    version = "2"
+    version = "3"
     shaders = ("particle_sketch.glsl",)
     context_keys = frozenset({"size", "seed"})
     inputs = {
@@ -88,8 +90,8 @@ class ParticleSketch(Node):
                           "new strokes every frame; 0: never new ones).")
         seed: int = Field(0, ge=0, le=2**32 - 1, description="Mixed into the seed from the pipeline seed and the "
                           "node id: another drawing with the same pipeline.")
-        batch: int = Field(256, ge=1, le=65_536, description="Particles advanced in lock-step (1 = strictly "
-                           "sequential; larger is faster and adds parallel strokes).")
+        batch: int = Field(1, ge=1, le=65_536, description="1: one particle at a time, as the seed describes "
+                           "(compiled); B > 1: B particles in lock-step (NumPy), which adds parallel strokes.")
         retries: int = Field(5000, ge=1, le=10_000_000, description="Random start positions tried per stroke "
                              "before the drawing counts as complete.")
 
@@ -112,7 +114,7 @@ class ParticleSketch(Node):
         if edges.size != force.size:
             raise ValueError(f"node '{self.id}': inputs 'edges' {edges.size[0]}x{edges.size[1]} and 'force' "
                              f"{force.size[0]}x{force.size[1]} differ in size; feed both from one depth map")
-        e = edges.read()[..., 0] >= 0.5
+        e = edges.read()[..., 0] >= 0.5 if edges.fmt != "R8" else edges.read_native()[..., 0] >= 128  # v / 255 >= 0.5
         # float32 as read back: the sketcher promotes to float64 before combining values, so the strokes
         # are bit-identical to a float64 copy's (checked), without a 10 MB conversion per frame
         ff = force.read()[..., :2]

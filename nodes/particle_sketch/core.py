@@ -65,27 +65,36 @@ below 2 n. The default erase_width is the line width; wider erasing ends strokes
 
 Random numbers are counter based: one 64-bit key from `rng`, then splitmix64 of (key, stroke, index).
 A stroke's start candidates and forces do not depend on other strokes or on the batch size, and the
-pure-Python reference draws the very same numbers.
+pure-Python reference and the compiled engine draw the very same numbers.
 
 Defaults (tuned by eye on the 800 x 800 cow, see bench.py): mass 6, drag 1 (tau = 6: strokes overshoot
 and leave tight curves, a new stroke takes over - the loose look), randomness 0.35, step 3 (RK4 is
 accurate there: drag * step / mass = 0.5, and a 3 px chord of a 10 px radius strays 0.1 px),
 max_steps 25 (strokes of at most ~75 px), line and erase width 1.2 px, n = m = 2.
 
-Batching
---------
-The method is sequential: each particle erases what the next would trace. `simulate` keeps B lanes
-(`batch`) in lock-step with NumPy (complex positions, vectorised RK4 and bilinear gathers); every
-lock-step inks and erases all its segments into the shared maps before the next one, and a lane whose
-particle dies is refilled at once with the next stroke, its start tested exactly against the maps as
-they are then. The start search is vectorised too: candidates are prefiltered with a cached valid mask
-(a dilation of the maps; always a superset, refreshed lazily, so results do not depend on it) and the
-survivors tested exactly. With batch=1 this is the sequential algorithm, and `simulate` equals
-`simulate_python` bit for bit (tested). With B lanes a stroke does not see strokes still running when
-it starts, so concurrent strokes trace parallel lines that a sequential run would have refused: more
-strokes, steps and ink, the same coverage and precision. Measured on the 800 x 800 cow (bench.py,
-seed 1), against batch=1: batch 16 -1% steps, 64 +9%, 256 (default) +27% steps and +24% strokes,
-1024 +85% steps; coverage 0.999 and precision 0.934-0.938 throughout.
+Engines
+-------
+The method is sequential: each particle erases what the next would trace, and a start is tested against
+the ink drawn so far. `simulate` runs it one of two ways, chosen by `batch`:
+
+* batch=1 (default): strictly sequential, compiled with Numba (module `jit`): the pure-Python
+  reference's statements with its floating-point order, so its output equals `simulate_python` bit
+  for bit (tested), about 100x faster (docs/particles.md).
+* batch=B > 1: B lanes in lock-step with NumPy (complex positions, vectorised RK4 and bilinear
+  gathers); every lock-step inks and erases all its segments into the shared maps before the next one,
+  and a lane whose particle dies is refilled at once with the next stroke, its start tested exactly
+  against the maps as they are then. The start search is vectorised too: candidates are prefiltered
+  with a cached valid mask (a dilation of the maps; always a superset, refreshed lazily, so results do
+  not depend on it) and the survivors tested exactly. A stroke does not see strokes still running when
+  it starts, so concurrent strokes trace parallel lines that a sequential run would have refused:
+  more strokes, steps and ink, the same coverage and precision. Measured on the 800 x 800 cow
+  (bench.py, seed 1), against batch=1: batch 16 -1% steps, 64 +9%, 256 +27% steps and +24% strokes,
+  1024 +85% steps; coverage 0.999 and precision 0.934-0.938 throughout. With one lane
+  (`engine="numpy"`) this code is the sequential algorithm too, equal to the reference (tested).
+
+Before Numba the lock-step lanes were the speed (about 25x the reference with 256 lanes); the
+compiled sequential run is faster still and draws exactly what the seed describes, so it became the
+default, and batching stays as a measured variant (a heavier, more doubled outline at large B).
 """
 
 from __future__ import annotations
@@ -208,7 +217,7 @@ class ParticleParams:
     erase_width: float | None = None  # width erased from the edge map; None = line_width
     integrator: Literal["rk4", "euler"] = "rk4"
     retries: int = 5000  # random start positions tried per stroke before the run ends
-    batch: int = 256  # lanes advanced in lock-step by `simulate` (1 = strictly sequential)
+    batch: int = 1  # 1: strictly sequential (compiled); B > 1: B lanes in lock-step (NumPy)
 
     def __post_init__(self) -> None:
         erase = self.erase_width if self.erase_width is not None else 0.0
@@ -367,7 +376,9 @@ def _check_inputs(edges: np.ndarray, ff: np.ndarray, params: ParticleParams) -> 
     h, w = shape
     if np.shape(ff) != (h, w, 2):
         raise ValueError(f"ff: expected shape {(h, w, 2)} to match edges, got {np.shape(ff)}")
-    if not np.isfinite(ff).all():
+    ffa = np.asarray(ff)
+    # min and max propagate NaN and reach any inf: two reductions, no (H, W, 2) boolean temporary
+    if ffa.size and not (np.isfinite(ffa.min()) and np.isfinite(ffa.max())):
         raise ValueError("ff: expected finite values, found NaN or inf")
     return h, w
 
@@ -616,12 +627,39 @@ class _Starts:
         return found
 
 
+def _jit():
+    """The compiled sequential sketcher (module `jit`), or None where Numba cannot be imported."""
+    try:
+        from . import jit
+    except ImportError:  # pragma: no cover - numba is a dependency; this keeps the core usable without it
+        return None
+    return jit
+
+
 def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = None,
-             rng: np.random.Generator | None = None) -> SketchResult:
-    """Curtis' particle sketcher, `params.batch` lanes in lock-step (see the module docstring)."""
+             rng: np.random.Generator | None = None,
+             engine: Literal["auto", "jit", "numpy"] = "auto") -> SketchResult:
+    """Curtis' particle sketcher (see the module docstring).
+
+    batch=1 is the strictly sequential algorithm: `engine` "auto" or "jit" runs it compiled
+    (`jit.simulate_sequential`), "numpy" on the lock-step NumPy code with one lane; all give the same
+    output as `simulate_python`. batch > 1 runs `params.batch` lanes in lock-step with NumPy.
+    """
     params = params if params is not None else ParticleParams()
     h, w = _check_inputs(edges, ff, params)
+    if engine not in ("auto", "jit", "numpy"):
+        raise ValueError(f"engine: expected 'auto', 'jit' or 'numpy', got {engine!r}")
     key = _draw_key(rng)
+    if engine != "numpy" and params.batch == 1:
+        jit = _jit()
+        if jit is None and engine == "jit":
+            raise RuntimeError("engine 'jit' needs numba, which could not be imported")
+        if jit is not None:
+            sketch, remaining, strokes, launched, steps, exhausted = jit.simulate_sequential(edges, ff, params, key)
+            return SketchResult(sketch=sketch, edges=remaining, strokes=strokes, launched=launched, steps=steps,
+                                exhausted=exhausted)
+    elif engine == "jit":
+        raise ValueError(f"engine 'jit' runs one particle at a time: it needs batch=1, got batch={params.batch}")
     maps = _Maps(edges, params)
     starts = _Starts(maps, key, params.retries)
     dyn = _Dynamics(np.asarray(ff), params)

@@ -156,16 +156,56 @@ def test_particle_path_starts_at_rest_and_is_deterministic():
 
 # --- the sketcher ----------------------------------------------------------------------------------
 
-def test_batch1_equals_the_python_reference_bit_for_bit(cow160):
+def _assert_same(a: core.SketchResult, b: core.SketchResult) -> None:
+    assert a.launched == b.launched and a.steps == b.steps and a.exhausted == b.exhausted
+    assert np.array_equal(a.sketch, b.sketch) and np.array_equal(a.edges, b.edges)
+    assert len(a.strokes) == len(b.strokes)
+    assert all(np.array_equal(s, t) for s, t in zip(a.strokes, b.strokes, strict=True))
+
+
+SEQUENTIAL_CASES = [
+    dict(strokes=300),
+    dict(strokes=120, integrator="euler", mass=0.6, randomness=1.0),
+    dict(strokes=2000, n=1.0, m=1.0, line_width=3.0, erase_width=0.0, max_steps=60),  # runs out of starts
+    dict(strokes=200, n=3.5, m=0.0, step=1.0, drag=0.2, retries=50),
+]
+
+
+@pytest.mark.parametrize("engine", ["jit", "numpy"])
+@pytest.mark.parametrize("case", SEQUENTIAL_CASES, ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()))
+def test_sequential_engines_equal_the_python_reference_bit_for_bit(cow160, engine, case):
+    """batch=1, compiled (jit) or one NumPy lane, draws exactly what the pure-Python reference draws."""
     edges, ff = cow160
-    for params in (core.ParticleParams(strokes=300, batch=1),
-                   core.ParticleParams(strokes=120, batch=1, integrator="euler", mass=0.6, randomness=1.0)):
-        a = core.simulate(edges, ff, params, np.random.default_rng(11))
-        b = core.simulate_python(edges, ff, params, np.random.default_rng(11))
-        assert a.launched == b.launched > 50 and a.steps == b.steps and a.exhausted == b.exhausted
-        assert np.array_equal(a.sketch, b.sketch) and np.array_equal(a.edges, b.edges)
-        assert len(a.strokes) == len(b.strokes)
-        assert all(np.array_equal(s, t) for s, t in zip(a.strokes, b.strokes, strict=True))
+    params = core.ParticleParams(batch=1, **case)
+    b = core.simulate_python(edges, ff, params, np.random.default_rng(11))
+    assert b.launched > 30
+    _assert_same(core.simulate(edges, ff, params, np.random.default_rng(11), engine=engine), b)
+
+
+def test_jit_takes_the_gpus_float32_field_and_a_non_square_image(depth):
+    """The node passes the field as read back (float32): same drawing as the float64 reference, since
+    every corner is widened before it is combined; and x / y are not swapped on a 70 x 90 image."""
+    edges, ff = core.prepare(depth, 0.03)
+    params = core.ParticleParams(strokes=80, batch=1)
+    ff32 = ff.astype(np.float32)
+    ref = core.simulate_python(edges, ff32.astype(np.float64), params, np.random.default_rng(2))
+    assert ref.launched > 5
+    _assert_same(core.simulate(edges, ff32, params, np.random.default_rng(2), engine="jit"), ref)
+
+
+def test_engine_choice_and_errors(cow160, monkeypatch):
+    edges, ff = cow160
+    with pytest.raises(ValueError, match="needs batch=1"):
+        core.simulate(edges, ff, core.ParticleParams(batch=4), engine="jit")
+    with pytest.raises(ValueError, match="engine"):
+        core.simulate(edges, ff, core.ParticleParams(), engine="gpu")
+    # without numba the default falls back to the NumPy lane, with the same output
+    params = core.ParticleParams(strokes=50)
+    want = core.simulate(edges, ff, params, np.random.default_rng(4))
+    monkeypatch.setattr(core, "_jit", lambda: None)
+    _assert_same(core.simulate(edges, ff, params, np.random.default_rng(4)), want)
+    with pytest.raises(RuntimeError, match="numba"):
+        core.simulate(edges, ff, params, engine="jit")
 
 
 def test_result_types_and_ranges(cow160):
@@ -294,9 +334,8 @@ def test_erasing_stops_a_thin_edge_being_traced_twice():
 def test_extreme_params_terminate_without_nan(cow160, extreme):
     edges, ff = cow160
     params = core.ParticleParams(**{"strokes": 60, "max_steps": 40, **extreme})
-    for run in (core.simulate, core.simulate_python):
-        res = run(edges, ff, replace(params, batch=1 if run is core.simulate_python else 16),
-                  np.random.default_rng(1))
+    for run, batch in ((core.simulate, 1), (core.simulate, 16), (core.simulate_python, 1)):
+        res = run(edges, ff, replace(params, batch=batch), np.random.default_rng(1))
         assert res.launched <= params.strokes and res.steps <= res.launched * params.max_steps
         assert all(len(s) <= params.max_steps + 1 for s in res.strokes)
         assert np.isfinite(res.sketch).all() and res.sketch.min() >= 0 and res.sketch.max() <= 1

@@ -195,5 +195,6 @@ def test_bench_particles_reports_the_figures(gl, tmp_path):
     for key in ("strokes", "seconds", "coverage", "precision", "python_reference_seconds", "speedup_vs_python"):
         assert key in r and r[key] > 0
     assert r["requested_strokes"] == 300 and r["params"]["max_steps"] == 10
-    assert r["sequential_equals_python"]  # batch 1 draws exactly what the pure-Python reference draws
+    assert r["equals_python"]  # batch 1 (the default) draws exactly what the pure-Python reference draws
+    assert r["lockstep_batch"] == 256 and r["lockstep_strokes"] > 0
     assert (tmp_path / "particles.png").exists() and (tmp_path / "particles.svg").exists()
