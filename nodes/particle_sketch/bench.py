@@ -2,8 +2,9 @@
 
 Side by side in one run (this machine is noisy, so ratios beat absolute figures; each time is the best
 of `--repeat` runs): the vectorised `simulate` with the default parameters against the pure-Python
-`simulate_python` (same seed and params), the effect of the batch size against the sequential run
-(batch=1, identical to the Python reference), and a scene with enough edges for 2000 strokes.
+`simulate_python` (same seed and params), the sequential run on one NumPy lane (engine="numpy", also
+identical to the reference), the effect of the batch size (NumPy lock-step lanes) against the sequential
+run, and a scene with enough edges for 2000 strokes.
 With `--out`, writes the default sketch as PNG (if matplotlib is installed) and SVG.
 """
 
@@ -40,7 +41,7 @@ def _row(name: str, seconds: float, res: core.SketchResult, edges: np.ndarray) -
 
 
 def run(size: int = 800, seed: int = 1, repeat: int = 5, python_repeat: int = 3,
-        batches: tuple[int, ...] = (1, 16, 64, 256, 1024), out: Path | None = None) -> dict:
+        batches: tuple[int, ...] = (16, 64, 256, 1024, 2048), out: Path | None = None) -> dict:
     params = core.ParticleParams()
     t = time.perf_counter()
     edges, ff = core.prepare(synthetic.cow_depth(size), 0.03)
@@ -58,12 +59,15 @@ def run(size: int = 800, seed: int = 1, repeat: int = 5, python_repeat: int = 3,
         t_py, t_vec = min(t_py, tp), min(t_vec, tv)
     rows.append(_row(f"simulate batch={params.batch}", t_vec, res, edges))
     rows.append(_row("simulate_python", t_py, res_py, edges))
+    t1, r1 = _best(lambda: core.simulate(edges, ff, replace(params, batch=1), np.random.default_rng(seed),
+                                         engine="numpy"), 1)
+    rows.append(_row("batch=1 engine=numpy", t1, r1, edges))
     for b in batches:
         tb, rb = _best(lambda b=b: sim(replace(params, batch=b)), 1 if b == 1 else repeat)
         rows.append(_row(f"batch={b}", tb, rb, edges))
     herd_edges, herd_ff = core.prepare(synthetic.herd_depth(size), 0.03)
     t_herd, res_herd = _best(lambda: sim(params, herd_edges, herd_ff), repeat)
-    rows.append(_row("herd (4 cows) batch=256", t_herd, res_herd, herd_edges))
+    rows.append(_row(f"herd (4 cows) batch={params.batch}", t_herd, res_herd, herd_edges))
     report = {"size": size, "seed": seed, "params": asdict(params), "prepare_ms": round(prep * 1e3, 1),
               "speedup_vs_python": round(t_py / t_vec, 1), "rows": rows}
     if out is not None:
