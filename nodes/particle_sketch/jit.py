@@ -21,6 +21,8 @@ file), one specialisation per field dtype (float32 from the GPU, float64 from th
 from __future__ import annotations
 
 import math
+import os
+import sys
 
 import numpy as np
 from numba import njit
@@ -190,6 +192,20 @@ def _offsets(r: float) -> np.ndarray:
     return np.array(_disc_offsets(r), np.int64).reshape(-1, 2)
 
 
+def _say_if_compiling() -> None:
+    """One line on stderr before the kernel is compiled rather than loaded from the disk cache, so that a
+    first run's pause is explained. Reads Numba's cache index path (not public API): silent if that fails."""
+    if _run.signatures:  # already loaded in this process
+        return
+    try:
+        cached = os.path.exists(_run._cache._cache_file._index_path)
+    except Exception:  # noqa: BLE001 - only a message depends on it
+        return
+    if not cached:
+        print("particle_sketch: compiling the sequential sketcher with Numba (first use after install or an "
+              "update; cached on disk afterwards) ...", file=sys.stderr, flush=True)
+
+
 def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int):
     """Runs the compiled sequential sketcher; returns `core.SketchResult`'s fields as a tuple
     (sketch, remaining edges, strokes, launched, segments, exhausted). Inputs are checked by the caller."""
@@ -202,6 +218,7 @@ def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParam
     if ffa.dtype not in (np.float32, np.float64):
         ffa = ffa.astype(np.float64)
     hw, re = params.line_width / 2.0, params.erase / 2.0
+    _say_if_compiling()
     pts, counts, launched, total, exhausted = _run(
         edge, ink, ffa, pad, _offsets(params.n), _offsets(params.m), np.uint64(key), params.strokes, params.retries,
         params.max_steps, params.integrator == "rk4", float(params.step), float(params.drag),
