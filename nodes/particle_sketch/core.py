@@ -101,6 +101,7 @@ from __future__ import annotations
 
 import html
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -631,9 +632,20 @@ def _jit():
     """The compiled sequential sketcher (module `jit`), or None where Numba cannot be imported."""
     try:
         from . import jit
-    except ImportError:  # pragma: no cover - numba is a dependency; this keeps the core usable without it
+    except ImportError:  # numba is a dependency; this keeps the core usable without it
+        return None
+    except RuntimeError as exc:  # numba found no writable place for its cache (read-only install, no home)
+        global _JIT_WARNED
+        if not _JIT_WARNED:
+            _JIT_WARNED = True
+            warnings.warn(f"particle_sketch: the compiled sketcher is unavailable ({exc}); running the NumPy "
+                          "engine, same output, much slower. Set NUMBA_CACHE_DIR to a writable folder.",
+                          RuntimeWarning, stacklevel=3)
         return None
     return jit
+
+
+_JIT_WARNED = False
 
 
 def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = None,

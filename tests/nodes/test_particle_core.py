@@ -202,7 +202,9 @@ def test_engine_choice_and_errors(cow160, monkeypatch):
     # without numba the default falls back to the NumPy lane, with the same output
     params = core.ParticleParams(strokes=50)
     want = core.simulate(edges, ff, params, np.random.default_rng(4))
-    monkeypatch.setattr(core, "_jit", lambda: None)
+    monkeypatch.setitem(sys.modules, "nodes.particle_sketch.jit", None)  # as if numba were not installed
+    monkeypatch.delattr(sys.modules["nodes.particle_sketch"], "jit", raising=False)
+    assert core._jit() is None
     _assert_same(core.simulate(edges, ff, params, np.random.default_rng(4)), want)
     with pytest.raises(RuntimeError, match="numba"):
         core.simulate(edges, ff, params, engine="jit")
