@@ -87,9 +87,9 @@ class DepthEdges(Node):
         depth = inputs["depth"]
         size = depth.size
         linear = p.mode == "linear"
-        blur = gl.texture(size, "R32F", filter="nearest")
+        across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
         try:
-            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear)}), [blur],
+            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear)}), [across],
                           textures={"t_depth": depth},
                           uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0)})
             ports = [port for port in _PORTS if port in needed]
@@ -98,10 +98,10 @@ class DepthEdges(Node):
             targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
                        for port in ports}
             gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
-                          textures={"t_blur": blur},
+                          textures={"t_x": across},
                           uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1])})
         finally:
-            gl.release(blur)
+            gl.release(across)
         return targets
 
 

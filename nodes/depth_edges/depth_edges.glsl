@@ -1,14 +1,19 @@
 #version 330
 // Curtis' edge map (seed 004): 3x3 tent blur of the depth map, Sobel gradient, magnitude, threshold.
-// PASS 0: depth in [0, 1] (1 = background; DEPTH_MODE 1 converts linear view depth, 0 = background,
-//         with the near and far planes) blurred by [1 2 1; 2 4 2; 1 2 1] / 16, edge-clamped.
-// PASS 1: (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height / reference height:
-//         per pixel of an image of the reference height), mag = |(gx, gy)|, edge = mag >= threshold.
+// The blur [1 2 1; 2 4 2; 1 2 1] / 16 and the seed's Sobel pair run as one separable pass per axis
+// (tent_sobel.glsl), edge-clamped at both stages as the two convolutions are.
+// PASS 0 (along x): depth in [0, 1] (1 = background; DEPTH_MODE 1 converts linear view depth,
+//         0 = background, with the near and far planes), then (smooth, diff) of its tent along x.
+// PASS 1 (along y): (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height /
+//         reference height: per pixel of an image of the reference height), mag = |(gx, gy)|,
+//         edge = mag >= threshold.
 #if defined FRAGMENT_SHADER
+#define TENT_R 1
+#include "tent_sobel.glsl"
 #if PASS == 0
 uniform sampler2D t_depth;
 uniform vec2 u_range;  // linear depth mapped to 0 and 1
-layout(location = 0) out float o_blur;
+layout(location = 0) out vec2 o_x;
 
 float depth_at(ivec2 p, ivec2 hi) {
     float z = texelFetch(t_depth, clamp(p, ivec2(0), hi), 0).r;
@@ -22,15 +27,13 @@ float depth_at(ivec2 p, ivec2 hi) {
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_depth, 0) - 1;
-    float sum = 0.0;
-    for (int j = -1; j <= 1; ++j)
-        for (int i = -1; i <= 1; ++i)
-            sum += float((2 - abs(i)) * (2 - abs(j))) * depth_at(p + ivec2(i, j), hi);
-    o_blur = sum / 16.0;
+    vec2 w[2 * TENT_W + 1];
+    for (int m = -TENT_W; m <= TENT_W; ++m)
+        w[m + TENT_W] = vec2(depth_at(p + ivec2(m, 0), hi));
+    o_x = tent_sobel_x(w, p.x, hi.x);
 }
 #else
-#include "seed_sobel.glsl"
-uniform sampler2D t_blur;
+uniform sampler2D t_x;
 uniform float u_threshold;
 uniform float u_scale;
 #ifdef LOC_EDGES
@@ -44,7 +47,12 @@ layout(location = LOC_MAGNITUDE) out float o_magnitude;
 #endif
 
 void main() {
-    vec2 g = seed_sobel(t_blur, ivec2(gl_FragCoord.xy)) * u_scale;
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 hi = textureSize(t_x, 0) - 1;
+    vec2 w[2 * TENT_W + 1];
+    for (int m = -TENT_W; m <= TENT_W; ++m)
+        w[m + TENT_W] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
+    vec2 g = tent_sobel_y(w, p.y, hi.y) * (u_scale / 16.0);
     float mag = sqrt(g.x * g.x + g.y * g.y);
 #ifdef LOC_EDGES
     o_edges = mag >= u_threshold ? 1.0 : 0.0;

@@ -52,18 +52,15 @@ class ForceField(Node):
         gl = ctx.gl
         grad = inputs["gradient"]
         size = grad.size
-        across = gl.texture(size, "R32F", filter="nearest")
-        blur = gl.texture(size, "R32F", filter="nearest")
+        across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
         try:
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0}), [across], textures={"t_src": grad},
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0}), [across], textures={"t_gradient": grad},
                           uniforms={"u_clamp": p.clamp})
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1}), [blur], textures={"t_src": across})
             out = ctx.target("out", size)
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 2, "RESTORING": int(p.restoring == "gradient")}),
-                          [out], textures={"t_gradient": grad, "t_blur": blur}, uniforms={"u_saturate": p.saturate})
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1, "RESTORING": int(p.restoring == "gradient")}),
+                          [out], textures={"t_gradient": grad, "t_x": across}, uniforms={"u_saturate": p.saturate})
         finally:
             gl.release(across)
-            gl.release(blur)
         return {"out": out}
 
 

@@ -67,6 +67,19 @@ def test_tent_and_sobel_match_the_pseudocode_in_float64(gl, depth):
     np.testing.assert_allclose(ref["gradient"], np.stack([gx, gy], -1), rtol=0, atol=1e-13)
 
 
+@pytest.mark.parametrize("shape", [(23, 17), (5, 9), (2, 3)])
+def test_white_noise_borders_and_tiny_images_match(gl, shape):
+    """Noise everywhere, borders included: the separable passes clamp at both stages as the two clamped
+    convolutions of the pseudocode do (a single clamp of the combined 5x5 kernel differs on the outer
+    two rows and columns); images down to 2 px."""
+    depth = np.random.default_rng(3).random(shape).astype(np.float32)
+    gx, gy, mag, _ = _pseudocode(depth, 0.03)
+    got = _run(gl, depth, mode="window", threshold=0.03)
+    np.testing.assert_allclose(got["gradient"][..., 0], gx, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(got["gradient"][..., 1], gy, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(got["magnitude"][..., 0], mag, rtol=0, atol=2e-6)
+
+
 def test_orientation_on_a_ramp(gl):
     """(gx, gy) = -8 x the gradient with x = column, y = row, row 0 at the bottom (GL)."""
     y, x = np.mgrid[0:24, 0:32]

@@ -54,6 +54,17 @@ def test_matches_the_pseudocode_in_float64(gl):
         assert np.hypot(sat[..., 0], sat[..., 1]).max() <= 1.0 + 1e-6
 
 
+@pytest.mark.parametrize("shape", [(31, 26), (6, 11), (2, 3)])
+def test_white_noise_gradient_borders_and_tiny_images_match(gl, shape):
+    """A noise gradient fed straight in, so every border texel matters: the separable passes clamp at
+    both stages (9x9 tent, then Sobel) as the two clamped convolutions do; images down to 2 px."""
+    h, w = shape
+    g = np.random.default_rng(4).normal(0.0, 0.4, (h, w, 2)).astype(np.float32)
+    out = run_node(gl, ForceField("ff", ForceField.Params(saturate=0.0, clamp=0.5)),
+                   {"gradient": gl.upload(g, "RG32F", filter="nearest")}, (w, h))["out"].read()
+    np.testing.assert_allclose(out, force_field_ref(g.astype(np.float64), 0.5, 0.0, "rotated"), rtol=0, atol=2e-6)
+
+
 def test_a_depth_disc_circulates_tangentially_around_its_rim(gl):
     size, radius = 128, 40.0
     _, ff = _field(gl, synthetic.disc_depth(size, radius, 0.5), saturate=0.0)
