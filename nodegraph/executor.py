@@ -256,6 +256,14 @@ class Executor:
             node.persist == "always" or self.persist_all or (node.persist == "auto" and self.mode == "single"))
         for port, value in outs.items():
             mkey = (keys[nid], port)
+            held = self._memory.get(mkey)
+            if held is not None and held is not value and mkey in pinned:
+                # this run already handed that port out (from disk or memory, before another port of the
+                # node had to be computed): keep it, so no texture this run holds goes back to the pool;
+                # the key is the same, so is the content
+                self._release(value)
+                st.outputs[port] = describe(held)
+                continue
             self._remember(mkey, value, pinned)
             st.outputs[port] = describe(value)
             if persist and port in needed and self.cache.find(keys[nid], self._entry(nid, port)) is None:

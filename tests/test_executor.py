@@ -216,3 +216,25 @@ def test_a_lower_precision_cache_entry_is_not_read_where_more_is_planned(gl, tmp
     assert second.plan.formats[("ab", "out")] == "RGBA32F"  # requested: full precision
     second.run()
     assert COUNTS == {"ab": 1}  # recomputed from a and b (read from disk), not read at half precision
+
+
+@pytest.mark.parametrize("first", ["disk", "memory"])
+def test_a_recompute_for_a_missing_port_leaves_the_values_already_handed_out_intact(gl, tmp_path: Path, first):
+    """ab.out is stored (on disk, or in memory from an earlier frame) but ab.half is not: the run hands
+    out ab.out, then computes ab for its half. The value handed out must stay valid: its texture may not
+    go back to the pool while the result (or a later node's inputs) still holds it. (It did: a later
+    upload of the same shape reused it, and the intermediates sheet of a gallery entry showed another
+    node's buffer.)"""
+    cache = Cache(tmp_path / "c") if first == "disk" else None
+    ex = Executor(load(), cache, gl=gl, requested=[("ab", "out")])
+    ex.run()
+    if first == "disk":
+        ex = Executor(load(), cache, gl=gl, requested=[("ab", "out"), ("ab", "half"), ("abc", "out")])
+    else:  # the same executor's memory, asked for more
+        ex.plan = plan(load(), [("ab", "out"), ("ab", "half"), ("abc", "out")])
+    COUNTS.clear()
+    res = ex.run()
+    assert COUNTS.get("ab") == 1  # computed once, for its half
+    np.testing.assert_allclose(res.values[("ab", "out")].read(), 0.75)
+    np.testing.assert_allclose(res.values[("ab", "half")].read(), 0.375)
+    np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
