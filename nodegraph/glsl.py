@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -91,22 +90,41 @@ def stages_in(path: Path) -> set[str]:
     return {s for s in ("VERTEX_SHADER", "FRAGMENT_SHADER", "COMPUTE_SHADER", "GEOMETRY_SHADER") if s in text}
 
 
-@lru_cache(maxsize=512)
-def _digest_cached(path: str, mtime: float, size: int) -> str:
-    p = Path(path)
-    h = hashlib.sha256()
+def _stamp(path: Path) -> tuple[float, int]:
+    st = path.stat()
+    return st.st_mtime, st.st_size
+
+
+_DIGESTS: dict[str, tuple[str, tuple[tuple[Path, tuple[float, int]], ...]]] = {}
+
+
+def _digest(p: Path) -> tuple[str, tuple[Path, ...]]:
+    """(digest, every file it read): an include file's own text, or a shader's assembled stages."""
     text = p.read_text()
     if not _VERSION.match(text.split("\n", 1)[0]):  # an include file: its text is its source
-        return hashlib.sha256(text.encode()).hexdigest()
+        return hashlib.sha256(text.encode()).hexdigest(), (p,)
+    h = hashlib.sha256()
+    files: dict[Path, None] = {p: None}
     # includes are part of the source: hash each stage's assembled text
     for stage in sorted(stages_in(p)) or ["FRAGMENT_SHADER"]:
-        h.update(assemble(p, stage).source.encode())
-    return h.hexdigest()
+        asm = assemble(p, stage)
+        h.update(asm.source.encode())
+        files.update(dict.fromkeys(f.resolve() for f in asm.files))
+    return h.hexdigest(), tuple(files)
 
 
 def source_digest(path: Path) -> str:
-    st = path.stat()
-    return _digest_cached(str(path.resolve()), st.st_mtime, st.st_size)
+    """SHA-256 of a shader with its includes, cached while neither it nor any file it includes changes
+    (checked by modification time and size, so editing only an include invalidates it too)."""
+    p = path.resolve()
+    hit = _DIGESTS.get(str(p))
+    if hit is not None and all(_stamp(f) == stamp for f, stamp in hit[1]):
+        return hit[0]
+    digest, files = _digest(p)
+    if len(_DIGESTS) >= 512:
+        _DIGESTS.clear()
+    _DIGESTS[str(p)] = (digest, tuple((f, _stamp(f)) for f in files))
+    return digest
 
 
 def map_errors(log: str, files: list[Path]) -> str:

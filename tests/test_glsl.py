@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -84,3 +85,23 @@ def test_missing_gl_is_one_line_naming_the_package(monkeypatch: pytest.MonkeyPat
     msg = str(info.value)
     assert "\n" not in msg
     assert "eglGetDisplay failed" in msg and "libegl1" in msg and "libgl1-mesa-dri" in msg
+
+
+def test_source_digest_follows_the_shader_and_its_includes(tmp_path: Path):
+    """A node's key hashes its shaders with their includes; editing only an include must change it, also
+    within one process (the digest is cached by the files' modification times and sizes)."""
+    from nodegraph.glsl import source_digest
+
+    inc = tmp_path / "lib.glsl"
+    top = tmp_path / "top.glsl"
+    inc.write_text("float f() { return 1.0; }\n")
+    top.write_text('#version 330\n#include "lib.glsl"\nout vec4 o;\nvoid main() { o = vec4(f()); }\n')
+    first = source_digest(top)
+    assert source_digest(top) == first
+    inc.write_text("float f() { return 2.0; }\n")  # same size: the modification time tells
+    os.utime(inc, ns=(inc.stat().st_atime_ns, inc.stat().st_mtime_ns + 10**9))
+    second = source_digest(top)
+    assert second != first
+    top.write_text(top.read_text() + "// a comment\n")
+    assert source_digest(top) not in (first, second)
+    assert source_digest(inc) != source_digest(top)  # an include alone hashes its own text
