@@ -63,7 +63,7 @@ def run(size: int = 800, seed: int = 1, repeat: int = 5, python_repeat: int = 3,
                                          engine="numpy"), 1)
     rows.append(_row("batch=1 engine=numpy", t1, r1, edges))
     for b in batches:
-        tb, rb = _best(lambda b=b: sim(replace(params, batch=b)), 1 if b == 1 else repeat)
+        tb, rb = _best(lambda b=b: sim(replace(params, batch=b)), repeat)
         rows.append(_row(f"batch={b}", tb, rb, edges))
     herd_edges, herd_ff = core.prepare(synthetic.herd_depth(size), 0.03)
     t_herd, res_herd = _best(lambda: sim(params, herd_edges, herd_ff), repeat)

@@ -667,9 +667,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
         if jit is None and engine == "jit":
             raise RuntimeError("engine 'jit' needs numba, which could not be imported")
         if jit is not None:
-            sketch, remaining, strokes, launched, steps, exhausted = jit.simulate_sequential(edges, ff, params, key)
-            return SketchResult(sketch=sketch, edges=remaining, strokes=strokes, launched=launched, steps=steps,
-                                exhausted=exhausted)
+            return jit.simulate_sequential(edges, ff, params, key)
     elif engine == "jit":
         raise ValueError(f"engine 'jit' runs one particle at a time: it needs batch=1, got batch={params.batch}")
     maps = _Maps(edges, params)

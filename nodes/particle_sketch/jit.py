@@ -36,6 +36,7 @@ from .core import (
     _TO_UNIT32,
     LINE_LEVEL,
     ParticleParams,
+    SketchResult,
     _disc_offsets,
     _pad_for,
 )
@@ -206,9 +207,8 @@ def _say_if_compiling() -> None:
               "update; cached on disk afterwards) ...", file=sys.stderr, flush=True)
 
 
-def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int):
-    """Runs the compiled sequential sketcher; returns `core.SketchResult`'s fields as a tuple
-    (sketch, remaining edges, strokes, launched, segments, exhausted). Inputs are checked by the caller."""
+def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int) -> SketchResult:
+    """Runs the compiled sequential sketcher on checked inputs (`core.simulate` checks them)."""
     h, w = np.shape(edges)
     pad = _pad_for(params)
     edge = np.zeros((h + 2 * pad, w + 2 * pad), np.bool_)
@@ -226,5 +226,5 @@ def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParam
     pts32 = pts.astype(np.float32)
     ends = np.cumsum(counts)
     strokes = [pts32[a:b] for a, b in zip((ends - counts).tolist(), ends.tolist(), strict=True)]
-    return (ink[pad:pad + h, pad:pad + w].astype(np.float32), edge[pad:pad + h, pad:pad + w], strokes,
-            int(launched), int(total), bool(exhausted))
+    return SketchResult(sketch=ink[pad:pad + h, pad:pad + w].astype(np.float32), edges=edge[pad:pad + h, pad:pad + w],
+                        strokes=strokes, launched=int(launched), steps=int(total), exhausted=bool(exhausted))
