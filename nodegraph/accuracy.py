@@ -85,7 +85,7 @@ class NodeRunner:
 def gbuffer(gl: Any, scene: Any, size: tuple[int, int], ports: tuple[str, ...] = ("normal_depth",),
             frame: int = 0, **params: Any) -> dict[str, Any]:
     """Rasterize `scene` into the requested G-buffer outputs (textures) at `size`."""
-    from nodes.rasterize import Rasterize
+    from nodegraph_nodes.rasterize import Rasterize
 
     node = Rasterize("gbuf", Rasterize.Params(**params))
     with warnings.catch_warnings():
@@ -144,7 +144,7 @@ def edge_scenes(meshes_dir: Path, quick: bool) -> list[tuple[str, str]]:
 
 def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
                 repeats: int | None = None) -> dict[str, Any]:
-    from nodes.edge_detect import EdgeDetect
+    from nodegraph_nodes.edge_detect import EdgeDetect
 
     from . import gl as glmod
     from .bench import copy_pass_ms
@@ -304,7 +304,7 @@ def curvature_errors(res: Any, kmin: np.ndarray, kmax: np.ndarray, dmin: np.ndar
 
 
 def bench_curvature(quick: bool, meshes_dir: Path | None = None) -> dict[str, Any]:
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     tori = [(48, 12), (100, 25), (200, 50)] if quick else [(48, 12), (100, 25), (200, 50), (400, 100)]
     levels = [2, 3, 4] if quick else [2, 3, 4, 5]
@@ -363,7 +363,7 @@ def particle_depth(meshes_dir: Path, size: int) -> tuple[np.ndarray, Any, np.nda
 
 def bench_particles(meshes_dir: Path, quick: bool) -> dict[str, Any] | None:
     try:
-        from nodes.particle_sketch import core
+        from nodegraph_nodes.particle_sketch import core
     except ImportError as exc:
         return {"skipped": f"particle core not importable: {exc}"}
     from .groundtruth import precision_recall
@@ -406,7 +406,7 @@ def bench_particles(meshes_dir: Path, quick: bool) -> dict[str, Any] | None:
 # -- hatching ------------------------------------------------------------------------------------
 def strokes_needed(size: int, stroke_width: float, tones: int = 32, max_darkness: float = 0.8) -> int:
     """Strokes the darkest tone takes (to 64 strokes): the smallest cap that synthesis accepts."""
-    from nodes.hatching_synthesis.tam import synthesize_tam
+    from nodegraph_nodes.hatching_synthesis.tam import synthesize_tam
 
     def ok(cap: int) -> bool:
         try:
@@ -440,7 +440,7 @@ def local_tone_error(tam: np.ndarray, blocks: int = 8) -> float:
 
 
 def bench_hatching(quick: bool) -> dict[str, Any]:
-    from nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
+    from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 
     sizes = [64, 128, 256] if quick else [64, 128, 256, 512]
     widths = [1.1] if quick else [0.7, 1.1, 2.0]
@@ -462,7 +462,7 @@ def bench_hatching(quick: bool) -> dict[str, Any]:
 
 # -- noise ---------------------------------------------------------------------------------------
 def bench_noise(quick: bool) -> dict[str, Any]:
-    from nodes.perlin_noise import PerlinNoise
+    from nodegraph_nodes.perlin_noise import PerlinNoise
 
     from . import gl as glmod
     from .node import derive_seed

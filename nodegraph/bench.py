@@ -177,18 +177,18 @@ def reference_for(node: Any, ins: dict[str, Any]) -> dict[str, Any]:
 
     p = node.params
     if node.type_name == "edge_detect":
-        from nodes.edge_detect.reference import edge_detect
+        from nodegraph_nodes.edge_detect.reference import edge_detect
 
         return edge_detect(ins["normal_depth"], **p.model_dump())
     if node.type_name == "sketch":
-        from nodes.sketch.reference import sketch
+        from nodegraph_nodes.sketch.reference import sketch
 
         layers = [(np.asarray(layer.matrix), layer.color) for layer in node.layers()]
         out = sketch(_plane(ins["edges"]), ins["shade"], ins["offset"], np.asarray(p.shade_matrix), layers,
                      p.edge_strength, p.use_shade, p.paper)
         return out
     if node.type_name == "depth_sprite":
-        from nodes.depth_sprite.reference import depth_sprite
+        from nodegraph_nodes.depth_sprite.reference import depth_sprite
 
         uc, ud = ins.get("under_color"), ins.get("under_depth")
         return depth_sprite(ins["color"], ins["offsets"], _plane(ins["depth"]), uc,

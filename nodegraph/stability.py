@@ -77,7 +77,7 @@ def _sweep(title: str, x_label: str, y_label: str, points: list[dict[str, Any]],
 def edge_scores(gl: Any, scene: Any, size: tuple[int, int], truth: np.ndarray, nd: Any = None,
                 **params: Any) -> dict[str, float]:
     """edge_detect (`params`) on the scene's normal_depth (or `nd`, a texture), scored against `truth`."""
-    from nodes.edge_detect import EdgeDetect
+    from nodegraph_nodes.edge_detect import EdgeDetect
 
     from .groundtruth import precision_recall
 
@@ -172,7 +172,7 @@ def sweep_depth_precision(meshes_dir: Path, quick: bool, size: int = 800) -> dic
 
 # -- scale -----------------------------------------------------------------------------------------
 def sweep_scale(meshes_dir: Path, quick: bool, size: int = 400) -> dict[str, Any]:
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     from . import gl as glmod
     from .meshes import Mesh, load_mesh
@@ -325,7 +325,7 @@ def outlines_resolved(edges: np.ndarray, diameter_px: float) -> float:
 
 
 def sweep_thin_rod(quick: bool, size: int = 400) -> dict[str, Any]:
-    from nodes.edge_detect import EdgeDetect
+    from nodegraph_nodes.edge_detect import EdgeDetect
 
     from . import gl as glmod
     from .groundtruth import precision_recall
@@ -359,7 +359,7 @@ def sweep_thin_rod(quick: bool, size: int = 400) -> dict[str, Any]:
 
 # -- curvature: resolution, noise, umbilics ----------------------------------------------------------
 def sweep_curvature_noise(quick: bool) -> dict[str, Any]:
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     V0, F = torus_mesh(100, 25)
     kmin, kmax, dmin, normal = torus_truth(V0)
@@ -387,7 +387,7 @@ def sweep_curvature_noise(quick: bool) -> dict[str, Any]:
 
 
 def sweep_curvature_resolution(quick: bool) -> dict[str, Any]:
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     grids = [(200, 50), (48, 12), (16, 6)] if quick else [(400, 100), (200, 50), (100, 25), (48, 12), (24, 8),
                                                             (16, 6), (12, 4), (8, 3)]
@@ -410,7 +410,7 @@ def sweep_curvature_resolution(quick: bool) -> dict[str, Any]:
 
 
 def sweep_umbilic(quick: bool) -> dict[str, Any]:
-    from nodes.curvature.principal import DirectionSource, Reason, compute_curvature
+    from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 
     from .primitives import sphere
 
@@ -469,7 +469,7 @@ def broken_mesh_cases(tmp: Path, meshes_dir: Path) -> dict[str, Path]:
 
 def broken_mesh_report(path: Path, size: int = 400) -> dict[str, Any]:
     """Load, draw, detect edges and measure curvature on one mesh file; record every warning and error."""
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     from . import gl as glmod
     from .errors import MeshError
@@ -530,7 +530,7 @@ def sweep_broken_meshes(meshes_dir: Path) -> dict[str, Any]:
 # -- particles -------------------------------------------------------------------------------------
 def sweep_particles(meshes_dir: Path, quick: bool) -> dict[str, Any]:
     try:
-        from nodes.particle_sketch import core
+        from nodegraph_nodes.particle_sketch import core
     except ImportError as exc:
         return {"title": "Particles", "skipped": str(exc), "points": [], "break": None}
     from .accuracy import particle_depth

@@ -22,7 +22,7 @@ from nodegraph.accuracy import (
 )
 from nodegraph.accuracy_charts import pareto
 from nodegraph.groundtruth import line_drawing, precision_recall
-from nodes.edge_detect import EdgeDetect
+from nodegraph_nodes.edge_detect import EdgeDetect
 from tests.conftest import shared_mesh
 
 
@@ -57,7 +57,7 @@ def test_torus_truth_and_the_curvature_errors_of_a_fine_torus():
     assert np.allclose(kmax, 2.0)  # 1 / tube radius
     assert kmin.max() == pytest.approx(1 / 2.5) and kmin.min() == pytest.approx(-1 / 1.5)  # cos v / (R + r cos v)
     assert np.allclose(np.einsum("ij,ij->i", dmin, normal), 0.0)
-    from nodes.curvature.principal import compute_curvature
+    from nodegraph_nodes.curvature.principal import compute_curvature
 
     err = curvature_errors(compute_curvature(V, F, 3), kmin, kmax, dmin)
     assert err["finite"] and err["direction_p95_deg"] < 2.0 and err["value_p95"] < 0.1

@@ -14,8 +14,8 @@ from nodegraph.meshes import Mesh
 from nodegraph.primitives import torus
 from nodegraph.registry import default
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from nodes.edge_detect import EdgeDetect
-from nodes.edge_detect.reference import edge_detect as edge_detect_ref
+from nodegraph_nodes.edge_detect import EdgeDetect
+from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 
 SIZE = (240, 180)
 
@@ -94,7 +94,7 @@ def _derived(mesh: Mesh) -> set[str]:
 def test_derived_mesh_data_only_when_a_node_needing_it_is_planned(gl, monkeypatch):
     if "curvature" not in default().names():
         pytest.skip("the curvature node is not registered")
-    import nodes.curvature as curvature_node
+    import nodegraph_nodes.curvature as curvature_node
 
     calls: list[int] = []
     real = curvature_node.compute_curvature

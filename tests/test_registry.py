@@ -11,7 +11,7 @@ from nodegraph import registry
 
 def test_builtin_nodes_register_through_entry_points():
     eps = importlib.metadata.entry_points(group=registry.GROUP)
-    assert any(ep.value == "nodes:register" for ep in eps)
+    assert any(ep.value == "nodegraph_nodes:register" for ep in eps)
     reg = registry.default()
     for name in ("rasterize", "edge_detect", "perlin_noise", "sketch", "depth_sprite", "write"):
         assert name in reg

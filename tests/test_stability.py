@@ -24,7 +24,7 @@ from nodegraph.stability import (
     single_object_scene,
     with_camera,
 )
-from nodes.curvature.principal import DirectionSource, Reason, compute_curvature
+from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 from tests.conftest import SHARED_MESHES, shared_mesh
 
 SIZE = (320, 320)
@@ -122,7 +122,7 @@ def test_thin_rod_outlines_merge_and_vanish_without_nan(gl):
         truth = reference_truth(gl, scene, (size, size))
         nd = gbuffer(gl, scene, (size, size))["normal_depth"]
         from nodegraph.accuracy import NodeRunner
-        from nodes.edge_detect import EdgeDetect
+        from nodegraph_nodes.edge_detect import EdgeDetect
 
         e = NodeRunner(gl, (size, size), scene).run(EdgeDetect("e"), {"normal_depth": nd}, frozenset({"out"}))
         arr = e["out"].read()[..., 0]
@@ -249,7 +249,7 @@ def test_shared_broken_meshes_draw_and_measure(gl, name, check):
 @pytest.mark.parametrize("params", [dict(drag=0.0), dict(randomness=1e9), dict(mass=1e-12),
                                     dict(drag=0.0, mass=1e-9, randomness=1e9, step=100.0)])
 def test_particles_at_extremes_end_quickly_with_finite_ink(params):
-    core = pytest.importorskip("nodes.particle_sketch.core")
+    core = pytest.importorskip("nodegraph_nodes.particle_sketch.core")
     yy, xx = np.mgrid[0:160, 0:160]
     depth = np.where((xx - 80.0) ** 2 + (yy - 80.0) ** 2 < 50.0**2, 0.4, 1.0)
     edges, ff = core.prepare(depth, 0.03)

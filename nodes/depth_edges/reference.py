@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodes.particle_sketch import core
+from nodegraph_nodes.particle_sketch import core
 
 
 def normalised_depth(depth: np.ndarray, mode: str = "window", near: float = 0.0, far: float = 1.0) -> np.ndarray:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodes.particle_sketch import core
+from nodegraph_nodes.particle_sketch import core
 
 
 def force_field(gradient: np.ndarray, clamp: float = 1.0, saturate: float = 0.03,

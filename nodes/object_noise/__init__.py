@@ -9,7 +9,7 @@ from pydantic import Field
 
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import Texture
-from nodes.perlin_noise import reference
+from nodegraph_nodes.perlin_noise import reference
 
 
 class ObjectNoise(Node):

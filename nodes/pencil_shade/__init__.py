@@ -12,9 +12,9 @@ from nodegraph.errors import PipelineError
 from nodegraph.gl import bind
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
-from nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
-from nodes.curvature import object_field
-from nodes.curvature.principal import DirectionSource
+from nodegraph_nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
+from nodegraph_nodes.curvature import object_field
+from nodegraph_nodes.curvature.principal import DirectionSource
 
 from . import reference
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from nodes.composite import Composite
+from nodegraph_nodes.composite import Composite
 from tests.conftest import run_node
 
 W, H = 37, 23

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nodegraph.errors import MeshError
-from nodes.curvature.principal import (
+from nodegraph_nodes.curvature.principal import (
     DEFAULT_RADIUS,
     CurvatureResult,
     DirectionSource,

@@ -15,8 +15,8 @@ from nodegraph.meshes import Mesh
 from nodegraph.node import HashContext
 from nodegraph.primitives import sphere
 from nodegraph.scene import Scene, SceneObject, compose, frame_camera
-from nodes.curvature import FIELDS, object_field, smooth_line_field
-from nodes.curvature.principal import DirectionSource
+from nodegraph_nodes.curvature import FIELDS, object_field, smooth_line_field
+from nodegraph_nodes.curvature.principal import DirectionSource
 
 R_MAJOR, R_MINOR = 2.0, 0.5
 
@@ -128,7 +128,7 @@ def test_sphere_falls_back_without_nan():
 
 
 def test_same_mesh_twice_measured_once_and_arrays_shared(monkeypatch):
-    from nodes.curvature import Curvature
+    from nodegraph_nodes.curvature import Curvature
 
     calls = []
     orig = Curvature.measure

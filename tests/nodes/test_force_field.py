@@ -7,10 +7,10 @@ import pytest
 from pydantic import ValidationError
 from scipy import ndimage
 
-from nodes.depth_edges import DepthEdges
-from nodes.force_field import ForceField
-from nodes.force_field.reference import force_field as force_field_ref
-from nodes.particle_sketch import core, synthetic
+from nodegraph_nodes.depth_edges import DepthEdges
+from nodegraph_nodes.force_field import ForceField
+from nodegraph_nodes.force_field.reference import force_field as force_field_ref
+from nodegraph_nodes.particle_sketch import core, synthetic
 from tests.conftest import run_node
 
 SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)

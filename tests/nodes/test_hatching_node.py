@@ -12,7 +12,7 @@ from nodegraph.cache import Cache
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
-from nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
+from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 
 TEXT = """\
 pipeline: t

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nodes.hatching_synthesis import tam as tam_mod
-from nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
+from nodegraph_nodes.hatching_synthesis import tam as tam_mod
+from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 
 EPS = 1e-4
 

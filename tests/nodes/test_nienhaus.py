@@ -11,14 +11,14 @@ from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.sampling import nearest
 from nodegraph.scene import load_scene
-from nodes.depth_sprite import DepthSprite
-from nodes.depth_sprite.reference import depth_sprite as depth_sprite_ref
-from nodes.edge_detect import EdgeDetect
-from nodes.edge_detect.reference import edge_detect as edge_detect_ref
-from nodes.perlin_noise import PerlinNoise
-from nodes.rasterize import Rasterize
-from nodes.sketch import Sketch
-from nodes.sketch.reference import sketch as sketch_ref
+from nodegraph_nodes.depth_sprite import DepthSprite
+from nodegraph_nodes.depth_sprite.reference import depth_sprite as depth_sprite_ref
+from nodegraph_nodes.edge_detect import EdgeDetect
+from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
+from nodegraph_nodes.perlin_noise import PerlinNoise
+from nodegraph_nodes.rasterize import Rasterize
+from nodegraph_nodes.sketch import Sketch
+from nodegraph_nodes.sketch.reference import sketch as sketch_ref
 from tests.conftest import run_node
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -11,15 +11,15 @@ import pytest
 from scipy import ndimage
 from scipy.spatial import Delaunay
 
-import nodes.rasterize as rasterize_mod
+import nodegraph_nodes.rasterize as rasterize_mod
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from nodes.object_noise import ObjectNoise
-from nodes.perlin_noise.reference import noise3_at
-from nodes.rasterize import Rasterize
+from nodegraph_nodes.object_noise import ObjectNoise
+from nodegraph_nodes.perlin_noise.reference import noise3_at
+from nodegraph_nodes.rasterize import Rasterize
 from tests.conftest import run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -234,7 +234,7 @@ def test_object_noise_shape_format_and_port_type_error(gl):
 
 def test_a_huge_depth_range_warns_once(gl):
     from nodegraph.scene import Camera
-    from nodes import rasterize as rmod
+    from nodegraph_nodes import rasterize as rmod
 
     scene = load_scene("builtin:box")
     cam = scene.camera_at(0)

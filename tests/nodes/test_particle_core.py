@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 
-from nodes.particle_sketch import core, synthetic  # noqa: E402
+from nodegraph_nodes.particle_sketch import core, synthetic  # noqa: E402
 
 # The seed's kernels exactly as printed.
 SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)
@@ -202,8 +202,8 @@ def test_engine_choice_and_errors(cow160, monkeypatch):
     # without numba the default falls back to the NumPy lane, with the same output
     params = core.ParticleParams(strokes=50)
     want = core.simulate(edges, ff, params, np.random.default_rng(4))
-    monkeypatch.setitem(sys.modules, "nodes.particle_sketch.jit", None)  # as if numba were not installed
-    monkeypatch.delattr(sys.modules["nodes.particle_sketch"], "jit", raising=False)
+    monkeypatch.setitem(sys.modules, "nodegraph_nodes.particle_sketch.jit", None)  # as if numba were not installed
+    monkeypatch.delattr(sys.modules["nodegraph_nodes.particle_sketch"], "jit", raising=False)
     assert core._jit() is None
     _assert_same(core.simulate(edges, ff, params, np.random.default_rng(4)), want)
     with pytest.raises(RuntimeError, match="numba"):

@@ -10,7 +10,7 @@ import pytest
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.node import derive_seed
-from nodes.contour import Contour, reference, screen_bounds, view_light
+from nodegraph_nodes.contour import Contour, reference, screen_bounds, view_light
 
 TEXT = """\
 pipeline: t

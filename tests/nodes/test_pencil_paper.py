@@ -9,7 +9,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
-from nodes.paper import paper_height, paper_normals
+from nodegraph_nodes.paper import paper_height, paper_normals
 
 TEXT = """\
 pipeline: t

@@ -16,11 +16,11 @@ from nodegraph.executor import Executor
 from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
-from nodes.curvature import object_field
-from nodes.curvature.principal import DirectionSource
-from nodes.hatching_synthesis.tam import synthesize_tam
-from nodes.paper import paper_height, paper_normals
-from nodes.pencil_shade import PencilShade, reference
+from nodegraph_nodes.curvature import object_field
+from nodegraph_nodes.curvature.principal import DirectionSource
+from nodegraph_nodes.hatching_synthesis.tam import synthesize_tam
+from nodegraph_nodes.paper import paper_height, paper_normals
+from nodegraph_nodes.pencil_shade import PencilShade, reference
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 96, 80
@@ -127,7 +127,7 @@ def test_three_way_blend_matches_reference(gl, tam):
     ys, xs = np.nonzero(inside)
     a = np.radians(np.array(angles))[corners[inside]]
     dirs = np.stack([np.cos(a), np.sin(a)], axis=-1)  # (N, 3, 2)
-    from nodes.contour import view_light
+    from nodegraph_nodes.contour import view_light
 
     brightness = max(float(view_light(scene, scene.camera)[2]), 0.0)  # the plane faces the camera: n = +z
     dark = reference.darkness(np.full(len(xs), brightness), params["light_intensity"])
@@ -203,7 +203,7 @@ def test_gpu_darkness_is_monotonic_in_brightness_on_a_sphere(gl):
     shade = res.values[("shade", "shade")].read()[..., 0]
     blend = res.values[("shade", "blend")].read()
     normal = res.values[("gbuf", "normal")].read()
-    from nodes.contour import view_light
+    from nodegraph_nodes.contour import view_light
 
     covered = (blend[..., 3] >= 0) & (normal[..., 3] > 0)
     n = normal[covered][:, :3]

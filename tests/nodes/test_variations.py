@@ -10,10 +10,10 @@ import pytest
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.node import derive_seed
-from nodes.depth_sprite import DepthSprite
-from nodes.perlin_noise import PerlinNoise
-from nodes.sketch import Sketch
-from nodes.sketch.reference import sketch as sketch_ref
+from nodegraph_nodes.depth_sprite import DepthSprite
+from nodegraph_nodes.perlin_noise import PerlinNoise
+from nodegraph_nodes.sketch import Sketch
+from nodegraph_nodes.sketch.reference import sketch as sketch_ref
 from tests.conftest import run_node
 
 ROOT = Path(__file__).resolve().parents[2]

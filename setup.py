@@ -1,0 +1,10 @@
+"""Package layout only (metadata lives in pyproject.toml): the repository's `nodes/` folder installs as the
+`nodegraph_nodes` package, so site-packages gets no generic top-level `nodes` module."""
+
+from setuptools import find_packages, setup
+
+builtin = find_packages(include=["nodes", "nodes.*"])
+setup(
+    packages=find_packages(include=["nodegraph", "nodegraph.*"]) + ["nodegraph_nodes" + p[len("nodes"):] for p in builtin],
+    package_dir={"nodegraph_nodes": "nodes"},
+)
