@@ -3,8 +3,8 @@
 
 from setuptools import find_packages, setup
 
-builtin = find_packages(include=["nodes", "nodes.*"])
+builtin = ["nodegraph_nodes" + p[len("nodes"):] for p in find_packages(include=["nodes", "nodes.*"])]
 setup(
-    packages=find_packages(include=["nodegraph", "nodegraph.*"]) + ["nodegraph_nodes" + p[len("nodes"):] for p in builtin],
+    packages=find_packages(include=["nodegraph", "nodegraph.*"]) + builtin,
     package_dir={"nodegraph_nodes": "nodes"},
 )

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from nodegraph_nodes.edge_detect import EdgeDetect
 
 from nodegraph.accuracy import (
     TARGET_F1,
@@ -22,7 +23,6 @@ from nodegraph.accuracy import (
 )
 from nodegraph.accuracy_charts import pareto
 from nodegraph.groundtruth import line_drawing, precision_recall
-from nodegraph_nodes.edge_detect import EdgeDetect
 from tests.conftest import shared_mesh
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nodegraph_nodes.edge_detect import EdgeDetect
+from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 
 from nodegraph import pipeline as pl
 from nodegraph.accuracy import NodeRunner
@@ -14,8 +16,6 @@ from nodegraph.meshes import Mesh
 from nodegraph.primitives import torus
 from nodegraph.registry import default
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from nodegraph_nodes.edge_detect import EdgeDetect
-from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 
 SIZE = (240, 180)
 

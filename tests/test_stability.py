@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 
 from nodegraph.accuracy import ellipsoid_truth, gbuffer, release, scene_for, torus_mesh
 from nodegraph.errors import MeshError
@@ -24,7 +25,6 @@ from nodegraph.stability import (
     single_object_scene,
     with_camera,
 )
-from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 from tests.conftest import SHARED_MESHES, shared_mesh
 
 SIZE = (320, 320)
@@ -121,8 +121,9 @@ def test_thin_rod_outlines_merge_and_vanish_without_nan(gl):
         scene = rod_scene(d, size)
         truth = reference_truth(gl, scene, (size, size))
         nd = gbuffer(gl, scene, (size, size))["normal_depth"]
-        from nodegraph.accuracy import NodeRunner
         from nodegraph_nodes.edge_detect import EdgeDetect
+
+        from nodegraph.accuracy import NodeRunner
 
         e = NodeRunner(gl, (size, size), scene).run(EdgeDetect("e"), {"normal_depth": nd}, frozenset({"out"}))
         arr = e["out"].read()[..., 0]

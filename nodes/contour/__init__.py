@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from nodegraph_nodes.distortion_map import MAX_AMPLITUDE
 from pydantic import Field
 
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import Texture, TextureArray
-from nodegraph_nodes.distortion_map import MAX_AMPLITUDE
 
 Color = tuple[float, float, float]
 PAPER_COLOR: Color = (0.97, 0.96, 0.93)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from nodegraph_nodes.particle_sketch import core
 
 

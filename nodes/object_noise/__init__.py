@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import numpy as np
+from nodegraph_nodes.perlin_noise import reference
 from pydantic import Field
 
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import Texture
-from nodegraph_nodes.perlin_noise import reference
 
 
 class ObjectNoise(Node):

@@ -6,15 +6,15 @@ import math
 from typing import Any, Literal
 
 import numpy as np
+from nodegraph_nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
+from nodegraph_nodes.curvature import object_field
+from nodegraph_nodes.curvature.principal import DirectionSource
 from pydantic import Field, model_validator
 
 from nodegraph.errors import PipelineError
 from nodegraph.gl import bind
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
-from nodegraph_nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
-from nodegraph_nodes.curvature import object_field
-from nodegraph_nodes.curvature.principal import DirectionSource
 
 from . import reference
 

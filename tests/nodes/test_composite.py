@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nodegraph_nodes.composite import Composite
 from pydantic import ValidationError
 
-from nodegraph_nodes.composite import Composite
 from tests.conftest import run_node
 
 W, H = 37, 23

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from nodegraph.errors import MeshError
 from nodegraph_nodes.curvature.principal import (
     DEFAULT_RADIUS,
     CurvatureResult,
@@ -14,6 +12,8 @@ from nodegraph_nodes.curvature.principal import (
     compute_curvature,
     mesh_content_key,
 )
+
+from nodegraph.errors import MeshError
 
 R_MAJOR, R_MINOR = 2.0, 0.5
 

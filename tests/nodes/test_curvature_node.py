@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nodegraph_nodes.curvature import FIELDS, object_field, smooth_line_field
+from nodegraph_nodes.curvature.principal import DirectionSource
 
 from nodegraph import pipeline as pl
 from nodegraph.cache import Cache
@@ -15,8 +17,6 @@ from nodegraph.meshes import Mesh
 from nodegraph.node import HashContext
 from nodegraph.primitives import sphere
 from nodegraph.scene import Scene, SceneObject, compose, frame_camera
-from nodegraph_nodes.curvature import FIELDS, object_field, smooth_line_field
-from nodegraph_nodes.curvature.principal import DirectionSource
 
 R_MAJOR, R_MINOR = 2.0, 0.5
 

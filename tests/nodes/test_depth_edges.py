@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pydantic import ValidationError
-from scipy import ndimage
-
 from nodegraph_nodes.depth_edges import DepthEdges
 from nodegraph_nodes.depth_edges.reference import depth_edges as depth_edges_ref
 from nodegraph_nodes.particle_sketch import synthetic
+from pydantic import ValidationError
+from scipy import ndimage
+
 from tests.conftest import run_node
 
 # The seed's kernels exactly as printed; k[x][y] with y down the image (see nodes/particle_sketch/core.py).

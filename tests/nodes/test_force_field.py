@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pydantic import ValidationError
-from scipy import ndimage
-
 from nodegraph_nodes.depth_edges import DepthEdges
 from nodegraph_nodes.force_field import ForceField
 from nodegraph_nodes.force_field.reference import force_field as force_field_ref
 from nodegraph_nodes.particle_sketch import core, synthetic
+from pydantic import ValidationError
+from scipy import ndimage
+
 from tests.conftest import run_node
 
 SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 
 from nodegraph import pipeline as pl
 from nodegraph.cache import Cache
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
-from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 
 TEXT = """\
 pipeline: t

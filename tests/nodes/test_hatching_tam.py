@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from nodegraph_nodes.hatching_synthesis import tam as tam_mod
 from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
 

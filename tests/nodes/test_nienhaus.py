@@ -6,11 +6,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from nodegraph import pipeline as pl
-from nodegraph.executor import Executor
-from nodegraph.sampling import nearest
-from nodegraph.scene import load_scene
 from nodegraph_nodes.depth_sprite import DepthSprite
 from nodegraph_nodes.depth_sprite.reference import depth_sprite as depth_sprite_ref
 from nodegraph_nodes.edge_detect import EdgeDetect
@@ -19,6 +14,11 @@ from nodegraph_nodes.perlin_noise import PerlinNoise
 from nodegraph_nodes.rasterize import Rasterize
 from nodegraph_nodes.sketch import Sketch
 from nodegraph_nodes.sketch.reference import sketch as sketch_ref
+
+from nodegraph import pipeline as pl
+from nodegraph.executor import Executor
+from nodegraph.sampling import nearest
+from nodegraph.scene import load_scene
 from tests.conftest import run_node
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,20 +6,20 @@ import math
 import warnings
 from pathlib import Path
 
+import nodegraph_nodes.rasterize as rasterize_mod
 import numpy as np
 import pytest
+from nodegraph_nodes.object_noise import ObjectNoise
+from nodegraph_nodes.perlin_noise.reference import noise3_at
+from nodegraph_nodes.rasterize import Rasterize
 from scipy import ndimage
 from scipy.spatial import Delaunay
 
-import nodegraph_nodes.rasterize as rasterize_mod
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from nodegraph_nodes.object_noise import ObjectNoise
-from nodegraph_nodes.perlin_noise.reference import noise3_at
-from nodegraph_nodes.rasterize import Rasterize
 from tests.conftest import run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -233,8 +233,9 @@ def test_object_noise_shape_format_and_port_type_error(gl):
 
 
 def test_a_huge_depth_range_warns_once(gl):
-    from nodegraph.scene import Camera
     from nodegraph_nodes import rasterize as rmod
+
+    from nodegraph.scene import Camera
 
     scene = load_scene("builtin:box")
     cam = scene.camera_at(0)

@@ -11,6 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nodegraph_nodes.depth_edges import DepthEdges
+from nodegraph_nodes.force_field import ForceField
+from nodegraph_nodes.particle_sketch import ParticleSketch, core, synthetic
+from nodegraph_nodes.strokes_svg import StrokesSvg
 from pydantic import ValidationError
 
 from nodegraph import pipeline as pl
@@ -18,10 +22,6 @@ from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor, RunContext
 from nodegraph.node import HashContext
 from nodegraph.values import Strokes
-from nodegraph_nodes.depth_edges import DepthEdges
-from nodegraph_nodes.force_field import ForceField
-from nodegraph_nodes.particle_sketch import ParticleSketch, core, synthetic
-from nodegraph_nodes.strokes_svg import StrokesSvg
 from tests.conftest import _FakeExecutor, run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -6,11 +6,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from nodegraph_nodes.contour import Contour, reference, screen_bounds, view_light
 
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.node import derive_seed
-from nodegraph_nodes.contour import Contour, reference, screen_bounds, view_light
 
 TEXT = """\
 pipeline: t

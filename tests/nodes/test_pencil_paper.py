@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nodegraph_nodes.paper import paper_height, paper_normals
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
-from nodegraph_nodes.paper import paper_height, paper_normals
 
 TEXT = """\
 pipeline: t

@@ -9,6 +9,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from nodegraph_nodes.curvature import object_field
+from nodegraph_nodes.curvature.principal import DirectionSource
+from nodegraph_nodes.hatching_synthesis.tam import synthesize_tam
+from nodegraph_nodes.paper import paper_height, paper_normals
+from nodegraph_nodes.pencil_shade import PencilShade, reference
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
@@ -16,11 +21,6 @@ from nodegraph.executor import Executor
 from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
-from nodegraph_nodes.curvature import object_field
-from nodegraph_nodes.curvature.principal import DirectionSource
-from nodegraph_nodes.hatching_synthesis.tam import synthesize_tam
-from nodegraph_nodes.paper import paper_height, paper_normals
-from nodegraph_nodes.pencil_shade import PencilShade, reference
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 96, 80

@@ -6,14 +6,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from nodegraph import pipeline as pl
-from nodegraph.executor import Executor
-from nodegraph.node import derive_seed
 from nodegraph_nodes.depth_sprite import DepthSprite
 from nodegraph_nodes.perlin_noise import PerlinNoise
 from nodegraph_nodes.sketch import Sketch
 from nodegraph_nodes.sketch.reference import sketch as sketch_ref
+
+from nodegraph import pipeline as pl
+from nodegraph.executor import Executor
+from nodegraph.node import derive_seed
 from tests.conftest import run_node
 
 ROOT = Path(__file__).resolve().parents[2]
