@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import re
 import sys
 import time
 import warnings
@@ -14,6 +13,7 @@ import click
 
 from . import pipeline as pl
 from .errors import SketchgraphError
+from .render import frame_path, open_cache, open_pipeline, parse_frames, write_value
 
 
 def _warn_one_line(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
@@ -52,82 +52,6 @@ def cache_options(f: Any) -> Any:
     return f
 
 
-def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
-                  load_scene: bool = True) -> pl.Pipeline:
-    return pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
-                   load_scene=load_scene)
-
-
-def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
-    from .cache import Cache
-
-    return None if no_cache else Cache(cache_dir)
-
-
-def parse_frames(text: str | None) -> list[int]:
-    if text is None:
-        return [0]
-    m = re.fullmatch(r"\s*(-?\d+)\s*(?::\s*(-?\d+)\s*(?::\s*(\d+)\s*)?)?", text)
-    if not m:
-        raise SketchgraphError(f"--frames: expected N or START:END[:STEP] (END exclusive), found '{text}'")
-    start = int(m.group(1))
-    if m.group(2) is None:
-        return [start]
-    end, step = int(m.group(2)), int(m.group(3) or 1)
-    if end <= start or step < 1:
-        raise SketchgraphError(f"--frames: empty range '{text}'")
-    return list(range(start, end, step))
-
-
-def frame_path(pattern: str, frame: int, many: bool) -> Path:
-    m = re.search(r"#+", pattern)
-    if m:
-        return Path(pattern[:m.start()] + str(frame).zfill(len(m.group(0))) + pattern[m.end():])
-    if many:
-        p = Path(pattern)
-        return p.with_name(f"{p.stem}_{frame:04d}{p.suffix}")
-    return Path(pattern)
-
-
-def to_image(value: Any) -> Any:
-    """A node value as a float (H, W, C) array for writing."""
-    from .values import Strokes, Tex, TexArray
-
-    if isinstance(value, Tex):
-        return value.read()
-    if isinstance(value, TexArray):
-        import numpy as np
-
-        arr = value.read()
-        return np.concatenate(list(arr), axis=1)  # layers side by side
-    if isinstance(value, Strokes):
-        from .strokes import rasterize_strokes
-
-        return rasterize_strokes(value)
-    raise SketchgraphError(f"cannot write a {type(value).__name__} as an image")
-
-
-def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> Path:
-    from . import imageio
-    from .values import Strokes
-
-    if isinstance(value, Path):  # a File output: the node already wrote it
-        return value
-
-    if path.suffix.lower() == ".svg":
-        if not isinstance(value, Strokes):
-            raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
-        from .strokes import to_svg
-
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(to_svg(value))
-        return path
-    arr = to_image(value)
-    if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
-        arr = arr[:, :, :3]
-    return imageio.write(path, arr, meta, half=False)
-
-
 # -- run ------------------------------------------------------------------------------------
 @main.command()
 @click.argument("pipeline", type=click.Path())
@@ -151,7 +75,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     if watch:
         if frames is not None and len(parse_frames(frames)) > 1:
             raise SketchgraphError("--watch renders one frame; give --frames N or drop --frames")
-        from . import watch as watchmod
+        from .tools import watch as watchmod
 
         watcher = watchmod.Watcher(pipeline, out, output_name, overrides, size, scene,
                                    open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0])
@@ -167,7 +91,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     cache = open_cache(no_cache, cache_dir)
     ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 else "single", requested=[ref])
     if explain:
-        from .explain import explain as explain_plan
+        from .tools.explain import explain as explain_plan
 
         click.echo(explain_plan(ex, frame_list[0]))
     pattern = out or f"out/{Path(pipeline).stem}.png"
@@ -225,7 +149,7 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
     if all_:
         if port is not None:
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
-        from .inspect_all import inspect_all
+        from .tools.inspect_all import inspect_all
 
         insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame,
                                  open_cache(no_cache, cache_dir))
@@ -409,7 +333,7 @@ def _mb(n: int) -> str:
 def bench(ctx: click.Context, target: str | None) -> None:
     """Benchmarks: `bench PIPELINE [--scene M] [--frames N] [--size WxH] [--json F]`, or a named one:
     shower-door, particles, accuracy, hatching, curvature (`bench NAME --help`)."""
-    from . import bench as benchmod
+    from .tools import bench as benchmod
 
     if target in (None, "-h", "--help"):  # --help after a name goes to that benchmark
         click.echo(ctx.get_help())
@@ -435,8 +359,8 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
          cache_dir: Path | None) -> None:
     """Which nodes differ between two pipelines (or one pipeline with --set-a/--set-b) and why; max and
     mean absolute difference and a difference image per differing output. Exit 1 if anything differs."""
-    from .diff import diff as diff_pipelines
-    from .diff import format_report
+    from .tools.diff import diff as diff_pipelines
+    from .tools.diff import format_report
 
     pipe_a = open_pipeline(a, overrides + set_a, size, scene)
     pipe_b = open_pipeline(b or a, overrides + set_b, size, scene)
@@ -466,8 +390,8 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
           overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
           cache_dir: Path | None) -> None:
     """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
-    from . import viz
-    from . import wedge as wedgemod
+    from .tools import viz
+    from .tools import wedge as wedgemod
 
     axes = wedgemod.axes_from(list(params))
     t0 = time.perf_counter()
@@ -508,7 +432,7 @@ def _gallery_options(f: Any) -> Any:
 def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force: bool, cold: bool, inspect_: bool,
                   no_cache: bool, cache_dir: Path | None) -> None:
     """Render every entry that is not up to date; print the time per entry and in total."""
-    from . import gallery as gal
+    from .tools import gallery as gal
 
     g = gal.load(gallery_file)
     report = gal.build(g, gal.node_cache(g, no_cache, cache_dir, cold), only=list(only), force=force or cold,
@@ -528,7 +452,7 @@ def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force:
 def gallery_verify(gallery_file: Path, only: tuple[str, ...], quiet: bool, use_cache: bool,
                    cache_dir: Path | None) -> None:
     """Render every entry again and compare with manifest.json; exit 1 naming every entry that differs."""
-    from . import gallery as gal
+    from .tools import gallery as gal
 
     g = gal.load(gallery_file)
     checks, info = gal.verify(g, gal.node_cache(g, not use_cache, cache_dir), only=list(only), echo=click.echo,

@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 from nodegraph_nodes.edge_detect import EdgeDetect
 
-from nodegraph.accuracy import (
+from nodegraph.tools.accuracy import (
     TARGET_F1,
     NodeRunner,
     curvature_errors,
@@ -21,8 +21,8 @@ from nodegraph.accuracy import (
     torus_mesh,
     torus_truth,
 )
-from nodegraph.accuracy_charts import pareto
-from nodegraph.groundtruth import line_drawing, precision_recall
+from nodegraph.tools.accuracy_charts import pareto
+from nodegraph.tools.groundtruth import line_drawing, precision_recall
 from tests.conftest import shared_mesh
 
 

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from nodegraph import pipeline as pl
 from nodegraph.cli import main
-from nodegraph.diff import compare_keys, compare_values
+from nodegraph.tools.diff import compare_keys, compare_values
 
 ROOT = Path(__file__).resolve().parents[1]
 NIENHAUS = ROOT / "pipelines" / "nienhaus_sketchy.yaml"

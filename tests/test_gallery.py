@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import gallery as gal
-from nodegraph import viz
+from nodegraph.tools import gallery as gal
+from nodegraph.tools import viz
 from nodegraph.cache import Cache
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -228,7 +228,7 @@ def test_page_in_headless_chromium(gl, tiny, tmp_path):
 # -- wedges ----------------------------------------------------------------------------------------------
 def test_wedge_axes():
     from nodegraph.errors import SketchgraphError
-    from nodegraph.wedge import axes_from, combinations, parse_axis
+    from nodegraph.tools.wedge import axes_from, combinations, parse_axis
 
     a = parse_axis("edges.normal_threshold=0.2,0.4")
     assert a.values == (0.2, 0.4) and a.override(0.2) == "edges.normal_threshold=0.2"

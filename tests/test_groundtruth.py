@@ -1,12 +1,12 @@
-"""The line-drawing ground truth (nodegraph.groundtruth) against hand-computed geometry."""
+"""The line-drawing ground truth (nodegraph.tools.groundtruth) against hand-computed geometry."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from nodegraph.accuracy import gbuffer, release
-from nodegraph.groundtruth import feature_edges, line_drawing, precision_recall
+from nodegraph.tools.accuracy import gbuffer, release
+from nodegraph.tools.groundtruth import feature_edges, line_drawing, precision_recall
 from nodegraph.meshes import Mesh
 from nodegraph.primitives import box, plane
 from nodegraph.scene import Camera, Scene, SceneObject, load_scene, translation
@@ -127,7 +127,7 @@ def test_hidden_lines_are_removed_by_the_depth_buffer(gl):
 
 
 def test_edges_crossing_the_near_plane_are_clipped_there():
-    from nodegraph.groundtruth import _sample_edges
+    from nodegraph.tools.groundtruth import _sample_edges
 
     cam = Camera(eye=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), fov_y_deg=60.0, near=0.1,
                  far=20.0)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph import viz
+from nodegraph.tools import viz
 from nodegraph.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

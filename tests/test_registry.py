@@ -22,7 +22,7 @@ def test_engine_never_imports_nodes_by_name():
     through the registry. Benchmark and accuracy harnesses may call node references directly."""
     engine = Path(__file__).resolve().parents[1] / "nodegraph"
     core = ["__init__", "types", "node", "registry", "pipeline", "yamlio", "executor", "cache", "gl", "glsl",
-            "values", "errors", "scene", "meshes", "primitives", "explain", "imageio", "cli"]
+            "values", "errors", "scene", "meshes", "primitives", "imageio", "cli", "render"]
     offenders = []
     for name in core:
         p = engine / f"{name}.py"

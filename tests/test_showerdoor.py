@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph import showerdoor
+from nodegraph.tools import showerdoor
 from nodegraph.scene import load_scene
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from nodegraph.watch import Watcher, scene_files, watch
+from nodegraph.tools.watch import Watcher, scene_files, watch
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -27,7 +27,7 @@ class StrokesSvg(Node):
         path: str = Field(description="SVG file to write (must end in .svg); #### = frame number.")
 
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        from nodegraph.cli import frame_path, write_value
+        from nodegraph.render import frame_path, write_value
 
         path = frame_path(self.params.path, ctx.frame, False)
         if path.suffix.lower() != ".svg":

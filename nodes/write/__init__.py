@@ -27,7 +27,7 @@ class Write(Node):
         path: str = Field(description="File to write; the extension picks the format; #### = frame number.")
 
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        from nodegraph.cli import frame_path, write_value
+        from nodegraph.render import frame_path, write_value
 
         return {"file": write_value(inputs["image"], frame_path(self.params.path, ctx.frame, False))}
 

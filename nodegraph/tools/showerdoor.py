@@ -30,9 +30,9 @@ from typing import Any
 import click
 import numpy as np
 
-from .errors import SketchgraphError
+from ..errors import SketchgraphError
 
-PIPELINES = Path(__file__).resolve().parents[1] / "pipelines"
+PIPELINES = Path(__file__).resolve().parents[2] / "pipelines"
 SCREEN_PIPELINE = PIPELINES / "nienhaus_sketchy.yaml"
 OBJECT_PIPELINE = PIPELINES / "object_space_uncertainty.yaml"
 
@@ -103,10 +103,10 @@ def pair_metric(depth0: np.ndarray, off0: np.ndarray, cam0: Any, depth1: np.ndar
 def measure(pipeline: str | Path, scene: str, frames: int, size: tuple[int, int] = (400, 400),
             degrees_per_frame: float | None = None, depth_tol: float = 0.01, gl: Any = None) -> dict[str, Any]:
     """The shower-door metric of one pipeline along the scene's orbit (see the module doc)."""
-    from . import gl as glmod
-    from . import pipeline as pl
-    from .executor import Executor
-    from .scene import Orbit
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
+    from ..scene import Orbit
 
     if frames < 2:
         raise SketchgraphError(f"--frames: the metric compares consecutive frames, so at least 2 (got {frames})")
@@ -191,7 +191,7 @@ def command(scene: str, frames: int, size: str, degrees_per_frame: float | None,
             json_path: Path | None) -> None:
     """Shower-door effect: frame-to-frame change of the uncertainty on the same surface point, relative to
     its size, for screen-space vs object-space uncertainty along the scene's orbit (lower is better)."""
-    from .pipeline import parse_size
+    from ..pipeline import parse_size
 
     result = compare(scene, frames, parse_size(size), degrees_per_frame, screen, object_)
     click.echo(f"shower-door on {scene}: {frames} frames at {result['degrees_per_frame']:g} deg/frame, "

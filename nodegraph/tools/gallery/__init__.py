@@ -34,18 +34,18 @@ from typing import Any
 import numpy as np
 import yaml
 
-from . import viz
-from . import wedge as wedgemod
-from .errors import SketchgraphError
-from .executor import Executor
-from .node import digest
-from .pipeline import Pipeline
+from ...errors import SketchgraphError
+from ...executor import Executor
+from ...node import digest
+from ...pipeline import Pipeline
+from .. import viz
+from .. import wedge as wedgemod
 
 FORMAT = 1
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]*$")
 DEFAULT_TOLERANCE = {"per_pixel": 0.1, "outliers": 0.005, "mean": 0.01}
 VERSIONED = ("numpy", "moderngl", "glcontext", "OpenImageIO", "pydantic", "PyYAML", "libigl", "networkx", "scipy")
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 SHARED = REPO.parent / "shared"
 
 
@@ -68,7 +68,7 @@ class Entry:
     spec: dict[str, Any] = field(default_factory=dict)
 
     def scene_files(self) -> list[Path]:
-        from .watch import scene_files
+        from ..watch import scene_files
 
         if self.scene is not None:
             return scene_files(self.scene, Path.cwd())
@@ -127,7 +127,7 @@ def _frames(value: Any, where: str) -> list[int] | None:
     if isinstance(value, int):
         return [value]
     if isinstance(value, str):
-        from .cli import parse_frames
+        from ...render import parse_frames
 
         return parse_frames(value)
     if isinstance(value, list) and value and all(isinstance(v, int) for v in value):
@@ -240,7 +240,7 @@ class EntryPlan:
 
 
 def _open(entry: Entry, extra: list[str] = (), scene_from: Pipeline | None = None) -> Pipeline:
-    from . import pipeline as pl
+    from ... import pipeline as pl
 
     overrides = entry.overrides + list(extra)
     if scene_from is None:
@@ -325,8 +325,8 @@ def _write(img: np.ndarray, dest: Path, rel: str, what: str, files: dict[str, di
 
 def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: Path | None = None) -> EntryResult:
     """Render every variant of an entry into `dest`/images/<entry>/ and describe the files written."""
-    from .inspect_all import debug_executor, inspect_run, sheet, write_inspection
-    from .watch import adopt_memory
+    from ..inspect_all import debug_executor, inspect_run, sheet, write_inspection
+    from ..watch import adopt_memory
 
     entry = ep.entry
     res = EntryResult(entry.name, "rendered")
@@ -397,7 +397,7 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
 
 # -- build -----------------------------------------------------------------------------------------------
 def versions() -> dict[str, str]:
-    from . import __version__
+    from ... import __version__
 
     out = {"sketchgraph": __version__, "python": platform.python_version()}
     for dist in VERSIONED:
@@ -439,7 +439,7 @@ class BuildReport:
 
 
 def _renderer() -> str:
-    from . import gl as glmod
+    from ... import gl as glmod
 
     return glmod.get().renderer
 
@@ -736,7 +736,7 @@ def format_verify(checks: list[EntryCheck], info: dict[str, Any]) -> str:
 def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryResult]) -> Path:
     import html
 
-    from .inspect_all import page
+    from ..inspect_all import page
 
     e = html.escape
     timings_path = gallery.root / "timings.json"
@@ -811,7 +811,7 @@ def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryR
 def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None = None, cold: bool = False) -> Any:
     """The gallery's own node cache (gallery/out/cache unless `cache_dir`), so that gallery builds neither
     depend on nor evict what other runs cached. `cold` empties it first."""
-    from .cache import Cache
+    from ...cache import Cache
 
     if no_cache:
         if cold:
@@ -829,7 +829,7 @@ class TemporaryCache:
     """A fresh, empty node cache for a cold build (removed afterwards)."""
 
     def __enter__(self) -> Any:
-        from .cache import Cache
+        from ...cache import Cache
 
         self._dir = tempfile.mkdtemp(prefix="sketchgraph-cold-")
         return Cache(Path(self._dir))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import types
+from .. import types
 
 
 def explain(ex: Any, frame: int = 0) -> str:

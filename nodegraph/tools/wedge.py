@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..errors import SketchgraphError
+from ..executor import Executor
+from ..pipeline import Pipeline
 from . import viz
-from .errors import SketchgraphError
-from .executor import Executor
-from .pipeline import Pipeline
 
 
 @dataclass(frozen=True)

@@ -112,7 +112,7 @@ def visualize_texture(arr: np.ndarray, port: str, doc: str = "") -> Panel:
 
 def visualize(value: Any, port: str, doc: str = "") -> Panel:
     """Any node value: textures by type, texture arrays as a strip, strokes as a preview, the rest as text."""
-    from .values import Arrays, Strokes, Tex, TexArray
+    from ..values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, Tex):
         return visualize_texture(value.read(), port, doc)
@@ -123,7 +123,7 @@ def visualize(value: Any, port: str, doc: str = "") -> Panel:
     if isinstance(value, np.ndarray) and value.ndim == 4:
         return visualize_array(value, port, doc=doc)
     if isinstance(value, Strokes):
-        from .strokes import rasterize_strokes
+        from ..strokes import rasterize_strokes
 
         grey = rasterize_strokes(value)[::-1, :, 0]
         return Panel(np.repeat(grey[:, :, None], 3, axis=2), "strokes", f"{len(value.polylines)} strokes")
@@ -339,7 +339,7 @@ def to_uint8(img: np.ndarray) -> np.ndarray:
 
 def write_png(path: str | Path, img: np.ndarray) -> Path:
     """A display-order (row 0 = top) float RGB image in [0, 1] as an 8-bit PNG."""
-    from . import imageio
+    from .. import imageio
 
     q = to_uint8(img).astype(np.float32) / 255.0  # quantise here so the written bytes depend on NumPy only
     return imageio.write(path, q[::-1], half=False)
@@ -347,7 +347,7 @@ def write_png(path: str | Path, img: np.ndarray) -> Path:
 
 def read_png(path: str | Path) -> np.ndarray:
     """An image file as display-order float32 (H, W, C)."""
-    from . import imageio
+    from .. import imageio
 
     return np.ascontiguousarray(imageio.read(path)[::-1])
 

@@ -16,9 +16,9 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from ..executor import Executor, RunResult, describe, plan
+from ..pipeline import Pipeline, PortRef
 from . import viz
-from .executor import Executor, RunResult, describe, plan
-from .pipeline import Pipeline, PortRef
 
 
 @dataclass
@@ -110,7 +110,7 @@ def pipe_params(pipe: Pipeline) -> dict[str, dict[str, Any]]:
 
 def value_stats(value: Any) -> list[dict[str, Any]]:
     """Per-channel min/max/mean/NaN of textures and arrays (named arrays by name)."""
-    from .values import Arrays, Strokes, Tex, TexArray
+    from ..values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)):
         return [s.as_dict() for s in viz.channel_stats(value.read())]
@@ -136,9 +136,9 @@ def value_stats(value: Any) -> list[dict[str, Any]]:
 # -- writing ---------------------------------------------------------------------------------------------
 def write_exact(value: Any, base: Path, attrs: dict[str, str]) -> Path | None:
     """The exact value: textures (and arrays, layers side by side) as float EXR, strokes as SVG, arrays as npz."""
-    from . import imageio
-    from .strokes import to_svg
-    from .values import Arrays, Strokes, Tex, TexArray
+    from .. import imageio
+    from ..strokes import to_svg
+    from ..values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, Tex):
         return imageio.write(base.with_name(base.name + ".exr"), value.read(), attrs, half=False)

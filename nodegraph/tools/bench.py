@@ -18,15 +18,15 @@ from typing import Any
 
 import click
 
-from .errors import SketchgraphError
+from ..errors import SketchgraphError
 
 # named benchmarks: name -> "module:click_command"
 NAMED: dict[str, str] = {
-    "shower-door": "nodegraph.showerdoor:command",
-    "accuracy": "nodegraph.accuracy:command",
-    "hatching": "nodegraph.bench_pencil:hatching_command",
-    "curvature": "nodegraph.bench_pencil:curvature_command",
-    "particles": "nodegraph.bench_particles:command",
+    "shower-door": "nodegraph.tools.showerdoor:command",
+    "accuracy": "nodegraph.tools.accuracy:command",
+    "hatching": "nodegraph.tools.bench_pencil:hatching_command",
+    "curvature": "nodegraph.tools.bench_pencil:curvature_command",
+    "particles": "nodegraph.tools.bench_particles:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
@@ -77,9 +77,9 @@ def _fmt(v: Any) -> str:
 
 def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, size: str | None = None,
                    overrides: tuple[str, ...] = (), warmup: int = 3) -> dict[str, Any]:
-    from . import gl as glmod
-    from . import pipeline as pl
-    from .executor import Executor
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
 
     pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene)
     gl = glmod.get()
@@ -127,7 +127,7 @@ def copy_pass_ms(gl: Any, size: tuple[int, int], passes: int = 30) -> float:
     """Median time of a plain full-screen RGBA16F copy, chained A->B->A so no draw can be skipped."""
     import numpy as np
 
-    from .glsl import ENGINE_GLSL
+    from ..glsl import ENGINE_GLSL
 
     prog = gl.program(ENGINE_GLSL / "copy.glsl", node="bench")
     w, h = size
@@ -149,7 +149,7 @@ def copy_pass_ms(gl: Any, size: tuple[int, int], passes: int = 30) -> float:
 
 def _numpy_reference(pipe: Any, nodes_ms: dict[str, float]) -> tuple[float | None, float | None]:
     """float64 NumPy time of the image-space stages on the same G-buffer, and their GPU time."""
-    from .executor import Executor
+    from ..executor import Executor
 
     stages = [nid for nid, node in pipe.nodes.items() if node.type_name in IMAGE_SPACE_TYPES and nid in nodes_ms]
     if not stages:

@@ -19,7 +19,7 @@ def _plt() -> Any:
     try:
         import matplotlib
     except ImportError as exc:  # optional dependency: pip install sketchgraph[charts]
-        from .errors import SketchgraphError
+        from ..errors import SketchgraphError
 
         raise SketchgraphError(f"charts need matplotlib ({exc}); pip install 'sketchgraph[charts]'") from None
     matplotlib.use("Agg")

@@ -70,9 +70,9 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         out: Path | None = None, python_repeat: int = 2) -> dict[str, Any]:
     from nodegraph_nodes.particle_sketch import core
 
-    from . import gl as glmod
-    from . import pipeline as pl
-    from .executor import Executor, RunContext
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor, RunContext
 
     gl = glmod.get()
     text = CHAIN.format(w=size[0], h=size[1], seed=seed, strokes=strokes)
@@ -155,9 +155,9 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         **({"speedup_>=_20": result["speedup_vs_python"] >= 20} if ref is not None else {}),
     }
     if out is not None:
-        from .imageio import write
-        from .strokes import to_svg
-        from .values import Strokes
+        from ..imageio import write
+        from ..strokes import to_svg
+        from ..values import Strokes
 
         out.mkdir(parents=True, exist_ok=True)
         write(out / "particles.png", res.values[("particles", "image")].read()[..., :3], None, half=False)
@@ -184,8 +184,8 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
 def command(scene: str, strokes: int, size: str, seed: int, repeat: int, overrides: tuple[str, ...], python: bool,
             python_repeat: int, lockstep: int, out_dir: Path | None, json_path: Path | None) -> None:
     """Curtis' particle strokes on a scene: time, strokes, coverage, precision, speedup over pure Python."""
+    from ..pipeline import parse_size
     from .bench import print_result
-    from .pipeline import parse_size
 
     result = run(scene, strokes, parse_size(size), seed, max(1, repeat), overrides, python, lockstep, out_dir,
                  max(1, python_repeat))

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from ..executor import plan
+from ..node import HashContext, Node, digest
+from ..pipeline import Pipeline
 from . import viz
-from .executor import plan
-from .node import HashContext, Node, digest
-from .pipeline import Pipeline
 
 
 @dataclass
@@ -52,7 +52,7 @@ class PortDiff:
 # -- keys ------------------------------------------------------------------------------------------------
 def key_parts(node: Node, hctx: HashContext, input_keys: dict[str, str]) -> dict[str, Any]:
     """The parts `Node.key()` digests, in the same shape (so `digest(parts)` is the key)."""
-    from .glsl import source_digest
+    from ..glsl import source_digest
 
     return {
         "type": node.type_name,
@@ -145,21 +145,21 @@ def _reasons(a: Pipeline, b: Pipeline, nid: str, pa: dict[str, Any], pb: dict[st
 
 # -- pixels ----------------------------------------------------------------------------------------------
 def _as_array(value: Any) -> np.ndarray | None:
-    from .values import Strokes, Tex, TexArray
+    from ..values import Strokes, Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)):
         return value.read()
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, Strokes):
-        from .strokes import rasterize_strokes
+        from ..strokes import rasterize_strokes
 
         return rasterize_strokes(value)
     return None
 
 
 def compare_values(node: str, port: str, va: Any, vb: Any, doc: str = "") -> PortDiff:
-    from .values import Arrays
+    from ..values import Arrays
 
     if isinstance(va, Arrays) and isinstance(vb, Arrays):
         worst, total, count = 0.0, 0.0, 0
@@ -252,7 +252,7 @@ def diff(a: Pipeline, b: Pipeline, frame: int = 0, cache: Any = None, out: Path 
 
 
 def _snapshot(value: Any) -> Any:
-    from .values import Tex, TexArray
+    from ..values import Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)):
         return value.read()

@@ -42,10 +42,10 @@ outputs:
 
 
 def _timed_runs(text: str, node: str, scene: str | None) -> dict[str, Any]:
-    from . import gl as glmod
-    from . import pipeline as pl
-    from .cache import Cache
-    from .executor import Executor
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..cache import Cache
+    from ..executor import Executor
 
     gl = glmod.get()
     with tempfile.TemporaryDirectory(prefix="sketchgraph-bench-") as tmp:
@@ -119,7 +119,7 @@ def curvature_command(scene: str, radius: int, repeat: int, json_path: Path | No
     import igl
     import numpy as np
 
-    from . import pipeline as pl
+    from .. import pipeline as pl
 
     text = CURVATURE.format(radius=radius)
     result: dict[str, Any] = {"benchmark": "curvature", "scene": scene, "radius": radius}

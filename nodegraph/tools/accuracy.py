@@ -12,7 +12,7 @@ Families (each a key of the JSON):
 - `hatching`: tonal art maps by texture size and stroke width; strokes drawn, tone error, time.
 - `noise`: perlin_noise on the GPU against its float64 reference: max error, ms per frame.
 - `pipelines`: ms per frame of the pipelines in `pipelines/` at several sizes.
-- `stability`: the failure-mode sweeps of `nodegraph.stability`.
+- `stability`: the failure-mode sweeps of `nodegraph.tools.stability`.
 
 Timings are medians of a few runs on a shared machine: compare ratios within one run, never across runs.
 """
@@ -32,7 +32,7 @@ from typing import Any
 import click
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHARED_MESHES = ROOT.parent / "shared" / "meshes"
 TARGET_MESHES = ("fandisk.obj", "spot.obj", "stanford-bunny.obj")
 TARGET_F1 = 0.85
@@ -76,7 +76,7 @@ class NodeRunner:
         self.plan = _Plan(formats)
 
     def run(self, node: Any, inputs: dict[str, Any], needed: frozenset[str] | None = None, frame: int = 0) -> dict:
-        from .executor import RunContext
+        from ..executor import RunContext
 
         ctx = RunContext(self, node, frame)  # type: ignore[arg-type]
         return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)
@@ -99,7 +99,7 @@ def release(gl: Any, values: dict[str, Any]) -> None:
 
 
 def scene_for(spec: str) -> Any:
-    from .scene import load_scene
+    from ..scene import load_scene
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -146,7 +146,7 @@ def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
                 repeats: int | None = None) -> dict[str, Any]:
     from nodegraph_nodes.edge_detect import EdgeDetect
 
-    from . import gl as glmod
+    from .. import gl as glmod
     from .bench import copy_pass_ms
     from .groundtruth import line_drawing, precision_recall
 
@@ -246,7 +246,7 @@ def torus_truth(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
 
 def ellipsoid_mesh(level: int) -> tuple[np.ndarray, np.ndarray]:
-    from .primitives import ellipsoid
+    from ..primitives import ellipsoid
 
     m = ellipsoid(*ELLIPSOID_ABC, subdiv=level)
     return np.asarray(m.vertices), np.asarray(m.faces)
@@ -330,7 +330,7 @@ def bench_curvature(quick: bool, meshes_dir: Path | None = None) -> dict[str, An
             + ", ".join(f"r{e['radius']} {e['direction_p95_deg']:.1f}deg" for e in row))
     shared = {}
     if not quick and meshes_dir is not None:
-        from .meshes import load_mesh
+        from ..meshes import load_mesh
 
         for p in sorted(meshes_dir.glob("*.obj")):
             with warnings.catch_warnings():
@@ -348,7 +348,7 @@ def bench_curvature(quick: bool, meshes_dir: Path | None = None) -> dict[str, An
 def particle_depth(meshes_dir: Path, size: int) -> tuple[np.ndarray, Any, np.ndarray]:
     """Window depth (1 = background) of cow.obj (or the built-in torus) at size^2, the scene, and its
     ground-truth line drawing."""
-    from . import gl as glmod
+    from .. import gl as glmod
     from .groundtruth import line_drawing
 
     gl = glmod.get()
@@ -464,8 +464,8 @@ def bench_hatching(quick: bool) -> dict[str, Any]:
 def bench_noise(quick: bool) -> dict[str, Any]:
     from nodegraph_nodes.perlin_noise import PerlinNoise
 
-    from . import gl as glmod
-    from .node import derive_seed
+    from .. import gl as glmod
+    from ..node import derive_seed
 
     gl = glmod.get()
     size = (800, 800)
@@ -516,7 +516,7 @@ def bench_pipelines(quick: bool) -> dict[str, Any]:
 
 # -- the command -----------------------------------------------------------------------------------
 def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, Any]:
-    from . import gl as glmod
+    from .. import gl as glmod
 
     result: dict[str, Any] = {"quick": quick, "meshes": str(meshes_dir)}
     try:
@@ -569,7 +569,7 @@ def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, A
               show_default=True, help="Folder of the shared test meshes.")
 def command(json_path: Path | None, charts_dir: Path | None, quick: bool, families: str, meshes_dir: Path) -> None:
     """Accuracy against independent references and cost, per method family; JSON and charts."""
-    from .errors import SketchgraphError
+    from ..errors import SketchgraphError
 
     fams = tuple(f.strip() for f in families.split(",") if f.strip())
     unknown = [f for f in fams if f not in FAMILIES]

@@ -16,9 +16,9 @@ from typing import Any
 
 import yaml
 
-from .errors import SketchgraphError
-from .executor import Executor
-from .pipeline import Pipeline
+from ..errors import SketchgraphError
+from ..executor import Executor
+from ..pipeline import Pipeline
 
 
 def adopt_memory(new: Executor, old: Executor | None, frame: int = 0) -> int:
@@ -106,7 +106,7 @@ class Watcher:
     def _open(self) -> Pipeline:
         if self._load is not None:
             return self._load(self.pipeline_path)
-        from .cli import open_pipeline
+        from ..render import open_pipeline
 
         return open_pipeline(str(self.pipeline_path), self.overrides, self.size, self.scene)
 
@@ -136,7 +136,7 @@ class Watcher:
         return event
 
     def _run(self, pipe: Pipeline, event: WatchEvent) -> None:
-        from .cli import write_value
+        from ..render import write_value
 
         name = self.output_name or next(iter(pipe.outputs))
         if name not in pipe.outputs:
