@@ -9,13 +9,13 @@ from nodegraph_nodes.edge_detect import EdgeDetect
 from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 
 from nodegraph import pipeline as pl
-from nodegraph.tools.accuracy import NodeRunner
 from nodegraph.executor import Executor
-from nodegraph.tools.explain import explain
 from nodegraph.meshes import Mesh
 from nodegraph.primitives import torus
 from nodegraph.registry import default
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
+from nodegraph.tools.accuracy import NodeRunner
+from nodegraph.tools.explain import explain
 
 SIZE = (240, 180)
 

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from nodegraph.cache import Cache
 from nodegraph.tools import gallery as gal
 from nodegraph.tools import viz
-from nodegraph.cache import Cache
 
 ROOT = Path(__file__).resolve().parents[1]
 PIPELINES = ROOT / "pipelines"

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nodegraph.tools.accuracy import gbuffer, release
-from nodegraph.tools.groundtruth import feature_edges, line_drawing, precision_recall
 from nodegraph.meshes import Mesh
 from nodegraph.primitives import box, plane
 from nodegraph.scene import Camera, Scene, SceneObject, load_scene, translation
+from nodegraph.tools.accuracy import gbuffer, release
+from nodegraph.tools.groundtruth import feature_edges, line_drawing, precision_recall
 
 
 def _kinds(fe):

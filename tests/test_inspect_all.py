@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph.tools import viz
 from nodegraph.cli import main
+from nodegraph.tools import viz
 
 ROOT = Path(__file__).resolve().parents[1]
 NIENHAUS = ROOT / "pipelines" / "nienhaus_sketchy.yaml"

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph.tools import showerdoor
 from nodegraph.scene import load_scene
+from nodegraph.tools import showerdoor
 
 
 def test_static_camera_gives_zero_for_both(gl):

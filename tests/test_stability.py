@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 
-from nodegraph.tools.accuracy import ellipsoid_truth, gbuffer, release, scene_for, torus_mesh
 from nodegraph.errors import MeshError
 from nodegraph.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
 from nodegraph.primitives import plane, sphere
+from nodegraph.tools.accuracy import ellipsoid_truth, gbuffer, release, scene_for, torus_mesh
 from nodegraph.tools.stability import (
     broken_mesh_cases,
     edge_scores,

@@ -1,7 +1,7 @@
 """particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
 
 The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`, the compiled
-sequential sketcher in `jit`; this node wraps `core.simulate`. `python -m nodes.particle_sketch.bench`
+sequential sketcher in `jit`; this node wraps `core.simulate`. `python -m nodegraph_nodes.particle_sketch.bench`
 measures the core on synthetic depth, `sketchgraph bench particles` the node chain on a real scene
 (docs/particles.md).
 """

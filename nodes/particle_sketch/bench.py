@@ -1,4 +1,4 @@
-"""Measures the particle sketcher: `python -m nodes.particle_sketch.bench [--size 800] [--out DIR]`.
+"""Measures the particle sketcher: `python -m nodegraph_nodes.particle_sketch.bench [--size 800] [--out DIR]`.
 
 Side by side in one run (this machine is noisy, so ratios beat absolute figures; each time is the best
 of `--repeat` runs): the vectorised `simulate` with the default parameters against the pure-Python
