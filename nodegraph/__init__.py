@@ -8,6 +8,7 @@ from .errors import (  # noqa: E402
     CycleError,
     GLUnavailableError,
     MeshError,
+    NodeError,
     PipelineError,
     PortTypeError,
     ShaderError,
@@ -15,6 +16,6 @@ from .errors import (  # noqa: E402
 )
 
 __all__ = [
-    "CycleError", "GLUnavailableError", "MeshError", "PipelineError", "PortTypeError", "ShaderError",
+    "CycleError", "GLUnavailableError", "MeshError", "NodeError", "PipelineError", "PortTypeError", "ShaderError",
     "SketchgraphError", "__version__",
 ]

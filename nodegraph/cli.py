@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 import warnings
@@ -25,6 +26,8 @@ class _Group(click.Group):
         try:
             return super().invoke(ctx)
         except SketchgraphError as exc:
+            if os.environ.get("SKETCHGRAPH_DEBUG"):
+                raise
             click.echo(f"error: {exc}", err=True)
             sys.exit(2)
 

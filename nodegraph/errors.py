@@ -55,3 +55,28 @@ class GLUnavailableError(SketchgraphError):
 
 class CacheError(SketchgraphError):
     """A cache entry is unreadable or does not match its key (recovered by recomputing)."""
+
+
+class NodeError(SketchgraphError):
+    """A node could not compute its outputs (a compute-time problem); names the node and its type."""
+
+    def __init__(self, message: str, node_id: str | None = None, node_type: str | None = None):
+        self.message = message
+        self.node_id = node_id
+        self.node_type = node_type
+        super().__init__(_node_prefix(node_id, node_type) + message)
+
+
+def _node_prefix(node_id: str | None, node_type: str | None) -> str:
+    if node_id is None:
+        return ""
+    return f"node '{node_id}' ({node_type}): " if node_type else f"node '{node_id}': "
+
+
+def one_line(exc: BaseException, limit: int = 300) -> str:
+    """An unexpected exception as one short line: its type and the first line of its message."""
+    text = str(exc).strip().splitlines()
+    first = text[0] if text else ""
+    if len(first) > limit:
+        first = first[: limit - 1] + "…"
+    return f"{type(exc).__name__}: {first}" if first else type(exc).__name__

@@ -1,7 +1,6 @@
-"""Planning and execution.
+"""Execution of a plan (`nodegraph.plan`).
 
-`plan()` keeps only the ancestors of the requested outputs and decides every texture's format from
-its consumers' port types. `Executor.run()` computes each planned node's key (cheap, no GPU), then
+`Executor.run()` computes each planned node's key (cheap, no GPU), then
 materialises values backwards from the requested outputs: from the in-memory cache (GPU textures
 kept across frames), else from the disk cache, else by `compute()`, whose inputs are materialised
 the same way. So a node whose output is cached never causes its ancestors to load or run.
@@ -14,118 +13,13 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
-import networkx as nx
-
 from . import types
 from .cache import Cache
-from .errors import PipelineError
-from .node import HashContext, Node, derive_seed
+from .errors import NodeError, PipelineError, SketchgraphError, one_line
+from .node import HashContext, Node, RunContext
 from .pipeline import Pipeline, PortRef
+from .plan import Plan, plan
 from .values import Arrays, Strokes, Tex, TexArray, nbytes
-
-
-@dataclass
-class Plan:
-    pipeline: Pipeline
-    requested: list[PortRef]
-    order: list[str]  # topological, ancestors of the requested outputs only
-    needed: dict[str, frozenset[str]]  # node -> output ports someone in the plan consumes
-    formats: dict[PortRef, str]  # texture outputs -> allocated format
-    reasons: dict[str, list[str]] = field(default_factory=dict)  # node -> requested outputs that need it
-    aliases: dict[PortRef, PortRef] = field(default_factory=dict)  # pass-through output -> its source
-
-
-def _aliases(pipe: Pipeline) -> dict[PortRef, PortRef]:
-    """Pass-through outputs resolved to the output that really holds the value (chains followed)."""
-    direct: dict[PortRef, PortRef] = {}
-    for nid, node in pipe.nodes.items():
-        for out_port, in_port in node.passthrough(set(pipe.connections[nid])).items():
-            direct[(nid, out_port)] = pipe.connections[nid][in_port]
-    resolved = {}
-    for ref in direct:
-        src = direct[ref]
-        while src in direct:
-            src = direct[src]
-        resolved[ref] = src
-    return resolved
-
-
-def plan(pipe: Pipeline, requested: list[PortRef] | None = None) -> Plan:
-    req = list(requested) if requested else list(dict.fromkeys(pipe.outputs.values()))
-    aliases = _aliases(pipe)
-    g = pipe.graph()
-    keep: set[str] = set()
-    reasons: dict[str, list[str]] = {}
-    out_names = {ref: name for name, ref in pipe.outputs.items()}
-    for nid, port in req:
-        label = out_names.get((nid, port), f"{nid}.{port}")
-        for a in nx.ancestors(g, nid) | {nid}:
-            keep.add(a)
-            reasons.setdefault(a, []).append(label)
-    order = [n for n in nx.lexicographical_topological_sort(g) if n in keep]
-    # Consumers before producers: a node runs when one of its outputs that is not a pass-through is
-    # needed, and only a running node needs its inputs. Pass-throughs are read at their source.
-    needed: dict[str, set[str]] = {n: set() for n in order}
-    consumers: dict[PortRef, list[str | None]] = {}
-    for ref in req:
-        src = aliases.get(ref, ref)
-        needed[src[0]].add(src[1])
-        consumers.setdefault(src, []).append(None)  # None: a requested output, full precision
-    for nid in reversed(order):
-        if not needed[nid]:
-            continue
-        for in_port, ref in pipe.connections[nid].items():
-            src = aliases.get(ref, ref)
-            needed[src[0]].add(src[1])
-            consumers.setdefault(src, []).append(pipe.nodes[nid].inputs[in_port].type.fmt)
-    formats: dict[PortRef, str] = {}
-    for (nid, port), wants in consumers.items():
-        declared = pipe.nodes[nid].outputs[port].type
-        if not declared.is_texture or declared.fmt is None:
-            continue
-        rank = max(types.precision(declared.fmt) if w is None else types.precision(w) for w in wants)
-        formats[(nid, port)] = types.with_precision(declared.fmt, min(rank, types.precision(declared.fmt)))
-    return Plan(pipe, req, order, {n: frozenset(p) for n, p in needed.items()}, formats, reasons, aliases)
-
-
-class RunContext:
-    """What a node's `compute()` sees: the GL wrapper, size, frame, seeds, the scene, its formats."""
-
-    def __init__(self, executor: Executor, node: Node, frame: int):
-        self._ex = executor
-        self.node = node
-        self.frame = frame
-        self.size: tuple[int, int] = executor.pipeline.size
-        self.scene = executor.pipeline.scene
-        self.pipeline_seed = executor.pipeline.seed
-
-    @property
-    def gl(self) -> Any:
-        return self._ex.gl
-
-    @property
-    def seed(self) -> int:
-        """This node's seed: from the pipeline seed, the node id, and the frame if the node reads it."""
-        frame = self.frame if "frame" in self.node.context_keys else 0
-        return derive_seed(self.pipeline_seed, self.node.id, frame)
-
-    def seed_for_frame(self, frame: int) -> int:
-        return derive_seed(self.pipeline_seed, self.node.id, frame)
-
-    @property
-    def camera(self) -> Any:
-        return self.scene.camera_at(self.frame) if self.scene is not None else None
-
-    def format(self, port: str) -> str:
-        """The planned format of a texture output (declared format if the port is not planned)."""
-        fmt = self._ex.plan.formats.get((self.node.id, port))
-        return fmt or self.node.outputs[port].type.fmt or "RGBA16F"
-
-    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Tex:
-        return self.gl.texture(size or self.size, self.format(port), filter=filter)
-
-    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
-        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
 
 
 @dataclass
@@ -240,16 +134,27 @@ class Executor:
         inputs = {p: self._get(s, sp, keys, stats, pinned, frame)
                   for p, (s, sp) in self.pipeline.connections[nid].items()}
         needed = self.plan.needed[nid]
-        ctx = RunContext(self, node, frame)
+        ctx = RunContext(node, gl=lambda: self.gl, size=self.pipeline.size, frame=frame,
+                         pipeline_seed=self.pipeline.seed, scene=self.pipeline.scene,
+                         formats={p: f for (n, p), f in self.plan.formats.items() if n == nid})
         t0 = time.perf_counter()
-        outs = node.compute(ctx, inputs, needed)
+        try:
+            outs = node.compute(ctx, inputs, needed)
+        except NodeError as exc:
+            if exc.node_id is None:
+                raise NodeError(exc.message, nid, node.type_name) from exc
+            raise
+        except SketchgraphError:
+            raise
+        except Exception as exc:  # a bug or an unforeseen input inside a node: one line naming it
+            raise NodeError(one_line(exc), nid, node.type_name) from exc
         if self.timing and self._gl is not None:
             self.gl.finish()
         ms = (time.perf_counter() - t0) * 1000
         self.compute_counts[nid] = self.compute_counts.get(nid, 0) + 1
         missing = needed - set(outs)
         if missing:
-            raise RuntimeError(f"node '{nid}' ({node.type_name}) did not produce {sorted(missing)}")
+            raise NodeError(f"did not produce {sorted(missing)}", nid, node.type_name)
         st = stats[nid]
         st.status, st.ms = "computed", st.ms + ms
         persist = self.cache is not None and (

@@ -8,17 +8,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from .types import PortType
-
-if TYPE_CHECKING:
-    from .executor import RunContext
 
 
 class NodeParams(BaseModel):
@@ -161,6 +159,70 @@ class HashContext:
             w, h = self.size
             return digest([cam.view_matrix().tolist(), cam.projection_matrix(w / h).tolist()])
         raise KeyError(f"unknown context value {name!r}; known: {sorted(CONTEXT_KEYS)}")
+
+
+@dataclass(frozen=True, init=False)
+class RunContext:
+    """What a node's `compute()` sees, as a plain value: the node, the GL wrapper, the image size, the frame,
+    the pipeline seed, the scene and the planned formats of the node's texture outputs.
+
+    `gl` may be given as the GL wrapper or as a zero-argument callable that returns it, so a node that never
+    touches the GPU never creates a context. Tests build one directly:
+    `RunContext(node, gl=gl, size=(64, 64), frame=0, pipeline_seed=3)`.
+    """
+
+    node: Node
+    gl_source: Any = None
+    size: tuple[int, int] = (800, 800)
+    frame: int = 0
+    pipeline_seed: int = 0
+    scene: Any = None
+    formats: Mapping[str, str] = field(default_factory=dict)  # output port -> planned texture format
+
+    def __init__(self, node: Node, *, gl: Any = None, size: tuple[int, int] = (800, 800), frame: int = 0,
+                 pipeline_seed: int = 0, scene: Any = None, formats: Mapping[str, str] | None = None) -> None:
+        object.__setattr__(self, "node", node)
+        object.__setattr__(self, "gl_source", gl)
+        object.__setattr__(self, "size", (int(size[0]), int(size[1])))
+        object.__setattr__(self, "frame", int(frame))
+        object.__setattr__(self, "pipeline_seed", int(pipeline_seed))
+        object.__setattr__(self, "scene", scene)
+        object.__setattr__(self, "formats", dict(formats or {}))
+
+    @property
+    def gl(self) -> Any:
+        """The GL wrapper (`nodegraph.gl.GL`); created on first use when given as a callable."""
+        src = self.gl_source
+        if src is None:
+            from . import gl as glmod
+
+            return glmod.get()
+        return src() if callable(src) else src
+
+    @property
+    def seed(self) -> int:
+        """This node's seed: from the pipeline seed, the node id, and the frame if the node reads it."""
+        frame = self.frame if "frame" in self.node.context_keys else 0
+        return derive_seed(self.pipeline_seed, self.node.id, frame)
+
+    def seed_for_frame(self, frame: int) -> int:
+        return derive_seed(self.pipeline_seed, self.node.id, frame)
+
+    @property
+    def camera(self) -> Any:
+        return self.scene.camera_at(self.frame) if self.scene is not None else None
+
+    def format(self, port: str) -> str:
+        """The planned format of a texture output (the declared format where the port is not planned)."""
+        return self.formats.get(port) or self.node.outputs[port].type.fmt or "RGBA16F"
+
+    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Any:
+        """A pooled texture for output `port`, at the image size unless `size` is given."""
+        return self.gl.texture(size or self.size, self.format(port), filter=filter)
+
+    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
+        """A compiled program from a GLSL file beside the node (cached by source and defines)."""
+        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
 
 
 def derive_seed(pipeline_seed: int, node_id: str, frame: int) -> int:

@@ -65,31 +65,10 @@ def pytest_configure(config: pytest.Config) -> None:
     os.environ.setdefault("SKETCHGRAPH_CACHE_DIR", str(ROOT / ".sketchgraph-cache" / "tests"))
 
 
-class _FakePlan:
-    def __init__(self) -> None:
-        self.formats: dict = {}
-
-
-class _FakePipeline:
-    def __init__(self, size: tuple[int, int], scene: object, seed: int) -> None:
-        self.size = size
-        self.scene = scene
-        self.seed = seed
-
-
-class _FakeExecutor:
-    """Just enough of an executor for RunContext: run one node on hand-made inputs."""
-
-    def __init__(self, gl, size: tuple[int, int], scene: object = None, seed: int = 0) -> None:
-        self.gl = gl
-        self.pipeline = _FakePipeline(size, scene, seed)
-        self.plan = _FakePlan()
-
-
 def run_node(gl, node, inputs: dict, size: tuple[int, int], frame: int = 0, scene: object = None, seed: int = 0,
              needed: frozenset[str] | None = None) -> dict:
     """Compute one node outside a pipeline (declared output formats)."""
-    from nodegraph.executor import RunContext
+    from nodegraph.node import RunContext
 
-    ctx = RunContext(_FakeExecutor(gl, size, scene, seed), node, frame)
+    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene)
     return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)

@@ -12,8 +12,9 @@ from pydantic import Field
 
 from nodegraph import pipeline as pl
 from nodegraph.cache import Cache, CacheWarning
-from nodegraph.executor import Executor, plan
+from nodegraph.executor import Executor
 from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.plan import plan
 from nodegraph.registry import Registry
 from nodegraph.types import Texture
 

@@ -56,29 +56,19 @@ def _median_ms(fn: Callable[[], Any], repeats: int, finish: Callable[[], None] |
 
 
 # -- running single nodes -------------------------------------------------------------------------
-class _Plan:
-    def __init__(self, formats: dict | None = None) -> None:
-        self.formats = formats or {}
-
-
-class _Pipe:
-    def __init__(self, size: tuple[int, int], scene: Any, seed: int) -> None:
-        self.size, self.scene, self.seed = size, scene, seed
-
-
 class NodeRunner:
     """Runs one node's `compute()` outside a pipeline, with declared (or given) output formats."""
 
     def __init__(self, gl: Any, size: tuple[int, int], scene: Any = None, seed: int = 0,
                  formats: dict | None = None) -> None:
-        self.gl = gl
-        self.pipeline = _Pipe(size, scene, seed)
-        self.plan = _Plan(formats)
+        self.gl, self.size, self.scene, self.seed = gl, size, scene, seed
+        self.formats = formats or {}  # (node id, port) -> format
 
     def run(self, node: Any, inputs: dict[str, Any], needed: frozenset[str] | None = None, frame: int = 0) -> dict:
-        from ..executor import RunContext
+        from ..node import RunContext
 
-        ctx = RunContext(self, node, frame)  # type: ignore[arg-type]
+        ctx = RunContext(node, gl=self.gl, size=self.size, frame=frame, pipeline_seed=self.seed, scene=self.scene,
+                         formats={p: f for (n, p), f in self.formats.items() if n == node.id})
         return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)
 
 

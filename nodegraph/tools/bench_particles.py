@@ -72,7 +72,8 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
 
     from .. import gl as glmod
     from .. import pipeline as pl
-    from ..executor import Executor, RunContext
+    from ..executor import Executor
+    from ..node import RunContext
 
     gl = glmod.get()
     text = CHAIN.format(w=size[0], h=size[1], seed=seed, strokes=strokes)
@@ -86,7 +87,7 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         return ex, ex.run(0)
 
     ex, res = node_run()  # compiles the shaders and uploads the mesh: not counted
-    ctx = RunContext(ex, node, 0)
+    ctx = RunContext(node, gl=gl, size=pipe.size, pipeline_seed=pipe.seed, scene=pipe.scene)
     edges = res.values[("edges", "edges")].read()[..., 0] >= 0.5
     ff = res.values[("field", "out")].read()[..., :2].astype(np.float64)
 

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from ..executor import plan
 from ..node import HashContext, Node, digest
 from ..pipeline import Pipeline
+from ..plan import plan
 from . import viz
 
 

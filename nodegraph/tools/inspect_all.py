@@ -16,8 +16,9 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-from ..executor import Executor, RunResult, describe, plan
+from ..executor import Executor, RunResult, describe
 from ..pipeline import Pipeline, PortRef
+from ..plan import plan
 from . import viz
 
 

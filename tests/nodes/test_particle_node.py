@@ -19,10 +19,10 @@ from pydantic import ValidationError
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
-from nodegraph.executor import Executor, RunContext
-from nodegraph.node import HashContext
+from nodegraph.executor import Executor
+from nodegraph.node import HashContext, RunContext
 from nodegraph.values import Strokes
-from tests.conftest import _FakeExecutor, run_node, shared_mesh
+from tests.conftest import run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[2]
 SIZE = (160, 160)
@@ -57,7 +57,7 @@ def test_outputs_and_the_core_they_wrap(gl, inputs):
     assert isinstance(s, Strokes) and s.size == SIZE and s.width == 1.2 and s.color == (0.2, 0.1, 0.0)
     assert 20 < len(s.polylines) <= 300 and all(p.shape[1] == 2 and len(p) >= 2 for p in s.polylines)
     # exactly the core's drawing on the read-back inputs with the node's random stream
-    ctx = RunContext(_FakeExecutor(gl, SIZE, None, 3), node, 0)
+    ctx = RunContext(node, gl=gl, size=SIZE, pipeline_seed=3)
     edges = inputs["edges"].read()[..., 0] >= 0.5
     ref = core.simulate(edges, inputs["force"].read().astype(np.float64), node.core_params(), node.rng(ctx))
     assert len(ref.strokes) == len(s.polylines) and all(map(np.array_equal, ref.strokes, s.polylines))

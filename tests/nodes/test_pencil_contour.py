@@ -10,7 +10,7 @@ from nodegraph_nodes.contour import Contour, reference, screen_bounds, view_ligh
 
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
-from nodegraph.node import derive_seed
+from nodegraph.node import RunContext, derive_seed
 
 TEXT = """\
 pipeline: t
@@ -31,20 +31,6 @@ outputs:
 """
 
 
-class Ctx:
-    """The parts of RunContext that contour.compute reads, for synthetic inputs."""
-
-    def __init__(self, gl: Any, node: Contour, size: tuple[int, int], scene: Any = None, seed: int = 1):
-        self.gl, self.node, self.size, self.scene, self.seed, self.frame = gl, node, size, scene, seed, 0
-        self.camera = scene.camera if scene is not None else None
-
-    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
-        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
-
-    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Any:
-        return self.gl.texture(size or self.size, self.node.outputs[port].type.fmt, filter=filter)
-
-
 def synthetic(gl, offsets: list[tuple[float, float]], normal=(0.0, 0.0, 1.0), **params) -> tuple[np.ndarray, Any]:
     w, h = 48, 32
     node = Contour("c", Contour.Params(**params))
@@ -57,7 +43,7 @@ def synthetic(gl, offsets: list[tuple[float, float]], normal=(0.0, 0.0, 1.0), **
         dist[k] = off
     inputs = {"edges": gl.upload(edges, "R16F"), "normal_depth": gl.upload(nd, "RGBA16F"),
               "distortion": gl.texture_array((w, h), len(offsets), "RG16F", dist, repeat=False, mipmaps=False)}
-    out = node.compute(Ctx(gl, node, (w, h)), inputs, frozenset({"out", "color"}))
+    out = node.compute(RunContext(node, gl=gl, size=(w, h), pipeline_seed=1), inputs, frozenset({"out", "color"}))
     expected = reference.contour(edges, dist, nd, np.array([0.0, 0.0, 1.0]), node.pressures(1, len(offsets)),
                                  tone=node.params.tone, light_weight=node.params.light_weight)
     return out["out"].read()[..., 0], expected

@@ -18,26 +18,13 @@ from nodegraph_nodes.pencil_shade import PencilShade, reference
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
+from nodegraph.node import RunContext
 from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 96, 80
-
-
-class Ctx:
-    """The parts of RunContext that pencil_shade.compute reads, for hand-made inputs."""
-
-    def __init__(self, gl: Any, node: PencilShade, scene: Scene):
-        self.gl, self.node, self.scene, self.size, self.frame, self.seed = gl, node, scene, (W, H), 0, 1
-        self.camera = scene.camera
-
-    def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
-        return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
-
-    def target(self, port: str, size: tuple[int, int] | None = None, filter: str = "linear") -> Any:
-        return self.gl.texture(size or self.size, self.node.outputs[port].type.fmt, filter=filter)
 
 
 def top_down_plane() -> Scene:
@@ -69,7 +56,7 @@ def render(gl, scene: Scene, curv: Arrays, tam: np.ndarray, paper: np.ndarray | 
               "curvature": curv}
     if paper is not None:
         inputs["paper"] = gl.texture((paper.shape[1], paper.shape[0]), "RGBA16F", data=paper, repeat=True)
-    out = node.compute(Ctx(gl, node, scene), inputs, ports)
+    out = node.compute(RunContext(node, gl=gl, size=(W, H), pipeline_seed=1, scene=scene), inputs, ports)
     return {k: v.read() for k, v in out.items()}
 
 
