@@ -15,7 +15,19 @@ from .errors import (  # noqa: E402
     SketchgraphError,
 )
 
-__all__ = [
+_API = ("Pipe", "Session", "default_session", "load")
+
+
+def __getattr__(name: str) -> object:
+    # the API is imported on first use, so `import nodegraph` (and the CLI's start-up) stays light
+    if name in _API:
+        from . import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'nodegraph' has no attribute {name!r}")
+
+
+__all__ = [*_API,
     "CycleError", "GLUnavailableError", "MeshError", "NodeError", "PipelineError", "PortTypeError", "ShaderError",
     "SketchgraphError", "__version__",
 ]

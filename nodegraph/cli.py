@@ -8,13 +8,15 @@ import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
-from . import pipeline as pl
 from .errors import SketchgraphError
 from .render import frame_path, open_cache, open_pipeline, parse_frames, write_value
+
+if TYPE_CHECKING:
+    from .pipeline import Pipeline
 
 
 def _warn_one_line(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
@@ -258,7 +260,7 @@ def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: st
     click.echo(to_dot(pipe))
 
 
-def to_dot(pipe: pl.Pipeline) -> str:
+def to_dot(pipe: Pipeline) -> str:
     def q(s: str) -> str:
         return '"' + s.replace('"', r"\"") + '"'
 
@@ -283,7 +285,9 @@ def to_dot(pipe: pl.Pipeline) -> str:
 @main.command()
 def schema() -> None:
     """JSON Schema of the pipeline format (every node type's params), for editor completion."""
-    click.echo(json.dumps(pl.json_schema(), indent=2))
+    from .pipeline import json_schema
+
+    click.echo(json.dumps(json_schema(), indent=2))
 
 
 # -- cache ----------------------------------------------------------------------------------

@@ -34,7 +34,7 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
             a = np.concatenate([a, np.zeros((h, w, 1), np.float32)], axis=2)
             c = 3
         spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
-        data = np.clip(np.rint(a * 255.0), 0, 255).astype(np.uint8)
+        data = to_uint8(a)
     if c == 1:
         spec.channelnames = ("Y",)
     for k, v in (attributes or {}).items():
@@ -47,6 +47,11 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
     if not ok:
         raise SketchgraphError(f"{p}: write failed: {oiio.geterror()}")
     return p
+
+
+def to_uint8(arr: np.ndarray) -> np.ndarray:
+    """Float values as 8-bit file values: clipped to [0, 1], times 255, rounded to nearest."""
+    return np.clip(np.rint(np.asarray(arr, dtype=np.float32) * 255.0), 0, 255).astype(np.uint8)
 
 
 def read(path: str | Path) -> np.ndarray:

@@ -18,9 +18,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
@@ -28,6 +27,9 @@ from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
 from .node import Node
 from .registry import Registry, default
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 _ID = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 
@@ -83,6 +85,8 @@ class Pipeline:
     raw_params: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def graph(self) -> nx.DiGraph:
+        import networkx as nx
+
         g = nx.DiGraph()
         for nid, node in self.nodes.items():
             g.add_node(nid, type=node.type_name)
@@ -255,6 +259,8 @@ def _parse_override(text: str, nodes: dict[str, Node]) -> tuple[str, str, Any, L
 
 
 def _check_cycles(pipe: Pipeline, loc: _Locator) -> None:
+    import networkx as nx
+
     g = pipe.graph()
     try:
         cycle = nx.find_cycle(g)

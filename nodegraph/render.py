@@ -6,14 +6,18 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from . import pipeline as pl
 from .errors import SketchgraphError
+
+if TYPE_CHECKING:
+    from .pipeline import Pipeline
 
 
 def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
-                  load_scene: bool = True) -> pl.Pipeline:
+                  load_scene: bool = True) -> Pipeline:
+    from . import pipeline as pl
+
     return pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
                    load_scene=load_scene)
 
