@@ -71,7 +71,8 @@ def test_rows_are_top_down(gl, tmp_path: Path) -> None:
     """A scene with one sphere above the camera's target: its pixels are in the upper rows of the array, as in a
     picture (independent of the engine: a sphere at +y projects above the image centre)."""
     scene_yaml = tmp_path / "up_sphere.yaml"
-    scene_yaml.write_text("objects:\n  - {primitive: {type: sphere, radius: 0.4}, transform: {translate: [0, 1.2, 0]}}\n"
+    scene_yaml.write_text("objects:\n"
+                          "  - {primitive: {type: sphere, radius: 0.4}, transform: {translate: [0, 1.2, 0]}}\n"
                           "camera: {eye: [0, 0, 6], target: [0, 0, 0], fov: 40}\n")
     with ng.Session(cache=False) as s:
         pipe = s.load(PIPE, scene=str(scene_yaml), size=(64, 64))
