@@ -7,7 +7,7 @@ scene: builtin:cloister        # or a scene YAML / mesh file, relative to this f
 seed: 7
 nodes:
   gbuf:  {type: rasterize}
-  edges: {type: edge_detect, in: {normal: gbuf.normal, depth: gbuf.linear_depth}}
+  edges: {type: edge_detect, in: {normal_depth: gbuf.normal_depth}}
 outputs:
   image: edges.out
 ```
