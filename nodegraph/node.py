@@ -94,6 +94,11 @@ class Node:
         reads the source directly: the output shares the source's cache entry and the node does not run."""
         return {}
 
+    def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
+        """(width, height, layers) of a texture output at image size `size`, for memory estimates such as
+        `run --explain` (override where an output is not screen-sized, e.g. a tile or a texture array)."""
+        return (size[0], size[1], 1)
+
     # -- hashing -----------------------------------------------------------------------------
     @classmethod
     def source_dir(cls) -> Path:

@@ -49,14 +49,15 @@ def explain(ex: Any, frame: int = 0) -> str:
         if nid not in status or where.startswith("pass-through"):
             continue
         for port in sorted(plan.needed[nid]):
-            fmt = plan.formats.get((nid, port))
+            ptype = node.outputs[port].type
+            fmt = plan.formats.get((nid, port)) or (ptype.fmt if ptype.is_texture else None)
             if fmt:
-                w, h = pipe.size
-                nbytes = w * h * types.bytes_per_pixel(fmt)
+                w, h, layers = node.output_shape(port, pipe.size)
+                nbytes = w * h * layers * types.bytes_per_pixel(fmt)
                 total += nbytes
-                declared = node.outputs[port].type.fmt
-                why = "" if fmt == declared else f" (declared {declared}; consumers need no more)"
-                lines.append(f"      {port}: {fmt} {nbytes / 1024**2:.1f} MiB{why}")
+                why = "" if fmt == ptype.fmt else f" (declared {ptype.fmt}; consumers need no more)"
+                shape = f"{w}x{h}" + (f"x{layers}" if layers > 1 else "")
+                lines.append(f"      {port}: {fmt} {shape} {nbytes / 1024**2:.1f} MiB{why}")
             else:
                 lines.append(f"      {port}: {node.outputs[port].type}")
     skipped = [n for n in pipe.nodes if n not in plan.order]

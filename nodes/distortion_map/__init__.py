@@ -75,6 +75,9 @@ class DistortionMap(Node):
         out[..., 1] = oy[:, :, None]
         return out
 
+    def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
+        return (size[0], size[1], self.params.layers)
+
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         data = self.offsets(ctx.seed, ctx.size)
         return {"out": ctx.gl.texture_array(ctx.size, data.shape[0], "RG16F", data, repeat=False, mipmaps=False)}

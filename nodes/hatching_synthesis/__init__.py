@@ -89,6 +89,9 @@ class HatchingSynthesis(Node):
         except ValueError as exc:
             raise PipelineError(f"node '{self.id}' (hatching_synthesis): {exc}") from None
 
+    def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
+        return (self.params.size, self.params.size, self.params.tones)
+
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
         tam = self.synthesize(seed)

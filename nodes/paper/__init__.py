@@ -74,6 +74,9 @@ class Paper(Node):
         p = self.params
         return paper_normals(paper_height(p.size, seed, p.grain, p.fibres, p.fibre_length), p.relief)
 
+    def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
+        return (self.params.size, self.params.size, 1)
+
     def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
         data = self.normals(seed)
