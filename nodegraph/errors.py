@@ -55,3 +55,26 @@ class GLUnavailableError(SketchgraphError):
 
 class CacheError(SketchgraphError):
     """A cache entry is unreadable or does not match its key (recovered by recomputing)."""
+
+
+class PluginError(SketchgraphError):
+    """A node type cannot be registered (not a Node subclass, bad ports or Params, a taken name), or the
+    built-in node types failed to load."""
+
+
+class NodeError(SketchgraphError):
+    """A node failed at compute time; names the node and its type."""
+
+    def __init__(self, message: str, node_id: str | None = None, node_type: str | None = None):
+        self.message = message
+        self.node_id = node_id
+        self.node_type = node_type
+        if node_id is not None and node_type is not None:
+            text = f"node '{node_id}' ({node_type}): {message}"
+        elif node_id is not None:
+            text = f"node '{node_id}': {message}"
+        elif node_type is not None:
+            text = f"{node_type}: {message}"
+        else:
+            text = message
+        super().__init__(text)
