@@ -57,8 +57,13 @@ class CacheError(SketchgraphError):
     """A cache entry is unreadable or does not match its key (recovered by recomputing)."""
 
 
+class PluginError(SketchgraphError):
+    """A node type cannot be registered (not a Node subclass, bad ports or Params, a taken name), or the
+    built-in node types failed to load."""
+
+
 class NodeError(SketchgraphError):
-    """A node could not compute its outputs (a compute-time problem); names the node and its type."""
+    """A node failed at compute time; names the node and its type."""
 
     def __init__(self, message: str, node_id: str | None = None, node_type: str | None = None):
         self.message = message

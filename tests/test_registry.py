@@ -39,6 +39,7 @@ def test_a_third_party_plugin_registers_through_the_same_group(tmp_path: Path, m
     (pkg / "__init__.py").write_text(
         "from nodegraph.node import Node, Output\nfrom nodegraph.types import Texture\n\n"
         "class Blank(Node):\n    outputs = {'out': Output(Texture('R8'))}\n\n"
+        "    def compute(self, ctx, inputs, needed):\n        return {}\n\n"
         "def register(reg):\n    reg.add(Blank, 'blank_plugin')\n")
     dist = tmp_path / "myplugin-1.0.dist-info"
     dist.mkdir()
