@@ -95,6 +95,7 @@ def node_problem(cls: Any, name: str | None = None) -> str | None:
 class Registry:
     def __init__(self) -> None:
         self._types: dict[str, type[Node]] = {}
+        self._lazy: dict[str, str] = {}  # type name -> 'module:attribute', imported on first get()
         self._origins: dict[str, str] = {}  # type name -> who registered it (for duplicate messages)
         self.problems: list[str] = []  # one line per skipped plugin or node type (also warned)
 
@@ -102,6 +103,42 @@ class Registry:
         """Register `cls` as node type `name` (default `cls.type_name`); PluginError if it cannot be."""
         name = self._check(cls, name)
         self._insert(cls, name, cls.__module__)
+        return cls
+
+    def add_lazy(self, name: str, target: str) -> None:
+        """Register node type `name` as `'package.module:Class'`, imported the first time the type is used,
+        so a pipeline imports only the node packages it uses. The class is checked when it is imported."""
+        self._check_lazy(name, target)
+        self._lazy[name] = target
+        self._origins.setdefault(name, target)
+
+    def _check_lazy(self, name: str, target: str) -> None:
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise PluginError(f"type name {name!r} must be letters, digits and '_', not starting with a digit")
+        module, colon, attr = str(target).partition(":")
+        if not colon or not module or not attr:
+            raise PluginError(f"node type '{name}': expected 'package.module:Class', found {target!r}")
+        if name in self._types or name in self._lazy:
+            raise PluginError(f"node type '{name}' is already registered by {self._origins.get(name)}")
+
+    def _resolve(self, name: str) -> type[Node]:
+        """Import a lazily registered type and check it against the node contract (PluginError if broken)."""
+        import importlib
+
+        target = self._lazy[name]
+        module, _, attr = target.partition(":")
+        try:
+            cls = getattr(importlib.import_module(module), attr)
+        except Exception as exc:  # noqa: BLE001 - a broken node package is one line, not a traceback
+            raise PluginError(f"node type '{name}' ({target}) cannot be loaded: {_one_line(exc)}") from exc
+        del self._lazy[name]
+        try:
+            problem = node_problem(cls, name)
+        except Exception as exc:  # noqa: BLE001
+            problem = f"{cls!r} cannot be checked as a node class: {_one_line(exc)}"
+        if problem:
+            raise PluginError(f"node type '{name}' ({target}): {problem}")
+        self._insert(cls, name, self._origins.get(name, target))
         return cls
 
     def _check(self, cls: Any, name: str | None) -> str:
@@ -112,11 +149,18 @@ class Registry:
         if problem:
             raise PluginError(problem)
         name = name or cls.type_name
+        if name in self._lazy:
+            raise PluginError(f"node type '{name}' is already registered by {self._origins.get(name)}")
         held = self._types.get(name)
         if held is not None and held is not cls:
             raise PluginError(f"node type '{name}' is already registered by {self._origins[name]} "
                               f"({held.__module__}.{held.__qualname__})")
         other = next((n for n, c in self._types.items() if c is cls and n != name), None)
+        if other is None:  # a lazily registered type whose module is already imported may be this class
+            import sys
+
+            other = next((n for n, t in self._lazy.items() if n != name
+                          and getattr(sys.modules.get(t.partition(":")[0]), t.partition(":")[2], None) is cls), None)
         if other is not None:
             raise PluginError(f"{cls.__qualname__} is already registered as '{other}'; subclass it to register "
                               f"it under a second name")
@@ -128,16 +172,29 @@ class Registry:
         self._origins.setdefault(name, origin)
 
     def get(self, name: str) -> type[Node] | None:
-        return self._types.get(name)
+        """The node class of a type (importing it if it was registered lazily), or None if unknown."""
+        cls = self._types.get(name)
+        if cls is None and name in self._lazy:
+            cls = self._resolve(name)
+        return cls
 
     def names(self) -> list[str]:
-        return sorted(self._types)
+        return sorted({*self._types, *self._lazy})
 
     def __contains__(self, name: str) -> bool:
-        return name in self._types
+        return name in self._types or name in self._lazy
 
     def items(self) -> list[tuple[str, type[Node]]]:
-        return sorted(self._types.items())
+        """Every type with its class: imports every lazily registered package."""
+        return [(n, c) for n in self.names() if (c := self.get(n)) is not None]
+
+    def module_of(self, name: str) -> str | None:
+        """The module that defines a node type, without importing it where it was registered lazily
+        (tools find a node's own measurement modules beside it, e.g. `module_of(t) + ".reference"`)."""
+        if name in self._lazy:
+            return self._lazy[name].partition(":")[0]
+        cls = self._types.get(name)
+        return cls.__module__ if cls is not None else None
 
     def origin(self, name: str) -> str | None:
         """Who registered a type: the entry point and distribution, or the module for a direct add()."""
@@ -175,7 +232,10 @@ class Registry:
             fail(f"node type skipped: {problem}")
         for name, cls in staging.staged.items():
             self._insert(cls, name, label)
-        return list(staging.staged)
+        for name, target in staging.staged_lazy.items():
+            self._lazy[name] = target
+            self._origins.setdefault(name, label)
+        return [*staging.staged, *staging.staged_lazy]
 
 
 class _Staging(Registry):
@@ -187,9 +247,21 @@ class _Staging(Registry):
         super().__init__()
         self._target = target
         self._types = dict(target._types)
+        self._lazy = dict(target._lazy)
         self._origins = dict(target._origins)
         self.staged: dict[str, type[Node]] = {}
+        self.staged_lazy: dict[str, str] = {}
         self.rejected: list[str] = []
+
+    def add_lazy(self, name: str, target: str) -> None:
+        try:
+            self._check_lazy(name, target)
+        except PluginError as exc:
+            self.rejected.append(str(exc))
+            return
+        self._lazy[name] = target
+        self._origins.setdefault(name, "this plugin")
+        self.staged_lazy[name] = target
 
     def add(self, cls: type[Node], name: str | None = None) -> type[Node]:
         try:
