@@ -6,7 +6,10 @@ the same group a third-party plugin uses, so the engine never imports `nodes` by
 
 from __future__ import annotations
 
+import importlib
+import sys
 from importlib.metadata import entry_points
+from types import ModuleType
 
 from .node import Node
 
@@ -29,6 +32,19 @@ class Registry:
 
     def get(self, name: str) -> type[Node] | None:
         return self._types.get(name)
+
+    def module(self, name: str) -> str:
+        """The package that holds node type `name`'s class (`nodegraph_nodes.edge_detect` for a built-in), so
+        tools find a node's own measurement modules (`reference`, `accuracy`, `stability`, `bench`) beside it."""
+        cls = self._types.get(name)
+        if cls is None:
+            raise KeyError(f"unknown node type {name!r}")
+        mod = sys.modules.get(cls.__module__)
+        return (getattr(mod, "__package__", None) or cls.__module__) if mod is not None else cls.__module__
+
+    def submodule(self, name: str, sub: str) -> ModuleType:
+        """Import the module `sub` beside node type `name` (e.g. `submodule("edge_detect", "reference")`)."""
+        return importlib.import_module(f"{self.module(name)}.{sub}")
 
     def names(self) -> list[str]:
         return sorted(self._types)
@@ -56,3 +72,13 @@ def default() -> Registry:
             ep.load()(reg)
         _DEFAULT = reg
     return _DEFAULT
+
+
+def module_of(type_name: str) -> str:
+    """The package module of a registered node type (see `Registry.module`), from the default registry."""
+    return default().module(type_name)
+
+
+def node_module(type_name: str, sub: str) -> ModuleType:
+    """`sub` imported from beside a registered node type, e.g. `node_module("curvature", "principal")`."""
+    return default().submodule(type_name, sub)
