@@ -17,7 +17,7 @@ from nodegraph.cache import Cache
 from nodegraph.tools import gallery as gal
 from nodegraph.tools import viz
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 PIPELINES = ROOT / "pipelines"
 
 TINY = f"""\

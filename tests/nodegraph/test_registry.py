@@ -20,7 +20,7 @@ def test_builtin_nodes_register_through_entry_points():
 def test_engine_never_imports_nodes_by_name():
     """The core (types, nodes, registry, pipelines, planning, execution, cache, GL) knows node types only
     through the registry. Benchmark and accuracy harnesses may call node references directly."""
-    engine = Path(__file__).resolve().parents[1] / "nodegraph"
+    engine = Path(__file__).resolve().parents[2] / "nodegraph"
     core = ["__init__", "types", "node", "registry", "pipeline", "yamlio", "executor", "cache", "gl", "glsl",
             "values", "errors", "scene", "meshes", "primitives", "imageio", "cli", "render"]
     offenders = []
