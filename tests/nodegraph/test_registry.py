@@ -19,7 +19,7 @@ def test_builtin_nodes_register_through_entry_points():
 
 def test_engine_never_imports_nodes_by_name():
     """The core (types, nodes, registry, pipelines, planning, execution, cache, GL) knows node types only
-    through the registry. Benchmark and accuracy harnesses may call node references directly."""
+    through the registry (test_layout.py checks every module of nodegraph/, the tools included)."""
     engine = Path(__file__).resolve().parents[2] / "nodegraph"
     core = ["__init__", "types", "node", "registry", "pipeline", "yamlio", "executor", "cache", "gl", "glsl",
             "values", "errors", "scene", "meshes", "primitives", "imageio", "cli", "render"]
@@ -31,6 +31,38 @@ def test_engine_never_imports_nodes_by_name():
             if s.startswith(("import nodes", "from nodes")):
                 offenders.append(f"{p.name}: {s}")
     assert not offenders
+
+
+def test_a_node_types_package_module_is_found_through_the_registry():
+    reg = registry.default()
+    assert reg.module("edge_detect") == "nodegraph_nodes.edge_detect" == registry.module_of("edge_detect")
+    assert reg.submodule("edge_detect", "reference").__name__ == "nodegraph_nodes.edge_detect.reference"
+    assert registry.node_module("curvature", "accuracy").__name__ == "nodegraph_nodes.curvature.accuracy"
+    try:
+        reg.module("no_such_node")
+    except KeyError as exc:
+        assert "no_such_node" in str(exc)
+    else:
+        raise AssertionError("an unknown type must raise KeyError")
+
+
+def test_the_module_of_a_node_class_defined_in_a_submodule_is_its_package(tmp_path: Path, monkeypatch):
+    pkg = tmp_path / "deepplugin"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from .impl import Deep\n")
+    (pkg / "impl.py").write_text(
+        "from nodegraph.node import Node, Output\nfrom nodegraph.types import Texture\n\n"
+        "class Deep(Node):\n    outputs = {'out': Output(Texture('R8'))}\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        from deepplugin import Deep
+
+        reg = registry.Registry()
+        reg.add(Deep, "deep")
+        assert reg.module("deep") == "deepplugin"
+    finally:
+        for m in ("deepplugin", "deepplugin.impl"):
+            sys.modules.pop(m, None)
 
 
 def test_a_third_party_plugin_registers_through_the_same_group(tmp_path: Path, monkeypatch):
