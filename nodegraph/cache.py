@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from . import types
-from .values import Arrays, Strokes
+from .values import Arrays, Strokes, Tex, TexArray
 
 DEFAULT_LIMIT = 2 * 1024**3
 FORMAT_VERSION = "1"
@@ -66,6 +66,20 @@ class Loaded:
     kind: str  # "texture" | "texture_array" | "strokes" | "arrays"
     data: Any  # np.ndarray (H,W,C) / (L,H,W,C), Strokes or Arrays
     fmt: str | None = None
+
+
+def kind_of(value: Any) -> str | None:
+    """How a value is stored: "texture" (EXR), "texture_array", "strokes" or "arrays" (.npz); None for values
+    that are never cached (scenes and meshes are sources). The one switch on value type for storage."""
+    if isinstance(value, Tex):
+        return "texture"
+    if isinstance(value, TexArray):
+        return "texture_array"
+    if isinstance(value, Strokes):
+        return "strokes"
+    if isinstance(value, Arrays):
+        return "arrays"
+    return None
 
 
 class Cache:
@@ -114,6 +128,18 @@ class Cache:
         return loaded
 
     # -- write -----------------------------------------------------------------------------
+    def store_value(self, key: str, port: str, value: Any, meta: dict[str, Any], background: bool = False) -> bool:
+        """Write a node's output value (textures are read back to the host first). Returns False, writing
+        nothing, for a value that is never cached; `load` gives it back as host data with its kind."""
+        kind = kind_of(value)
+        if kind is None:
+            return False
+        if kind in ("texture", "texture_array"):
+            self.store(key, port, kind, value.read(), meta, value.fmt, background=background)
+        else:
+            self.store(key, port, kind, value, meta, background=background)
+        return True
+
     def store(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None = None,
               background: bool = False) -> None:
         """Write one output. With `background`, the encode and the write happen on a worker thread."""

@@ -204,11 +204,12 @@ def nodes(name: str | None, as_json: bool) -> None:
     from .yamlio import suggest
 
     reg = default()
-    items = reg.items()
     if name:
         if name not in reg:
             raise SketchgraphError(f"unknown node type '{name}'" + suggest(name, reg.names()))
         items = [(name, reg.get(name))]
+    else:
+        items = reg.items()
     if as_json:
         click.echo(json.dumps({n: _node_info(c) for n, c in items}, indent=2))
         return

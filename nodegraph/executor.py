@@ -19,7 +19,7 @@ from .errors import NodeError, PipelineError, SketchgraphError, one_line
 from .node import HashContext, Node, RunContext
 from .pipeline import Pipeline, PortRef
 from .plan import Plan, plan
-from .values import Arrays, Strokes, Tex, TexArray, nbytes
+from .values import Tex, TexArray, nbytes
 
 
 @dataclass
@@ -249,18 +249,11 @@ class Executor:
 
         meta = {"node": node.id, "type": node.type_name, "version": node.version,
                 "params": node.params.model_dump(mode="json"), "package": __version__}
-        background = self.mode == "loop"
-        if isinstance(value, Tex):
-            self.cache.store(key, port, "texture", value.read(), meta, value.fmt, background=background)
-        elif isinstance(value, TexArray):
-            self.cache.store(key, port, "texture_array", value.read(), meta, value.fmt, background=background)
-        elif isinstance(value, Strokes):
-            self.cache.store(key, port, "strokes", value, meta, background=background)
-        elif isinstance(value, Arrays):
-            self.cache.store(key, port, "arrays", value, meta, background=background)
-        # scenes and meshes are sources: never cached
+        # the cache decides how (and whether: scenes and meshes are sources) a value is stored
+        self.cache.store_value(key, port, value, meta, background=self.mode == "loop")
 
     def _upload(self, loaded: Any, nid: str, port: str) -> Any:
+        """A value from a cache entry (`Cache.load`: host data and its stored kind): textures go to the GPU."""
         if loaded.kind == "texture":
             fmt = self.plan.formats.get((nid, port)) or loaded.fmt or "RGBA32F"
             arr = loaded.data

@@ -14,10 +14,13 @@ built-in entry point loads first, so no plugin can replace a built-in type; its 
 from __future__ import annotations
 
 import contextlib
+import importlib
 import inspect
 import re
+import sys
 import warnings
 from importlib.metadata import EntryPoint, entry_points
+from types import ModuleType
 from typing import Any
 
 from pydantic import BaseModel
@@ -123,8 +126,6 @@ class Registry:
 
     def _resolve(self, name: str) -> type[Node]:
         """Import a lazily registered type and check it against the node contract (PluginError if broken)."""
-        import importlib
-
         target = self._lazy[name]
         module, _, attr = target.partition(":")
         try:
@@ -157,8 +158,6 @@ class Registry:
                               f"({held.__module__}.{held.__qualname__})")
         other = next((n for n, c in self._types.items() if c is cls and n != name), None)
         if other is None:  # a lazily registered type whose module is already imported may be this class
-            import sys
-
             other = next((n for n, t in self._lazy.items() if n != name
                           and getattr(sys.modules.get(t.partition(":")[0]), t.partition(":")[2], None) is cls), None)
         if other is not None:
@@ -188,13 +187,21 @@ class Registry:
         """Every type with its class: imports every lazily registered package."""
         return [(n, c) for n in self.names() if (c := self.get(n)) is not None]
 
-    def module_of(self, name: str) -> str | None:
-        """The module that defines a node type, without importing it where it was registered lazily
-        (tools find a node's own measurement modules beside it, e.g. `module_of(t) + ".reference"`)."""
+    def module(self, name: str) -> str:
+        """The package that holds node type `name`'s class (`nodegraph_nodes.edge_detect` for a built-in), so
+        tools find a node's own measurement modules (`reference`, `accuracy`, `stability`, `bench`) beside it.
+        A lazily registered type is not imported for this."""
         if name in self._lazy:
             return self._lazy[name].partition(":")[0]
         cls = self._types.get(name)
-        return cls.__module__ if cls is not None else None
+        if cls is None:
+            raise KeyError(f"unknown node type {name!r}")
+        mod = sys.modules.get(cls.__module__)
+        return (getattr(mod, "__package__", None) or cls.__module__) if mod is not None else cls.__module__
+
+    def submodule(self, name: str, sub: str) -> ModuleType:
+        """Import the module `sub` beside node type `name` (e.g. `submodule("edge_detect", "reference")`)."""
+        return importlib.import_module(f"{self.module(name)}.{sub}")
 
     def origin(self, name: str) -> str | None:
         """Who registered a type: the entry point and distribution, or the module for a direct add()."""
@@ -324,3 +331,13 @@ def default() -> Registry:
     if _DEFAULT is None:
         _DEFAULT = load()
     return _DEFAULT
+
+
+def module_of(type_name: str) -> str:
+    """The package module of a registered node type (see `Registry.module`), from the default registry."""
+    return default().module(type_name)
+
+
+def node_module(type_name: str, sub: str) -> ModuleType:
+    """`sub` imported from beside a registered node type, e.g. `node_module("curvature", "principal")`."""
+    return default().submodule(type_name, sub)

@@ -5,7 +5,7 @@ Families (each a key of the JSON):
 - `edges`: edge_detect (operator x mode x thresholds x width) on the shared meshes and built-in scenes at
   several sizes; precision, recall and F1 against the line drawing computed from the mesh itself
   (`groundtruth`), 1-px tolerance; ms of the GPU pass (median, waiting for the GPU after each).
-- `curvature`: libigl principal curvature (`nodes.curvature.principal`) on an analytic torus and ellipsoid
+- `curvature`: libigl principal curvature (the curvature node's `principal` module) on an analytic torus and ellipsoid
   at several tessellations and radii; median and 95th-percentile value and direction errors; s per mesh.
 - `particles`: the particle sketch core on a real depth buffer; stroke count, step, Euler vs RK4;
   coverage and precision against its edge map (and against the ground-truth lines); time.
@@ -20,17 +20,26 @@ Timings are medians of a few runs on a shared machine: compare ratios within one
 from __future__ import annotations
 
 import json
-import math
-import statistics
-import sys
 import time
 import warnings
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
+
+from .measure import (
+    NodeRunner,
+    gbuffer,
+    jsonable,
+    log,
+    median_ms,
+    node_class,
+    node_module,
+    particle_depth,
+    release,
+    scene_for,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED_MESHES = ROOT.parent / "shared" / "meshes"
@@ -38,62 +47,6 @@ TARGET_MESHES = ("fandisk.obj", "spot.obj", "stanford-bunny.obj")
 TARGET_F1 = 0.85
 FAMILIES = ("edges", "curvature", "particles", "hatching", "noise", "pipelines", "stability")
 BUILTIN_EDGE_SCENES = ("builtin:box", "builtin:torus", "builtin:cloister")
-
-
-def log(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
-
-
-def _median_ms(fn: Callable[[], Any], repeats: int, finish: Callable[[], None] | None = None) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        if finish is not None:
-            finish()
-        times.append((time.perf_counter() - t0) * 1000.0)
-    return statistics.median(times)
-
-
-# -- running single nodes -------------------------------------------------------------------------
-class NodeRunner:
-    """Runs one node's `compute()` outside a pipeline, with declared (or given) output formats."""
-
-    def __init__(self, gl: Any, size: tuple[int, int], scene: Any = None, seed: int = 0,
-                 formats: dict | None = None) -> None:
-        self.gl, self.size, self.scene, self.seed = gl, size, scene, seed
-        self.formats = formats or {}  # (node id, port) -> format
-
-    def run(self, node: Any, inputs: dict[str, Any], needed: frozenset[str] | None = None, frame: int = 0) -> dict:
-        from ..node import RunContext
-
-        ctx = RunContext(node, gl=self.gl, size=self.size, frame=frame, pipeline_seed=self.seed, scene=self.scene,
-                         formats={p: f for (n, p), f in self.formats.items() if n == node.id})
-        return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)
-
-
-def gbuffer(gl: Any, scene: Any, size: tuple[int, int], ports: tuple[str, ...] = ("normal_depth",),
-            frame: int = 0, **params: Any) -> dict[str, Any]:
-    """Rasterize `scene` into the requested G-buffer outputs (textures) at `size`."""
-    from nodegraph_nodes.rasterize import Rasterize
-
-    node = Rasterize("gbuf", Rasterize.Params(**params))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return NodeRunner(gl, size, scene).run(node, {}, frozenset(ports), frame)
-
-
-def release(gl: Any, values: dict[str, Any]) -> None:
-    for v in values.values():
-        gl.release(v)
-
-
-def scene_for(spec: str) -> Any:
-    from ..scene import load_scene
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return load_scene(spec)
 
 
 # -- edges ---------------------------------------------------------------------------------------
@@ -134,12 +87,11 @@ def edge_scenes(meshes_dir: Path, quick: bool) -> list[tuple[str, str]]:
 
 def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
                 repeats: int | None = None) -> dict[str, Any]:
-    from nodegraph_nodes.edge_detect import EdgeDetect
-
     from .. import gl as glmod
     from .bench import copy_pass_ms
     from .groundtruth import line_drawing, precision_recall
 
+    EdgeDetect = node_class("edge_detect")
     gl = glmod.get()
     sizes = sizes or ([800] if quick else [400, 800, 1600])
     repeats = repeats or (3 if quick else 5)
@@ -156,7 +108,7 @@ def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
             t_gt = time.perf_counter()
             g = gbuffer(gl, scene, dims)
             nd = g["normal_depth"]
-            gbuf_ms = _median_ms(lambda scene=scene, dims=dims: release(gl, gbuffer(gl, scene, dims)), 3, gl.finish)
+            gbuf_ms = median_ms(lambda scene=scene, dims=dims: release(gl, gbuffer(gl, scene, dims)), 3, gl.finish)
             truth = line_drawing(scene, dims, nd.read()[..., 3])
             gt_ms = (time.perf_counter() - t_gt) * 1000.0
             gt_info.append({"mesh": name, "size": size, "line_pixels": truth.counts["line_pixels"],
@@ -165,7 +117,7 @@ def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
             for s in settings:
                 node = EdgeDetect("edges", EdgeDetect.Params(**s))
                 release(gl, runner.run(node, {"normal_depth": nd}, frozenset({"out"})))  # compile, warm
-                ms = _median_ms(lambda node=node, runner=runner, nd=nd: release(
+                ms = median_ms(lambda node=node, runner=runner, nd=nd: release(
                     gl, runner.run(node, {"normal_depth": nd}, frozenset({"out"}))), repeats, gl.finish)
                 out = runner.run(node, {"normal_depth": nd}, frozenset({"out"}))
                 detected = out["out"].read()[..., 0] > 0.5
@@ -200,263 +152,33 @@ def edge_summary(entries: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-# -- curvature -----------------------------------------------------------------------------------
-TORUS_R, TORUS_r = 2.0, 0.5
-ELLIPSOID_ABC = (1.0, 0.75, 0.5)
-
-
-def torus_mesh(nu: int, nv: int, jitter: float = 0.0, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Torus about z on a wrapped (u, v) grid, outward normals; vertices exactly on the surface."""
-    rng = np.random.default_rng(seed)
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    u = (i + jitter * rng.uniform(-0.5, 0.5, i.shape)) * 2 * np.pi / nu
-    v = (j + jitter * rng.uniform(-0.5, 0.5, j.shape)) * 2 * np.pi / nv
-    ring = TORUS_R + TORUS_r * np.cos(v)
-    V = np.stack([ring * np.cos(u), ring * np.sin(u), TORUS_r * np.sin(v)], -1).reshape(-1, 3)
-    a = i * nv + j
-    b = (i + 1) % nu * nv + j
-    c = (i + 1) % nu * nv + (j + 1) % nv
-    d = i * nv + (j + 1) % nv
-    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
-    return V, F
-
-
-def torus_truth(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(kmin, kmax, dmin, normal) of the analytic torus at points V (ordered by magnitude, signed,
-    positive where convex w.r.t. the outward normal)."""
-    x, y, z = V.T
-    u = np.arctan2(y, x)
-    rho = np.hypot(x, y)
-    v = np.arctan2(z, rho - TORUS_R)
-    k_tube = np.full(len(V), 1.0 / TORUS_r)
-    k_ring = np.cos(v) / (TORUS_R + TORUS_r * np.cos(v))
-    d_ring = np.stack([-np.sin(u), np.cos(u), np.zeros_like(u)], 1)  # along the major circle
-    normal = np.stack([np.cos(v) * np.cos(u), np.cos(v) * np.sin(u), np.sin(v)], 1)
-    return k_ring, k_tube, d_ring, normal
-
-
-def ellipsoid_mesh(level: int) -> tuple[np.ndarray, np.ndarray]:
-    from ..primitives import ellipsoid
-
-    m = ellipsoid(*ELLIPSOID_ABC, subdiv=level)
-    return np.asarray(m.vertices), np.asarray(m.faces)
-
-
-def ellipsoid_truth(V: np.ndarray, abc: tuple[float, float, float] = ELLIPSOID_ABC
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(kmin, kmax, dmin, normal) of the ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1 at points V (projected
-    onto it): eigen-decomposition of the shape operator P H P / |grad| on the tangent plane."""
-    a, b, c = abc
-    h = np.array([1 / a**2, 1 / b**2, 1 / c**2])
-    s = 1.0 / np.sqrt((V**2 * h).sum(1))
-    p = V * s[:, None]
-    grad = p * h
-    gn = np.linalg.norm(grad, axis=1)
-    n = grad / gn[:, None]
-    proj = np.eye(3)[None] - n[:, :, None] * n[:, None, :]
-    shape = proj @ (h[None, :, None] * proj) / gn[:, None, None]
-    w, vec = np.linalg.eigh(shape)
-    # one eigenvalue is 0 along n; the other two are the principal curvatures (positive: convex)
-    along_n = np.abs(np.einsum("kij,ki->kj", vec, n))
-    order = np.argsort(along_n, axis=1)[:, :2]  # the two tangent eigenvectors
-    rows = np.arange(len(V))[:, None]
-    k = w[rows, order]
-    d = np.stack([vec[np.arange(len(V)), :, order[:, 0]], vec[np.arange(len(V)), :, order[:, 1]]], 1)
-    small = np.abs(k[:, 0]) <= np.abs(k[:, 1])
-    kmin = np.where(small, k[:, 0], k[:, 1])
-    kmax = np.where(small, k[:, 1], k[:, 0])
-    dmin = np.where(small[:, None], d[:, 0], d[:, 1])
-    return kmin, kmax, dmin, n
-
-
-def curvature_errors(res: Any, kmin: np.ndarray, kmax: np.ndarray, dmin: np.ndarray,
-                     aniso_min: float = 0.05) -> dict[str, Any]:
-    """Value errors |k - k_true| / |kmax_true| (both principal values), direction error in degrees between
-    the measured and true dmin lines, over vertices where the true direction is defined (anisotropy
-    (|kmax| - |kmin|) / (|kmax| + |kmin|) >= aniso_min)."""
-    scale = np.maximum(np.abs(kmax), 1e-300)
-    e_max = np.abs(res.kmax - kmax) / scale
-    e_min = np.abs(res.kmin - kmin) / scale
-    value = np.maximum(e_max, e_min)
-    aniso = (np.abs(kmax) - np.abs(kmin)) / (np.abs(kmax) + np.abs(kmin) + 1e-300)
-    defined = aniso >= aniso_min
-    cosang = np.abs(np.einsum("ij,ij->i", res.dmin, dmin))
-    ang = np.degrees(np.arccos(np.clip(cosang, 0.0, 1.0)))[defined]
-    return {
-        "value_median": float(np.median(value)), "value_p95": float(np.percentile(value, 95)),
-        "kmax_median": float(np.median(e_max)), "kmax_p95": float(np.percentile(e_max, 95)),
-        "kmin_median": float(np.median(e_min)), "kmin_p95": float(np.percentile(e_min, 95)),
-        "direction_median_deg": float(np.median(ang)) if ang.size else None,
-        "direction_p95_deg": float(np.percentile(ang, 95)) if ang.size else None,
-        "direction_vertices": int(defined.sum()),
-        "finite": bool(np.isfinite(res.kmin).all() and np.isfinite(res.kmax).all() and np.isfinite(res.dmin).all()),
-    }
-
-
+# -- curvature, particles, hatching: measured beside their nodes ------------------------------------
 def bench_curvature(quick: bool, meshes_dir: Path | None = None) -> dict[str, Any]:
-    from nodegraph_nodes.curvature.principal import compute_curvature
-
-    tori = [(48, 12), (100, 25), (200, 50)] if quick else [(48, 12), (100, 25), (200, 50), (400, 100)]
-    levels = [2, 3, 4] if quick else [2, 3, 4, 5]
-    radii = [2, 3, 5] if quick else [2, 3, 4, 5, 7]
-    surfaces: list[tuple[str, str, Any, Callable]] = []
-    for nu, nv in tori:
-        surfaces.append(("torus", f"{nu}x{nv}", lambda nu=nu, nv=nv: torus_mesh(nu, nv), torus_truth))
-    for lev in levels:
-        surfaces.append(("ellipsoid", f"subdiv{lev}", lambda lev=lev: ellipsoid_mesh(lev), ellipsoid_truth))
-    entries = []
-    for surface, tess, make, truth in surfaces:
-        V, F = make()
-        kmin, kmax, dmin, _ = truth(V)
-        for radius in radii:
-            t0 = time.perf_counter()
-            res = compute_curvature(V, F, radius)
-            sec = time.perf_counter() - t0
-            err = curvature_errors(res, kmin, kmax, dmin)
-            entries.append({"surface": surface, "tessellation": tess, "vertices": int(len(V)), "radius": radius,
-                            "method": f"libigl r={radius}", "s": sec, "ms": sec * 1000.0, **err})
-        row = [e for e in entries if e["tessellation"] == tess and e["surface"] == surface]
-        log(f"  curvature {surface} {tess} ({len(V)} v): p95 direction "
-            + ", ".join(f"r{e['radius']} {e['direction_p95_deg']:.1f}deg" for e in row))
-    shared = {}
-    if not quick and meshes_dir is not None:
-        from ..meshes import load_mesh
-
-        for p in sorted(meshes_dir.glob("*.obj")):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                m = load_mesh(p)
-            t0 = time.perf_counter()
-            res = compute_curvature(m.vertices, m.faces)
-            shared[p.name] = {"vertices": m.n_vertices, "s": time.perf_counter() - t0, "fallbacks": res.counts}
-        log("  curvature on the shared meshes: " + ", ".join(f"{k} {v['s']:.2f}s" for k, v in shared.items()))
-    return {"entries": entries, "torus": {"R": TORUS_R, "r": TORUS_r}, "ellipsoid_abc": list(ELLIPSOID_ABC),
-            "shared_meshes": shared}
-
-
-# -- particles -----------------------------------------------------------------------------------
-def particle_depth(meshes_dir: Path, size: int) -> tuple[np.ndarray, Any, np.ndarray]:
-    """Window depth (1 = background) of cow.obj (or the built-in torus) at size^2, the scene, and its
-    ground-truth line drawing."""
-    from .. import gl as glmod
-    from .groundtruth import line_drawing
-
-    gl = glmod.get()
-    spec = str(meshes_dir / "cow.obj") if (meshes_dir / "cow.obj").exists() else "builtin:torus"
-    scene = scene_for(spec)
-    g = gbuffer(gl, scene, (size, size), ("depth", "linear_depth"))
-    depth = g["depth"].read()[..., 0].astype(np.float64)
-    lin = g["linear_depth"].read()[..., 0]
-    release(gl, g)
-    return depth, spec, line_drawing(scene, (size, size), lin).lines
+    return node_module("curvature", "accuracy").measure(quick, meshes_dir, log)
 
 
 def bench_particles(meshes_dir: Path, quick: bool) -> dict[str, Any] | None:
     try:
-        from nodegraph_nodes.particle_sketch import core
+        mod = node_module("particle_sketch", "accuracy")
     except ImportError as exc:
         return {"skipped": f"particle core not importable: {exc}"}
     from .groundtruth import precision_recall
 
     size = 400 if quick else 800
     depth, spec, truth = particle_depth(meshes_dir, size)
-    threshold = 0.03
-    edges, ff = core.prepare(depth, threshold)
-    strokes = [100, 400, 1600] if quick else [100, 200, 400, 800, 1600, 3200]
-    steps = [0.75, 1.5, 3.0] if quick else [0.5, 0.75, 1.5, 3.0, 5.0]
-    entries = []
-    # the compiled engine loads (or compiles) its machine code on first use: not part of any entry
-    core.simulate(edges, ff, core.ParticleParams(strokes=1), np.random.default_rng(5))
-    for integrator in ("euler", "rk4"):
-        for step in steps:
-            for n in strokes:
-                if quick and step != 1.5 and n != 1600:
-                    continue
-                params = core.ParticleParams(strokes=n, step=step, integrator=integrator)
-                t0 = time.perf_counter()
-                res = core.simulate(edges, ff, params, np.random.default_rng(5))
-                sec = time.perf_counter() - t0
-                cov, prec = core.coverage_precision(res.sketch, edges)
-                gt = precision_recall(res.sketch > 0.1, truth, 2)
-                entries.append({"method": f"{integrator} step={step:g}", "integrator": integrator, "step": step,
-                                "strokes": n, "launched": res.launched, "segments": res.steps,
-                                "coverage": cov, "precision": prec,
-                                "f1": 2 * cov * prec / (cov + prec) if cov + prec else 0.0,
-                                "gt_recall": gt["recall"], "gt_precision": gt["precision"],
-                                "s": sec, "ms": sec * 1000.0})
-        log(f"  particles {integrator}: " + ", ".join(
-            f"{e['strokes']}@{e['step']:g} cov {e['coverage']:.2f} {e['s']:.1f}s"
-            for e in entries if e["integrator"] == integrator)[:400])
-    base = core.ParticleParams()
-    return {"entries": entries, "scene": spec, "size": size, "threshold": threshold,
-            "edge_pixels": int(edges.sum()),
-            "defaults": {k: getattr(base, k) for k in ("mass", "drag", "randomness", "step", "max_steps", "batch")}}
-
-
-# -- hatching ------------------------------------------------------------------------------------
-def strokes_needed(size: int, stroke_width: float, tones: int = 32, max_darkness: float = 0.8) -> int:
-    """Strokes the darkest tone takes (to 64 strokes): the smallest cap that synthesis accepts."""
-    from nodegraph_nodes.hatching_synthesis.tam import synthesize_tam
-
-    def ok(cap: int) -> bool:
-        try:
-            synthesize_tam(size=size, tones=2, strokes=cap, stroke_width=stroke_width, max_darkness=max_darkness)
-            return True
-        except ValueError:
-            return False
-
-    hi = 256
-    while not ok(hi):
-        hi *= 2
-        if hi > 1 << 22:
-            raise RuntimeError("hatching: darkness never reached")
-    lo = hi // 2 if hi > 256 else 0
-    while hi - lo > 64:
-        mid = (lo + hi) // 2
-        if ok(mid):
-            hi = mid
-        else:
-            lo = mid
-    return hi
-
-
-def local_tone_error(tam: np.ndarray, blocks: int = 8) -> float:
-    """RMS over tones of the standard deviation of darkness over blocks x blocks tiles of the texture:
-    how unevenly a tone covers the tile (what a viewer sees as blotches)."""
-    t, h, w = tam.shape
-    bh, bw = h // blocks, w // blocks
-    d = 1.0 - tam[:, :bh * blocks, :bw * blocks].reshape(t, blocks, bh, blocks, bw).mean(axis=(2, 4))
-    return float(np.sqrt(np.mean(d.reshape(t, -1).std(axis=1) ** 2)))
+    return mod.measure(depth, spec, lambda ink: precision_recall(ink > 0.1, truth, 2), quick, log)
 
 
 def bench_hatching(quick: bool) -> dict[str, Any]:
-    from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam, tone_targets
-
-    sizes = [64, 128, 256] if quick else [64, 128, 256, 512]
-    widths = [1.1] if quick else [0.7, 1.1, 2.0]
-    entries = []
-    for size in sizes:
-        for sw in widths:
-            ms = _median_ms(lambda size=size, sw=sw: synthesize_tam(size=size, stroke_width=sw, strokes=400000),
-                            1 if size >= 512 else 3)
-            tam = synthesize_tam(size=size, stroke_width=sw, strokes=400000)
-            err = np.abs(measured_darkness(tam) - tone_targets(32, 0.8))
-            entries.append({"method": f"{size}px w{sw:g}", "size": size, "stroke_width": sw,
-                            "strokes": None if quick else strokes_needed(size, sw),
-                            "tone_error_max": float(err.max()), "tone_error_mean": float(err.mean()),
-                            "local_tone_error": local_tone_error(tam), "ms": ms})
-    log("  hatching: " + ", ".join(f"{e['method']} {e['ms']:.0f} ms local {e['local_tone_error']:.3f}"
-                                   for e in entries))
-    return {"entries": entries, "tones": 32, "max_darkness": 0.8}
+    return node_module("hatching_synthesis", "accuracy").measure(quick, log)
 
 
 # -- noise ---------------------------------------------------------------------------------------
 def bench_noise(quick: bool) -> dict[str, Any]:
-    from nodegraph_nodes.perlin_noise import PerlinNoise
-
     from .. import gl as glmod
     from ..node import derive_seed
 
+    PerlinNoise = node_class("perlin_noise")
     gl = glmod.get()
     size = (800, 800)
     runner = NodeRunner(gl, size, None, seed=3)
@@ -465,7 +187,7 @@ def bench_noise(quick: bool) -> dict[str, Any]:
     for kind, octaves in configs:
         node = PerlinNoise("noise", PerlinNoise.Params(kind=kind, octaves=octaves))
         release(gl, runner.run(node, {}))
-        ms = _median_ms(lambda node=node: release(gl, runner.run(node, {})), 5, gl.finish)
+        ms = median_ms(lambda node=node: release(gl, runner.run(node, {})), 5, gl.finish)
         out = runner.run(node, {})
         got = out["out"].read()
         release(gl, out)
@@ -571,30 +293,13 @@ def command(json_path: Path | None, charts_dir: Path | None, quick: bool, famili
     print_summary(result)
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(_jsonable(result), indent=1) + "\n")
+        json_path.write_text(json.dumps(jsonable(result), indent=1) + "\n")
         click.echo(f"wrote {json_path}")
     if charts_dir:
         from .accuracy_charts import draw_all
 
         for p in draw_all(result, charts_dir):
             click.echo(f"wrote {p}")
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, dict):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, (np.floating, float)):
-        f = float(v)
-        return f if math.isfinite(f) else str(f)
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, np.bool_):
-        return bool(v)
-    if isinstance(v, np.ndarray):
-        return _jsonable(v.tolist())
-    return v
 
 
 def print_summary(result: dict[str, Any]) -> None:

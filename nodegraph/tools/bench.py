@@ -172,33 +172,13 @@ def _numpy_reference(pipe: Any, nodes_ms: dict[str, float]) -> tuple[float | Non
 
 
 def reference_for(node: Any, ins: dict[str, Any]) -> dict[str, Any]:
-    """Run the float64 reference of an image-space node on read-back inputs."""
-    import numpy as np
+    """Run the float64 reference of an image-space node on read-back inputs: `reference(node, ins)` of the
+    `bench` module beside the node (found through the registry)."""
+    from .measure import node_module
 
-    p = node.params
-    if node.type_name == "edge_detect":
-        from nodegraph_nodes.edge_detect.reference import edge_detect
-
-        return edge_detect(ins["normal_depth"], **p.model_dump())
-    if node.type_name == "sketch":
-        from nodegraph_nodes.sketch.reference import sketch
-
-        layers = [(np.asarray(layer.matrix), layer.color) for layer in node.layers()]
-        out = sketch(_plane(ins["edges"]), ins["shade"], ins["offset"], np.asarray(p.shade_matrix), layers,
-                     p.edge_strength, p.use_shade, p.paper)
-        return out
-    if node.type_name == "depth_sprite":
-        from nodegraph_nodes.depth_sprite.reference import depth_sprite
-
-        uc, ud = ins.get("under_color"), ins.get("under_depth")
-        return depth_sprite(ins["color"], ins["offsets"], _plane(ins["depth"]), uc,
-                            None if ud is None else _plane(ud), p.paper)
-    raise KeyError(node.type_name)
-
-
-def _plane(a: Any) -> Any:
-    """A single-channel image as (H, W) whether it came back from the GPU (H, W, 1) or a reference."""
-    return a[..., 0] if a.ndim == 3 else a
+    if node.type_name not in IMAGE_SPACE_TYPES:
+        raise KeyError(node.type_name)
+    return node_module(node.type_name, "bench").reference(node, ins)
 
 
 def _bar(it: Any, unit: str) -> Any:

@@ -68,12 +68,13 @@ def _same(a: Any, b: Any) -> bool:
 def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int = 5, repeat: int = 3,
         overrides: tuple[str, ...] = (), python: bool = True, lockstep: int = 256,
         out: Path | None = None, python_repeat: int = 2) -> dict[str, Any]:
-    from nodegraph_nodes.particle_sketch import core
-
     from .. import gl as glmod
     from .. import pipeline as pl
     from ..executor import Executor
     from ..node import RunContext
+    from .measure import node_module
+
+    core = node_module("particle_sketch", "core")
 
     gl = glmod.get()
     text = CHAIN.format(w=size[0], h=size[1], seed=seed, strokes=strokes)

@@ -99,7 +99,10 @@ def _emit(result: dict[str, Any], json_path: Path | None) -> None:
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def hatching_command(size: int, tones: int, repeat: int, json_path: Path | None) -> None:
     """Tonal art map synthesis: cold, cached and bare compute times."""
-    from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize_tam
+    from .measure import node_module
+
+    tam = node_module("hatching_synthesis", "tam")
+    measured_darkness, synthesize_tam = tam.measured_darkness, tam.synthesize_tam
 
     result: dict[str, Any] = {"benchmark": "hatching", "size": size, "tones": tones}
     result.update(_timed_runs(HATCHING.format(size=size, tones=tones), "tam", None))

@@ -4,12 +4,13 @@ Each sweep varies one thing (near/far ratio, scale, viewing angle, resolution, v
 broken meshes, particle parameters), measures the method's accuracy against an independent reference at
 every step, and reports where it breaks: the first step along the sweep where the accuracy falls below
 `threshold` (absolute) or more than `drop` below its value at the sweep's first, best-conditioned step.
-`sketchgraph bench accuracy --families stability` runs them all; tests/test_stability.py checks the node
-behaviour at the break points (a warning, a fallback or a clear error: never NaN, a hang or a crash).
+`sketchgraph bench accuracy --families stability` runs them all; tests/nodegraph/tools/test_stability.py checks
+the node behaviour at the break points (a warning, a fallback or a clear error: never NaN, a hang or a crash).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 import tempfile
 import time
@@ -20,17 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .accuracy import (
-    NodeRunner,
-    curvature_errors,
-    ellipsoid_truth,
-    gbuffer,
-    log,
-    release,
-    scene_for,
-    torus_mesh,
-    torus_truth,
-)
+from .measure import NodeRunner, gbuffer, log, node_class, node_module, particle_depth, release, scene_for
 
 
 # -- helpers ---------------------------------------------------------------------------------------
@@ -74,13 +65,19 @@ def _sweep(title: str, x_label: str, y_label: str, points: list[dict[str, Any]],
             "log_y": log_y, "finding": finding, "behaviour": behaviour}
 
 
+def _from_spec(spec: dict[str, Any]) -> dict[str, Any]:
+    """A sweep record from a node's sweep spec (the arguments of `_sweep`; other keys are kept as they are)."""
+    names = set(inspect.signature(_sweep).parameters)
+    extra = {k: spec.pop(k) for k in list(spec) if k not in names}
+    return {**_sweep(**spec), **extra}
+
+
 def edge_scores(gl: Any, scene: Any, size: tuple[int, int], truth: np.ndarray, nd: Any = None,
                 **params: Any) -> dict[str, float]:
     """edge_detect (`params`) on the scene's normal_depth (or `nd`, a texture), scored against `truth`."""
-    from nodegraph_nodes.edge_detect import EdgeDetect
-
     from .groundtruth import precision_recall
 
+    EdgeDetect = node_class("edge_detect")
     own = nd is None
     if own:
         nd = gbuffer(gl, scene, size)["normal_depth"]
@@ -172,11 +169,12 @@ def sweep_depth_precision(meshes_dir: Path, quick: bool, size: int = 800) -> dic
 
 # -- scale -----------------------------------------------------------------------------------------
 def sweep_scale(meshes_dir: Path, quick: bool, size: int = 400) -> dict[str, Any]:
-    from nodegraph_nodes.curvature.principal import compute_curvature
-
     from .. import gl as glmod
     from ..meshes import Mesh, load_mesh
 
+    compute_curvature = node_module("curvature", "principal").compute_curvature
+    curv = node_module("curvature", "accuracy")
+    curvature_errors, torus_mesh, torus_truth = curv.curvature_errors, curv.torus_mesh, curv.torus_truth
     gl = glmod.get()
     dims = (size, size)
     path = meshes_dir / "spot.obj"
@@ -325,11 +323,10 @@ def outlines_resolved(edges: np.ndarray, diameter_px: float) -> float:
 
 
 def sweep_thin_rod(quick: bool, size: int = 400) -> dict[str, Any]:
-    from nodegraph_nodes.edge_detect import EdgeDetect
-
     from .. import gl as glmod
     from .groundtruth import precision_recall
 
+    EdgeDetect = node_class("edge_detect")
     gl = glmod.get()
     dims = (size, size)
     diams = [16, 4, 1, 0.5] if quick else [32, 16, 8, 4, 3, 2, 1.5, 1, 0.75, 0.5, 0.25]
@@ -357,90 +354,17 @@ def sweep_thin_rod(quick: bool, size: int = 400) -> dict[str, Any]:
                   behaviour="edge_detect: finite output; a sub-pixel feature gives a broken line, no warning.")
 
 
-# -- curvature: resolution, noise, umbilics ----------------------------------------------------------
+# -- curvature: resolution, noise, umbilics (measured beside the node) ---------------------------------
 def sweep_curvature_noise(quick: bool) -> dict[str, Any]:
-    from nodegraph_nodes.curvature.principal import compute_curvature
-
-    V0, F = torus_mesh(100, 25)
-    kmin, kmax, dmin, normal = torus_truth(V0)
-    edge = float(np.mean(np.linalg.norm(V0[F[:, 0]] - V0[F[:, 1]], axis=1)))
-    noises = [0.0, 0.05, 0.2, 0.5] if quick else [0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5]
-    radii = [2, 3, 5]
-    rng = np.random.default_rng(11)
-    dirs = rng.normal(size=V0.shape)
-    points = []
-    for sigma in noises:
-        V = V0 + sigma * edge * dirs
-        for r in radii:
-            res = compute_curvature(V, F, r)
-            e = curvature_errors(res, kmin, kmax, dmin)
-            points.append({"series": f"radius {r}", "x": sigma, "value": e["direction_p95_deg"],
-                           "value_p95": e["value_p95"], "direction_median_deg": e["direction_median_deg"],
-                           "fallbacks": res.counts, "finite": e["finite"]})
-    log("  curvature noise: " + ", ".join(f"{p['series']} {p['x']} {p['value']:.1f}" for p in points))
-    return _sweep("Curvature: vertex noise (torus 100x25)", "noise sigma / mean edge length",
-                  "p95 direction error (deg)", points, threshold=20.0, higher_is_better=False, log_y=True,
-                  finding="Directions degrade with noise; larger radii average it out at the cost of bias on "
-                          "clean meshes.",
-                  behaviour="compute_curvature: finite unit directions at any noise; unreliable vertices get "
-                            "confidence < 1 and smoothed directions.")
+    return _from_spec(node_module("curvature", "stability").sweep_noise(quick, log))
 
 
 def sweep_curvature_resolution(quick: bool) -> dict[str, Any]:
-    from nodegraph_nodes.curvature.principal import compute_curvature
-
-    grids = [(200, 50), (48, 12), (16, 6)] if quick else [(400, 100), (200, 50), (100, 25), (48, 12), (24, 8),
-                                                            (16, 6), (12, 4), (8, 3)]
-    points = []
-    for nu, nv in grids:
-        V, F = torus_mesh(nu, nv)
-        kmin, kmax, dmin, _ = torus_truth(V)
-        for r in (2, 3, 5):
-            res = compute_curvature(V, F, r)
-            e = curvature_errors(res, kmin, kmax, dmin)
-            points.append({"series": f"radius {r}", "x": len(V), "value": e["direction_p95_deg"],
-                           "value_p95": e["value_p95"], "grid": f"{nu}x{nv}", "fallbacks": res.counts,
-                           "finite": e["finite"]})
-    log("  curvature resolution: " + ", ".join(f"{p['grid']} {p['series']} {p['value']:.1f}" for p in points))
-    return _sweep("Curvature: mesh resolution (torus)", "vertices", "p95 direction error (deg)", points,
-                  threshold=20.0, higher_is_better=False, log_x=True, log_y=True,
-                  finding="Direction error grows as the tessellation coarsens; very coarse grids (a few vertices "
-                          "around the tube) fall back to smoothed or fixed-frame directions.",
-                  behaviour="compute_curvature: finite output with fallbacks counted in `counts`.")
+    return _from_spec(node_module("curvature", "stability").sweep_resolution(quick, log))
 
 
 def sweep_umbilic(quick: bool) -> dict[str, Any]:
-    from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
-
-    from ..primitives import sphere
-
-    s = sphere(1.0, 4)
-    U = np.asarray(s.vertices)
-    F = np.asarray(s.faces)
-    es = [0.5, 0.1, 0.01, 0.0] if quick else [1.0, 0.5, 0.3, 0.2, 0.15, 0.1, 0.05, 0.03, 0.01, 0.003, 0.0]
-    points = []
-    for e in es:
-        abc = (1.0 + e, 1.0, 1.0 / (1.0 + e))
-        V = U * np.array(abc)
-        kmin, kmax, dmin, _ = ellipsoid_truth(V, abc)
-        res = compute_curvature(V, F)
-        err = curvature_errors(res, kmin, kmax, dmin, aniso_min=0.0)
-        measured = res.source == DirectionSource.MEASURED
-        cosang = np.abs(np.einsum("ij,ij->i", res.dmin, dmin))[measured]
-        ang = np.degrees(np.arccos(np.clip(cosang, 0, 1)))
-        fallback = float(np.mean(res.reason == Reason.UMBILIC)) * 100.0
-        points.append({"series": "vertices flagged umbilic/flat (%)", "x": max(e, 1e-4), "value": fallback,
-                       "e": e})
-        points.append({"series": "p95 direction error of measured vertices (deg)", "x": max(e, 1e-4),
-                       "value": float(np.percentile(ang, 95)) if ang.size else None, "e": e,
-                       "measured": int(measured.sum()), "value_p95": err["value_p95"]})
-    log("  umbilic: " + ", ".join(f"{p['e']} {p['value']}" for p in points))
-    return _sweep("Umbilic and flat: sphere -> ellipsoid (1+e, 1, 1/(1+e))", "e (0 = sphere, drawn at 1e-4)",
-                  "%  /  deg", points, threshold=50.0, higher_is_better=False, log_x=True,
-                  finding="On a sphere every vertex is umbilic: directions are undefined and the fallbacks take "
-                          "over; the fallback share falls as the surface grows anisotropic.",
-                  behaviour="compute_curvature: reason UMBILIC, confidence 0..1, directions smoothed from "
-                            "neighbours or the fixed frame; never NaN.")
+    return _from_spec(node_module("curvature", "stability").sweep_umbilic(quick, log))
 
 
 # -- broken meshes ---------------------------------------------------------------------------------
@@ -469,11 +393,11 @@ def broken_mesh_cases(tmp: Path, meshes_dir: Path) -> dict[str, Path]:
 
 def broken_mesh_report(path: Path, size: int = 400) -> dict[str, Any]:
     """Load, draw, detect edges and measure curvature on one mesh file; record every warning and error."""
-    from nodegraph_nodes.curvature.principal import compute_curvature
-
     from .. import gl as glmod
     from ..errors import MeshError
     from ..meshes import clear_mesh_cache, load_mesh
+
+    compute_curvature = node_module("curvature", "principal").compute_curvature
 
     out: dict[str, Any] = {"file": path.name}
     clear_mesh_cache()
@@ -527,45 +451,14 @@ def sweep_broken_meshes(meshes_dir: Path) -> dict[str, Any]:
             "behaviour": "load_mesh: MeshWarning or MeshError; edge_detect and curvature stay finite."}
 
 
-# -- particles -------------------------------------------------------------------------------------
+# -- particles (measured beside the node) -----------------------------------------------------------
 def sweep_particles(meshes_dir: Path, quick: bool) -> dict[str, Any]:
     try:
-        from nodegraph_nodes.particle_sketch import core
+        mod = node_module("particle_sketch", "stability")
     except ImportError as exc:
         return {"title": "Particles", "skipped": str(exc), "points": [], "break": None}
-    from .accuracy import particle_depth
-
     depth, _, _ = particle_depth(meshes_dir, 400)
-    edges, ff = core.prepare(depth, 0.03)
-    base = core.ParticleParams()  # each sweep starts at the core's default and moves one parameter away
-    sweeps = {
-        "drag": [base.drag, 0.1, 0.0] if quick else [base.drag, 0.5, 0.2, 0.1, 0.01, 0.0],
-        "randomness": [base.randomness, 10.0, 1000.0] if quick else [base.randomness, 2.0, 10.0, 100.0, 1000.0, 1e6],
-        "mass": [base.mass, 0.1, 1e-6] if quick else [base.mass, 1.0, 0.1, 1e-2, 1e-3, 1e-6],
-    }
-    points = []
-    for name, values in sweeps.items():
-        for v in values:
-            params = core.ParticleParams(strokes=400, **{name: v})
-            t0 = time.perf_counter()
-            res = core.simulate(edges, ff, params, np.random.default_rng(2))
-            sec = time.perf_counter() - t0
-            cov, prec = core.coverage_precision(res.sketch, edges)
-            f1 = 2 * cov * prec / (cov + prec) if cov + prec else 0.0
-            finite = bool(np.isfinite(res.sketch).all() and all(np.isfinite(s).all() for s in res.strokes))
-            x = v if name != "drag" else max(v, 1e-3)
-            points.append({"series": name, "x": x, "param": v, "value": f1, "coverage": cov, "precision": prec,
-                           "segments": res.steps, "launched": res.launched, "s": sec, "finite": finite})
-    log("  particles: " + ", ".join(f"{p['series']}={p['param']:g} F1 {p['value']:.2f} {p['s']:.1f}s"
-                                    for p in points))
-    defaults = {k: getattr(base, k) for k in ("mass", "drag", "randomness", "step", "max_steps", "integrator")}
-    return {**_sweep("Particles at extreme parameters (400 strokes, cow.obj 400 px)",
-                  "parameter value (drag 0 drawn at 1e-3)", "F1 of coverage and precision", points, drop=0.2,
-                  log_x=True,
-                  finding="Without drag, with tiny mass or huge random forces particles leave the edges (or the "
-                          "image) at once: coverage collapses but the run stays bounded.",
-                  behaviour="simulate: strokes that leave the image or overflow end undrawn; finite ink, bounded "
-                            "time."), "defaults": defaults}
+    return _from_spec(mod.sweep(depth, quick, log))
 
 
 def run_sweeps(meshes_dir: Path, quick: bool) -> dict[str, Any]:

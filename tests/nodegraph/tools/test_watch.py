@@ -10,7 +10,7 @@ import pytest
 
 from nodegraph.tools.watch import Watcher, scene_files, watch
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def touch_later(path: Path, text: str | None = None) -> None:

@@ -60,7 +60,7 @@ def test_compile_error_names_node_file_and_line(gl, tmp_path: Path):
 
 def test_every_node_shader_compiles(gl):
     """Every .glsl file with a #version line in nodes/ builds (default defines where a file needs some)."""
-    root = Path(__file__).resolve().parents[1] / "nodes"
+    root = Path(__file__).resolve().parents[2] / "nodes"
     built = 0
     for path in sorted(root.glob("*/*.glsl")):
         if not path.read_text().startswith("#version"):

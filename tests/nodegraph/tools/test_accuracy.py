@@ -7,22 +7,19 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from nodegraph_nodes.edge_detect import EdgeDetect
-
-from nodegraph.tools.accuracy import (
-    TARGET_F1,
-    NodeRunner,
+from nodegraph_nodes.curvature.accuracy import (
     curvature_errors,
     ellipsoid_mesh,
     ellipsoid_truth,
-    gbuffer,
-    release,
-    scene_for,
     torus_mesh,
     torus_truth,
 )
+from nodegraph_nodes.edge_detect import EdgeDetect
+
+from nodegraph.tools.accuracy import TARGET_F1
 from nodegraph.tools.accuracy_charts import pareto
 from nodegraph.tools.groundtruth import line_drawing, precision_recall
+from nodegraph.tools.measure import NodeRunner, gbuffer, release, scene_for
 from tests.conftest import shared_mesh
 
 

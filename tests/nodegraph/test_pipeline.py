@@ -154,7 +154,7 @@ def test_size_override():
 
 
 def test_shipped_pipelines_validate():
-    root = Path(__file__).resolve().parents[1] / "pipelines"
+    root = Path(__file__).resolve().parents[2] / "pipelines"
     files = sorted(root.glob("*.yaml"))
     assert files
     for f in files:

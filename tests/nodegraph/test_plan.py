@@ -14,8 +14,8 @@ from nodegraph.meshes import Mesh
 from nodegraph.primitives import torus
 from nodegraph.registry import default
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from nodegraph.tools.accuracy import NodeRunner
 from nodegraph.tools.explain import explain
+from nodegraph.tools.measure import NodeRunner
 
 SIZE = (240, 180)
 

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from nodegraph.cli import main
 from nodegraph.tools import viz
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 NIENHAUS = ROOT / "pipelines" / "nienhaus_sketchy.yaml"
 
 

@@ -12,7 +12,7 @@ from nodegraph import pipeline as pl
 from nodegraph.cli import main
 from nodegraph.tools.diff import compare_keys, compare_values
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 NIENHAUS = ROOT / "pipelines" / "nienhaus_sketchy.yaml"
 
 

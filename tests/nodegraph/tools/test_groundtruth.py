@@ -8,8 +8,8 @@ import pytest
 from nodegraph.meshes import Mesh
 from nodegraph.primitives import box, plane
 from nodegraph.scene import Camera, Scene, SceneObject, load_scene, translation
-from nodegraph.tools.accuracy import gbuffer, release
 from nodegraph.tools.groundtruth import feature_edges, line_drawing, precision_recall
+from nodegraph.tools.measure import gbuffer, release
 
 
 def _kinds(fe):

@@ -22,7 +22,7 @@ from nodegraph.scene import (
     load_scene,
 )
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "meshes"
+SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "meshes"
 
 # (vertices, faces) as listed in shared/meshes/README.md
 README_COUNTS = {

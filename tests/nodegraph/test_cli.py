@@ -12,7 +12,7 @@ from nodegraph import imageio
 from nodegraph.cli import main
 from tests.conftest import shared_mesh
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PIPE = str(ROOT / "pipelines" / "nienhaus_sketchy.yaml")
 
 

@@ -9,12 +9,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from nodegraph_nodes.curvature.accuracy import ellipsoid_truth, torus_mesh
 from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 
 from nodegraph.errors import MeshError
 from nodegraph.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
 from nodegraph.primitives import plane, sphere
-from nodegraph.tools.accuracy import ellipsoid_truth, gbuffer, release, scene_for, torus_mesh
+from nodegraph.tools.measure import gbuffer, release, scene_for
 from nodegraph.tools.stability import (
     broken_mesh_cases,
     edge_scores,
@@ -123,7 +124,7 @@ def test_thin_rod_outlines_merge_and_vanish_without_nan(gl):
         nd = gbuffer(gl, scene, (size, size))["normal_depth"]
         from nodegraph_nodes.edge_detect import EdgeDetect
 
-        from nodegraph.tools.accuracy import NodeRunner
+        from nodegraph.tools.measure import NodeRunner
 
         e = NodeRunner(gl, (size, size), scene).run(EdgeDetect("e"), {"normal_depth": nd}, frozenset({"out"}))
         arr = e["out"].read()[..., 0]

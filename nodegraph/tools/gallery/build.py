@@ -1,0 +1,382 @@
+"""`sketchgraph gallery build`: plan every entry's keys without rendering, render what is out of date, write
+the images, manifest.json, timings.json and the page."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import SketchgraphError
+from ...executor import Executor
+from ...node import digest
+from ...pipeline import Pipeline
+from .. import viz
+from .. import wedge as wedgemod
+from .model import FORMAT, REPO, VERSIONED, Entry, EntryResult, Gallery, _rel
+from .page import write_index
+
+
+# -- planning: keys without rendering --------------------------------------------------------------------
+@dataclass
+class Variant:
+    kind: str  # main | frame | cell
+    pipe: Pipeline
+    frame: int
+    overrides: list[str] = field(default_factory=list)
+    label: str = ""
+    row: int = 0
+    col: int = 0
+
+
+@dataclass
+class EntryPlan:
+    entry: Entry
+    main: Pipeline
+    variants: list[Variant]
+    outputs: list[str]
+    build_key: str
+    record: dict[str, Any]  # the manifest record, without files
+
+
+def _open(entry: Entry, extra: list[str] = (), scene_from: Pipeline | None = None) -> Pipeline:
+    from ... import pipeline as pl
+
+    overrides = entry.overrides + list(extra)
+    if scene_from is None:
+        return pl.load(entry.pipeline, overrides=overrides, size=entry.size, scene=entry.scene)
+    pipe = pl.load(entry.pipeline, overrides=overrides, size=entry.size, scene=entry.scene, load_scene=False)
+    pipe.scene = scene_from.scene
+    return pipe
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def plan_entry(entry: Entry, renderer: str, cell: int, root: Path) -> EntryPlan:
+    main = _open(entry)
+    outputs = entry.outputs or list(main.outputs)
+    for name in outputs:
+        if name not in main.outputs:
+            raise SketchgraphError(f"entry '{entry.name}': pipeline has no output '{name}'; outputs: "
+                                   + ", ".join(main.outputs))
+    frames = entry.frames or [0]
+    variants = [Variant("main", main, frames[0])]
+    variants += [Variant("frame", main, f, label=f"frame {f}") for f in frames[1:]]
+    if entry.wedge:
+        for r, c, overrides, text in wedgemod.combinations(entry.wedge):
+            variants.append(Variant("cell", _open(entry, overrides, main), frames[0], overrides, text, r, c))
+    keys = []
+    for v in variants:
+        ex = Executor(v.pipe, None, requested=[v.pipe.outputs[o] for o in outputs])
+        keys.append({"kind": v.kind, "frame": v.frame, "overrides": v.overrides, "keys": ex.keys(v.frame)})
+    scene_files = [p for p in entry.scene_files() if p.exists()]
+    record = {
+        "pipeline": entry.pipeline_rel,
+        "pipeline_sha256": file_sha256(entry.pipeline),
+        "scene": entry.scene_rel or main.scene_spec,
+        "scene_sha256": main.scene.content_hash() if main.scene is not None else None,
+        "scene_files": {_rel(p, root): file_sha256(p) for p in scene_files},
+        "size": list(main.size),
+        "seed": main.seed,
+        "overrides": entry.overrides,
+        "params": {nid: node.params.model_dump(mode="json") for nid, node in main.nodes.items()},
+        "frames": frames,
+        "wedge": {a.param: list(a.values) for a in entry.wedge} if entry.wedge else None,
+        "outputs": {o: ".".join(main.outputs[o]) for o in outputs},
+        "shared": entry.uses_shared(),
+        "keys": keys[0]["keys"],  # content keys of the main render's nodes (verify names the ones that changed)
+    }
+    build_key = digest({"format": FORMAT, "viz": viz.VERSION, "renderer": renderer, "cell": cell,
+                        "variants": keys, "record": record})
+    return EntryPlan(entry, main, variants, outputs, build_key, record)
+
+
+# -- rendering -------------------------------------------------------------------------------------------
+def pixels_sha256(img8: np.ndarray) -> str:
+    h = hashlib.sha256(f"{img8.shape}".encode())
+    h.update(np.ascontiguousarray(img8).tobytes())
+    return h.hexdigest()
+
+
+def _write(img: np.ndarray, dest: Path, rel: str, what: str, files: dict[str, dict[str, Any]]) -> None:
+    path = dest / rel
+    viz.write_png(path, img)
+    img8 = viz.to_uint8(img)
+    files[rel] = {"sha256": file_sha256(path), "pixels_sha256": pixels_sha256(img8),
+                  "size": [int(img8.shape[1]), int(img8.shape[0])], "what": what}
+
+
+def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: Path | None = None) -> EntryResult:
+    """Render every variant of an entry into `dest`/images/<entry>/ and describe the files written."""
+    from ..inspect_all import debug_executor, inspect_run, sheet, write_inspection
+    from ..watch import adopt_memory
+
+    entry = ep.entry
+    res = EntryResult(entry.name, "rendered")
+    t0 = time.perf_counter()
+    base = f"images/{entry.name}"
+    folder = dest / base
+    if folder.exists():
+        shutil.rmtree(folder)
+    many = len(ep.variants) > 1 and any(v.kind == "frame" for v in ep.variants)
+    main = ep.variants[0]
+    ex = debug_executor(main.pipe, cache)
+    prev: Executor = ex
+    try:
+        insp = inspect_run(ex, main.frame)
+        for n in insp.nodes:
+            res.node_ms[n.node] = round(n.ms, 3)
+            res.node_status[n.node] = n.status
+        by_ref = {(p.node, p.port): p for p in insp.ports()}
+        frame_cells: list[viz.Cell] = []
+        for o in ep.outputs:
+            panel = by_ref[main.pipe.outputs[o]].panel
+            if panel.image is None:
+                continue
+            suffix = f"_f{main.frame:04d}" if many else ""
+            _write(panel.image, dest, f"{base}/{o}{suffix}.png", f"output {o}, frame {main.frame}", res.files)
+            if o == ep.outputs[0]:
+                frame_cells.append(viz.Cell(panel.image, [f"frame {main.frame}"]))
+        w, h = main.pipe.size
+        _write(sheet(insp, cell, f"{entry.name}: intermediates, {w}x{h}, frame {main.frame}"), dest,
+               f"{base}/intermediates.png", "contact sheet of intermediates", res.files)
+        if inspect_dir is not None:
+            write_inspection(insp, inspect_dir / entry.name, exact=True)
+        cells: list[wedgemod.Cell] = []
+        for v in ep.variants[1:]:
+            refs = [v.pipe.outputs[o] for o in ep.outputs]
+            vex = Executor(v.pipe, cache, requested=refs)
+            adopt_memory(vex, prev, v.frame)
+            prev.close()
+            prev = vex
+            result = vex.run(v.frame)
+            for o, ref in zip(ep.outputs, refs, strict=True):
+                panel = viz.visualize(result.values[ref], ref[1], v.pipe.nodes[ref[0]].outputs[ref[1]].doc)
+                if panel.image is None:
+                    continue
+                if v.kind == "frame":
+                    _write(panel.image, dest, f"{base}/{o}_f{v.frame:04d}.png", f"output {o}, frame {v.frame}",
+                           res.files)
+                    if o == ep.outputs[0]:
+                        frame_cells.append(viz.Cell(panel.image, [f"frame {v.frame}"]))
+                elif o == ep.outputs[0]:
+                    _write(panel.image, dest, f"{base}/wedge_r{v.row}c{v.col}.png", f"wedge cell {v.label}",
+                           res.files)
+                    cells.append(wedgemod.Cell(v.row, v.col, v.overrides, v.label, panel.image,
+                                               result.computed(), 0.0))
+        if len(frame_cells) > 1:
+            _write(viz.contact_sheet(frame_cells, cell=cell, columns=min(len(frame_cells), 6),
+                                     title=f"{entry.name}: {ep.outputs[0]} by frame"),
+                   dest, f"{base}/frames.png", "contact sheet of frames", res.files)
+        if cells and entry.wedge:
+            _write(wedgemod.sheet(cells, entry.wedge, entry.name, cell), dest, f"{base}/wedge.png",
+                   "wedge contact sheet", res.files)
+    finally:
+        prev.close()
+        prev.clear_memory()  # give the textures back to the pool for the next entry
+    res.ms = (time.perf_counter() - t0) * 1000
+    return res
+
+
+# -- build -----------------------------------------------------------------------------------------------
+def versions() -> dict[str, str]:
+    from ... import __version__
+
+    out = {"sketchgraph": __version__, "python": platform.python_version()}
+    for dist in VERSIONED:
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            continue
+    return out
+
+
+def read_manifest(path: Path) -> dict[str, Any]:
+    if not path.exists():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise SketchgraphError(f"{path}: unreadable manifest ({exc}); delete it and build again") from None
+
+
+def manifest_text(manifest: dict[str, Any]) -> str:
+    return json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
+
+
+def _up_to_date(old: dict[str, Any] | None, ep: EntryPlan, root: Path) -> bool:
+    if not old or old.get("build_key") != ep.build_key or not old.get("files"):
+        return False
+    return all((root / rel).exists() and file_sha256(root / rel) == rec.get("sha256")
+               for rel, rec in old["files"].items())
+
+
+@dataclass
+class BuildReport:
+    results: list[EntryResult]
+    total_s: float
+    manifest: dict[str, Any]
+    kind: str  # cold (fresh, empty node cache; every entry rendered) | warm
+    failed: list[str] = field(default_factory=list)
+    previous_cold_s: float | None = None
+
+
+def _renderer() -> str:
+    from ... import gl as glmod
+
+    return glmod.get().renderer
+
+
+def _progress(items: list[Any], disable: bool) -> Any:
+    import sys
+
+    from tqdm import tqdm
+
+    return tqdm(items, disable=disable, unit="entry", file=sys.stderr, leave=False, dynamic_ncols=True)
+
+
+def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force: bool = False,
+          inspect: bool = False, echo: Callable[[str], None] = print, progress: bool = True,
+          cold: bool = False) -> BuildReport:
+    """Render every entry that is not up to date (every entry with `force`); write manifest.json,
+    timings.json and index.html. `cold` says the cache is fresh and empty (for the build history)."""
+    t0 = time.perf_counter()
+    renderer = _renderer()
+    old = read_manifest(gallery.manifest_path)
+    old_entries: dict[str, Any] = old.get("entries", {}) if old.get("renderer") == renderer else {}
+    entries = [gallery.entry(n) for n in only] if only else gallery.entries
+    results: list[EntryResult] = []
+    records: dict[str, Any] = {}
+    failed: list[str] = []
+    bar = _progress(entries, not progress)
+    for entry in bar:
+        if hasattr(bar, "set_postfix_str"):
+            bar.set_postfix_str(entry.name)
+        t1 = time.perf_counter()
+        missing = entry.missing_shared()
+        if missing:
+            res = EntryResult(entry.name, "skipped", note=f"needs {', '.join(_rel(p, REPO) for p in missing)} "
+                                                          "(../shared is absent here); kept its manifest record")
+            if entry.name in old.get("entries", {}):
+                records[entry.name] = old["entries"][entry.name]
+            results.append(res)
+            _echo_line(echo, bar, res)
+            continue
+        try:
+            ep = plan_entry(entry, renderer, gallery.cell, gallery.root)
+            prev = old_entries.get(entry.name)
+            if not force and _up_to_date(prev, ep, gallery.root):
+                res = EntryResult(entry.name, "up to date", dict(prev["files"]))
+                records[entry.name] = prev
+            else:
+                res = render_entry(ep, cache, gallery.root, gallery.cell,
+                                   gallery.out / "inspect" if inspect else None)
+                records[entry.name] = {**ep.record, "build_key": ep.build_key, "files": res.files}
+        except Exception as exc:  # noqa: BLE001 - one broken entry must not stop the others
+            if not isinstance(exc, SketchgraphError):
+                exc = SketchgraphError(f"{type(exc).__name__}: {exc}")
+            res = EntryResult(entry.name, "failed", note=str(exc))
+            failed.append(entry.name)
+            if entry.name in old.get("entries", {}):
+                records[entry.name] = old["entries"][entry.name]
+        res.ms = (time.perf_counter() - t1) * 1000
+        results.append(res)
+        _echo_line(echo, bar, res)
+    if only:  # a partial build keeps the other entries' records
+        for name, rec in old.get("entries", {}).items():
+            records.setdefault(name, rec)
+    else:  # images of entries that no longer exist
+        images = gallery.root / "images"
+        known = {e.name for e in gallery.entries}
+        for folder in sorted(images.iterdir()) if images.is_dir() else []:
+            if folder.is_dir() and folder.name not in known:
+                shutil.rmtree(folder)
+    manifest = {
+        "format": FORMAT,
+        "gallery": _rel(gallery.file, gallery.root),
+        "renderer": renderer,
+        "versions": versions(),
+        "tolerance": gallery.tolerance,
+        "entries": {k: records[k] for k in sorted(records)},
+    }
+    gallery.manifest_path.write_text(manifest_text(manifest))
+    total = time.perf_counter() - t0
+    kind = "cold" if cold else "warm"
+    report = BuildReport(results, total, manifest, kind, failed)
+    _write_timings(gallery, results)
+    report.previous_cold_s = _history(gallery, report, bool(only))
+    write_index(gallery, manifest, results)
+    return report
+
+
+def _echo_line(echo: Callable[[str], None], bar: Any, res: EntryResult) -> None:
+    """Live feedback beside the progress bar (the table at the end says it all again)."""
+    if hasattr(bar, "write") and not getattr(bar, "disable", True):
+        bar.write(f"{res.status:<10} {res.name:<28} {res.ms / 1000:7.2f} s" + (f"  {res.note}" if res.note else ""))
+
+
+def _write_timings(gallery: Gallery, results: list[EntryResult]) -> None:
+    path = gallery.root / "timings.json"
+    try:
+        timings = json.loads(path.read_text()) if path.exists() else {}
+    except json.JSONDecodeError:
+        timings = {}
+    for r in results:
+        if r.status == "rendered":
+            timings[r.name] = {"ms": round(r.ms, 1), "nodes_ms": r.node_ms, "nodes": r.node_status}
+    known = {e.name for e in gallery.entries}
+    timings = {k: v for k, v in sorted(timings.items()) if k in known}
+    path.write_text(json.dumps(timings, indent=1, sort_keys=True) + "\n")
+
+
+def _history(gallery: Gallery, report: BuildReport, partial: bool) -> float | None:
+    """Append this build to out/builds.json; return the total of the last full cold build before it."""
+    path = gallery.out / "builds.json"
+    try:
+        history = json.loads(path.read_text()) if path.exists() else []
+    except json.JSONDecodeError:
+        history = []
+    colds = [h["total_s"] for h in history if h.get("kind") == "cold" and not h.get("partial")]
+    history.append({"when": time.strftime("%Y-%m-%dT%H:%M:%S"), "kind": report.kind, "partial": partial,
+                    "total_s": round(report.total_s, 3),
+                    "entries": {r.name: {"status": r.status, "s": round(r.ms / 1000, 3)} for r in report.results}})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(history[-50:], indent=1) + "\n")
+    return colds[-1] if colds else None
+
+
+def format_build(report: BuildReport) -> str:
+    lines = [f"{'entry':<28} {'status':<10} {'seconds':>8}"]
+    for r in report.results:
+        lines.append(f"{r.name:<28} {r.status:<10} {r.ms / 1000:8.2f}" + (f"  {r.note}" if r.note else ""))
+    counts: dict[str, int] = {}
+    for r in report.results:
+        counts[r.status] = counts.get(r.status, 0) + 1
+    hits = sum(1 for r in report.results for s in r.node_status.values() if s in ("disk", "memory"))
+    nodes = sum(1 for r in report.results for s in r.node_status.values() if s != "pass-through")
+    lines.append(f"total {report.total_s:.2f} s ({report.kind} build: "
+                 + ", ".join(f"{n} {s}" for s, n in counts.items())
+                 + (f"; {hits} of {nodes} nodes of rendered entries came from the cache" if nodes else "") + ")")
+    if report.kind == "cold":
+        lines.append("cold build (empty node cache): the baseline later builds are compared with")
+    elif report.previous_cold_s:
+        ratio = report.previous_cold_s / max(report.total_s, 1e-9)
+        lines.append(f"vs the last cold build ({report.previous_cold_s:.2f} s): {ratio:.1f}x faster")
+    if report.failed:
+        lines.append(f"failed: {', '.join(report.failed)}")
+    return "\n".join(lines)
