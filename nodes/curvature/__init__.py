@@ -20,14 +20,8 @@ from nodegraph.node import HashContext, Input, Node, NodeParams, Output, digest
 from nodegraph.types import ARRAYS, SCENE
 from nodegraph.values import Arrays
 
-from .principal import DEFAULT_RADIUS, DirectionSource, compute_curvature, mesh_content_key
-
-# per-object arrays, named f"o{index}_{field}"
-FIELDS = ("kmin", "kmax", "dmin", "dmax", "normal", "confidence", "reason", "source", "key")
-
-
-def object_field(index: int, name: str) -> str:
-    return f"o{index}_{name}"
+from .._shared.curvature import DirectionSource, object_field
+from .principal import DEFAULT_RADIUS, compute_curvature, mesh_content_key
 
 
 class Curvature(Node):

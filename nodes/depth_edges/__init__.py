@@ -15,7 +15,7 @@ _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MA
 class DepthEdges(Node):
     """The template of where ink is needed, exactly as the seed's pseudocode computes it: the depth map
     blurred by the 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, the seed's Sobel pair (gx, gy) of the blurred depth
-    (= -8 x its gradient, x right, y up; see nodes/particle_sketch/core.py), mag = sqrt(gx^2 + gy^2), and
+    (= -8 x its gradient, x right, y up; see nodes/_shared/filters.py), mag = sqrt(gx^2 + gy^2), and
     edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
     s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
 

@@ -11,8 +11,7 @@ from pydantic import Field, model_validator
 from nodegraph.node import Node, NodeParams, Output
 from nodegraph.types import TextureArray
 
-# the largest `amplitude` accepted: consumers may rely on |offset| <= MAX_AMPLITUDE x height per component
-MAX_AMPLITUDE = 0.02
+from .._shared.pencil import MAX_AMPLITUDE
 
 
 class DistortionMap(Node):

@@ -1,7 +1,9 @@
 """particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
 
-The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`, the compiled
-sequential sketcher in `jit`; this node wraps `core.simulate`. `python -m nodegraph_nodes.particle_sketch.bench`
+The float64 CPU core (force field, particle system, measures) is in `core`, the compiled sequential
+sketcher in `jit`; both use `common` (parameters, result) and `rng` (counter-based random numbers), and the
+filters are `nodes/_shared/filters.py`. This node wraps `core.simulate`; its strokes are written as SVG by
+`nodegraph.strokes.to_svg` (the strokes_svg node). `python -m nodegraph_nodes.particle_sketch.bench`
 measures the core on synthetic depth, `sketchgraph bench particles` the node chain on a real scene
 (docs/particles.md).
 """

@@ -6,9 +6,6 @@ import math
 from typing import Any, Literal
 
 import numpy as np
-from nodegraph_nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
-from nodegraph_nodes.curvature import object_field
-from nodegraph_nodes.curvature.principal import DirectionSource
 from pydantic import Field, model_validator
 
 from nodegraph.errors import PipelineError
@@ -16,9 +13,10 @@ from nodegraph.gl import bind
 from nodegraph.node import Input, Node, NodeParams, Output
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
+from .._shared.curvature import DirectionSource, object_field
+from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, view_light
 from . import reference
 
-Color = tuple[float, float, float]
 _GEOMETRY_PORTS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND"}
 
 

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from nodegraph_nodes.curvature import FIELDS, object_field, smooth_line_field
+from nodegraph_nodes._shared.curvature import FIELDS, object_field
+from nodegraph_nodes.curvature import smooth_line_field
 from nodegraph_nodes.curvature.principal import DirectionSource
 
 from nodegraph import pipeline as pl

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 
-from nodegraph_nodes.perlin_noise import reference as ref  # noqa: E402
+from nodegraph_nodes._shared import noise as ref  # noqa: E402
 
 GLSL_INCLUDE = ROOT / "nodes" / "perlin_noise" / "improved_noise.glsl"
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import nodegraph_nodes.rasterize as rasterize_mod
 import numpy as np
 import pytest
+from nodegraph_nodes._shared.noise import noise3_at
 from nodegraph_nodes.object_noise import ObjectNoise
-from nodegraph_nodes.perlin_noise.reference import noise3_at
 from nodegraph_nodes.rasterize import Rasterize
 from scipy import ndimage
 from scipy.spatial import Delaunay
