@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture, TextureArray
 
 from .._shared.pencil import GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, view_light
@@ -82,7 +82,7 @@ class Contour(Node):
         u = np.random.default_rng(seed).random(layers)
         return 1.0 - self.params.pressure_jitter * u
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         dist = inputs["distortion"]
         layers = dist.layers

@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 
@@ -64,7 +64,7 @@ class DepthSprite(Node):
             return {"color": "color", "depth": "sketch_depth"}
         return {}
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         has_under = "under_color" in inputs and "under_depth" in inputs
         size = inputs["color"].size

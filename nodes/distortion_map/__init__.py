@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field, model_validator
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import TextureArray
 
 from .._shared.pencil import MAX_AMPLITUDE
@@ -74,7 +74,7 @@ class DistortionMap(Node):
         out[..., 1] = oy[:, :, None]
         return out
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         data = self.offsets(ctx.seed, ctx.size)
         return {"out": ctx.gl.texture_array(ctx.size, data.shape[0], "RG16F", data, repeat=False, mipmaps=False)}
 

@@ -7,7 +7,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 from .._shared import noise
@@ -57,7 +57,7 @@ class ObjectNoise(Node):
         diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         return p.scale / diag if diag > 0 else p.scale
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         prog = ctx.program("object_noise.glsl")

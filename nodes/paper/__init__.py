@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 
@@ -74,7 +74,7 @@ class Paper(Node):
         p = self.params
         return paper_normals(paper_height(p.size, seed, p.grain, p.fibres, p.fibre_length), p.relief)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
         data = self.normals(seed)
         tex = ctx.gl.texture((self.params.size, self.params.size), ctx.format("out"), data=data, repeat=True)

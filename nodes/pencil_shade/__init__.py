@@ -8,9 +8,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError
 from nodegraph.gl import bind
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
 from .._shared.curvature import DirectionSource, object_field
@@ -98,13 +98,12 @@ class PencilShade(Node):
     def layer_shifts(self) -> np.ndarray:
         return reference.LAYER_SHIFTS[: self.params.layers].astype(np.float32)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         if scene is None:
-            raise PipelineError(f"node '{self.id}' (pencil_shade) needs a scene: connect `scene` or give the "
-                                "pipeline one")
+            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
         curv = inputs["curvature"]
         tam = inputs["tam"]
         paper = inputs.get("paper")
@@ -147,7 +146,7 @@ class PencilShade(Node):
         mgl.enable(mgl.DEPTH_TEST)
         try:
             for index, obj in enumerate(scene.objects):
-                vao = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self.id)
+                vao = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
                 if vao is None:
                     continue
                 # closed meshes hide their back faces: culling them halves the shaded fragments
@@ -205,18 +204,18 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node_id: str) -> Any:
+def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node: Node) -> Any:
     """Vertex buffers (position, split normal, curvature direction, trust) per (mesh, crease, curvature)."""
     if mesh.n_faces == 0:
         return None
     name = object_field(index, "dmin")
     if name not in curv.data:
-        raise PipelineError(f"node '{node_id}' (pencil_shade): the curvature input has no arrays for object "
-                            f"{index}; connect the curvature node of the same scene")
+        raise NodeError(f"the curvature input has no arrays for object {index}; connect the curvature node of the "
+                        "same scene", node.id, node.type_name)
     dmin = curv.data[name]
     if dmin.shape != (mesh.n_vertices, 3):
-        raise PipelineError(f"node '{node_id}' (pencil_shade): curvature of object {index} has {dmin.shape[0]} "
-                            f"vertices, its mesh {mesh.n_vertices}; connect the curvature node of the same scene")
+        raise NodeError(f"curvature of object {index} has {dmin.shape[0]} vertices, its mesh {mesh.n_vertices}; "
+                        "connect the curvature node of the same scene", node.id, node.type_name)
     ckey = str(curv.data.get(object_field(index, "key"), ""))
     key = ("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey)
     entry = gl.resources.get(key)

@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 from .._shared import noise
@@ -46,7 +46,7 @@ class PerlinNoise(Node):
             keys.add("frame")
         return frozenset(keys)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         prog = ctx.program("perlin_noise.glsl", {"KIND": 0 if p.kind == "perlin" else 1})
         seed = ctx.seed

@@ -9,7 +9,7 @@ import numpy as np
 from pydantic import Field
 
 from nodegraph.meshes import MeshWarning
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
 
 # output port -> (clear value, shader define)
@@ -76,7 +76,7 @@ class Rasterize(Node):
             "draw both sides otherwise (teapot.obj: culling would change 0.5% of its pixels); draw: always both "
             "sides; cull: never draw back faces.")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         ports = [p for p in _OUTPUTS if p in needed]

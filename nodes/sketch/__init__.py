@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 Matrix = tuple[tuple[float, float], tuple[float, float]]
@@ -78,11 +79,11 @@ class Sketch(Node):
         p = self.params
         return list(p.edge_layers) or [EdgeLayer(matrix=p.edge_matrix, color=p.edge_color)]
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         ports = [port for port in ("color", "offsets", "depth") if port in needed]
         if "depth" in ports and "depth" not in inputs:
-            raise ValueError(f"node '{self.id}': output 'depth' needs input 'depth' (connect rasterize.depth)")
+            raise NodeError("output 'depth' needs input 'depth' (connect rasterize.depth)", self.id, self.type_name)
         layers = self.layers()
         defines: dict[str, Any] = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
         defines["LAYERS"] = len(layers)

@@ -16,7 +16,7 @@ from nodegraph_nodes.paper import paper_height, paper_normals
 from nodegraph_nodes.pencil_shade import PencilShade, reference
 
 from nodegraph import pipeline as pl
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import RunContext
 from nodegraph.primitives import plane
@@ -212,9 +212,9 @@ def test_gpu_darkness_is_monotonic_in_brightness_on_a_sphere(gl):
 def test_curvature_of_another_scene_is_a_clear_error(gl, tam):
     scene = top_down_plane()
     bad = Arrays({object_field(0, "dmin"): np.zeros((3, 3), np.float32), "objects": np.array(1)})
-    with pytest.raises(PipelineError, match="curvature of object 0 has 3 vertices"):
+    with pytest.raises(NodeError, match="curvature of object 0 has 3 vertices"):
         render(gl, scene, bad, tam)
-    with pytest.raises(PipelineError, match="no arrays for object 0"):
+    with pytest.raises(NodeError, match="no arrays for object 0"):
         render(gl, scene, Arrays({}), tam)
 
 
