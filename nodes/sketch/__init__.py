@@ -94,11 +94,11 @@ class Sketch(Node):
             textures["t_depth"] = inputs["depth"]
             defines["HAS_DEPTH"] = 1
         prog = ctx.program("sketch.glsl", defines)
-        mats = np.stack([np.asarray(layer.matrix, dtype=np.float32).T for layer in layers])  # GLSL: column-major
+        mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures=textures,
-                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32).T,
+                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32),
                                     "u_edge_matrix": mats, "u_edge_color": colors,
                                     "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),
                                     "u_paper": tuple(p.paper)})

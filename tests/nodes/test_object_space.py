@@ -31,8 +31,7 @@ def _position(gl, scene, size, enlarge=0.0, frame=0, cull=False):
 
 
 def _forget_vertex_buffers(gl):
-    for key in [k for k in gl.resources if isinstance(k, tuple) and k and k[0] == "mesh"]:
-        del gl.resources[key]
+    gl.release_meshes()
 
 
 # -- the band around the silhouette ---------------------------------------------------------------
