@@ -8,7 +8,7 @@ from nodegraph_nodes.composite import Composite
 from pydantic import ValidationError
 
 from nodegraph.errors import NodeError
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 W, H = 37, 23
 

@@ -12,7 +12,7 @@ import pytest
 if TYPE_CHECKING:
     import moderngl
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 

@@ -23,7 +23,7 @@ from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 W, H = 96, 80
 
 
@@ -241,7 +241,7 @@ def test_golden_pencil_torus(gl, request):
     """pencil.yaml on builtin:torus at 128x96 against tests/golden/pencil_torus.exr (regenerate with
     --regen-golden; a failure writes the image and a diff to tests/_failures/)."""
     from nodegraph import imageio
-    from tests.conftest import FAILURES, GOLDEN
+    from tests.helpers import FAILURES, GOLDEN
 
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(128, 96))
     img = Executor(pipe, None, gl=gl).run().values[("shade", "color")].read()

@@ -22,9 +22,9 @@ from nodegraph.errors import NodeError, PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext, RunContext
 from nodegraph.values import Strokes
-from tests.conftest import run_node, shared_mesh
+from tests.helpers import run_node, shared_mesh
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SIZE = (160, 160)
 
 

@@ -11,7 +11,7 @@ from pydantic import ValidationError
 from scipy import ndimage
 
 from nodegraph.errors import NodeError
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 # The seed's kernels exactly as printed; k[x][y] with y down the image (see nodes/particle_sketch/core.py).
 SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)

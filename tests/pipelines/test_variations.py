@@ -15,7 +15,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import derive_seed
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 ROOT = Path(__file__).resolve().parents[2]
 

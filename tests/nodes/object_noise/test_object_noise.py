@@ -20,9 +20,9 @@ from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from tests.conftest import run_node, shared_mesh
+from tests.helpers import run_node, shared_mesh
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _position(gl, scene, size, enlarge=0.0, frame=0, cull=False):

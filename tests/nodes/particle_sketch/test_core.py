@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 
