@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import os
-from collections import defaultdict
+from collections import OrderedDict, defaultdict
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +34,8 @@ class GL:
         self._fbos: dict[tuple[int, ...], tuple[Any, tuple[Any, ...]]] = {}
         self._empty_vao: dict[int, Any] = {}
         self._scratch: Any = None
-        self.resources: dict[Any, Any] = {}  # per-context caches of nodes (vertex buffers, lookup textures)
+        self.resources: dict[Any, Any] = {}  # per-context caches of nodes (samplers, lookup textures)
+        self._meshes: OrderedDict[Any, MeshBuffers] = OrderedDict()  # vertex/index buffers, least recent first
 
     @property
     def renderer(self) -> str:
@@ -141,6 +145,43 @@ class GL:
             self._empty_vao[id(program)] = vao
         vao.render(mode=self.ctx.TRIANGLES, vertices=3)
 
+    # -- geometry ---------------------------------------------------------------------------
+    def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays]) -> MeshBuffers:
+        """Vertex and index buffers of one mesh, cached by `key` (say the node, the mesh's content hash and
+        whatever else shaped the arrays); `build` runs only on a miss. The least recently used entries are
+        released beyond `MESH_CACHE_ENTRIES`. `.vao(program)` gives the program's vertex array over them."""
+        entry = self._meshes.get(key)
+        if entry is not None:
+            self._meshes.move_to_end(key)
+            return entry
+        entry = self._meshes[key] = MeshBuffers(self.ctx, build())
+        while len(self._meshes) > MESH_CACHE_ENTRIES:
+            _, old = self._meshes.popitem(last=False)
+            old.release()
+        return entry
+
+    def release_meshes(self) -> None:
+        """Release every cached mesh's buffers and vertex arrays (the next draw uploads them again)."""
+        while self._meshes:
+            _, entry = self._meshes.popitem()
+            entry.release()
+
+    @contextmanager
+    def depth_test(self, func: str = "<") -> Iterator[DepthState]:
+        """Depth-tested drawing (`func` as moderngl spells it: "<", "<=", "1", ...) with culling under the
+        caller's control (`state.cull(...)`, `state.depth_func(...)`). On exit the engine's baseline state is
+        restored whatever happened: no depth test, no culling, cull face "back", depth function "<"."""
+        mgl = self.ctx
+        mgl.enable(mgl.DEPTH_TEST)
+        mgl.depth_func = func
+        try:
+            yield DepthState(mgl)
+        finally:
+            mgl.depth_func = "<"
+            mgl.disable(mgl.DEPTH_TEST)
+            mgl.disable(mgl.CULL_FACE)
+            mgl.cull_face = "back"
+
     def finish(self) -> None:
         self.ctx.finish()
 
@@ -150,8 +191,75 @@ class GL:
             raise RuntimeError(f"OpenGL error: {err}")
 
 
+MESH_CACHE_ENTRIES = 64
+_ATTRIBUTE_DTYPES = {"f": np.float32, "i": np.int32, "u": np.uint32}
+
+
+@dataclass
+class MeshArrays:
+    """What `GL.mesh_buffers` uploads: per-vertex attributes {shader input: (array, moderngl format such as
+    "3f")}, triangle indices, and anything the caller wants kept beside the buffers (`meta`)."""
+
+    attributes: dict[str, tuple[np.ndarray, str]]
+    indices: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+class MeshBuffers:
+    """A mesh's vertex buffers and index buffer on the GPU, with one vertex array per program using them."""
+
+    def __init__(self, ctx: Any, arrays: MeshArrays):
+        self.ctx = ctx
+        self.meta = arrays.meta
+        self.buffers = {name: (ctx.buffer(np.ascontiguousarray(a, dtype=_ATTRIBUTE_DTYPES[fmt[-1]]).tobytes()), fmt)
+                        for name, (a, fmt) in arrays.attributes.items()}
+        self.index_buffer = ctx.buffer(np.ascontiguousarray(arrays.indices, dtype=np.uint32).tobytes())
+        # by program id; each entry keeps its program alive, so the id cannot be reused while it exists
+        self._vaos: dict[int, tuple[Any, Any]] = {}
+
+    def vao(self, program: Any) -> Any:
+        """The vertex array of `program` over the attributes it reads (32-bit indices)."""
+        entry = self._vaos.get(id(program))
+        if entry is None:
+            content = [(buf, fmt, name) for name, (buf, fmt) in self.buffers.items() if name in program]
+            vao = self.ctx.vertex_array(program, content, index_buffer=self.index_buffer, index_element_size=4)
+            entry = self._vaos[id(program)] = (program, vao)
+        return entry[1]
+
+    def release(self) -> None:
+        for _, vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        for buf, _ in self.buffers.values():
+            buf.release()
+        self.buffers = {}
+        self.index_buffer.release()
+
+
+class DepthState:
+    """Inside `GL.depth_test`: face culling and the depth function, set per draw."""
+
+    def __init__(self, mgl: Any):
+        self._mgl = mgl
+
+    def cull(self, face: str | None) -> None:
+        """Cull "back" or "front" faces, or none (None: both sides drawn)."""
+        mgl = self._mgl
+        if face is None:
+            mgl.disable(mgl.CULL_FACE)
+        else:
+            mgl.cull_face = face
+            mgl.enable(mgl.CULL_FACE)
+
+    def depth_func(self, func: str) -> None:
+        self._mgl.depth_func = func
+
+
 def bind(program: Any, textures: dict[str, Any], uniforms: dict[str, Any]) -> None:
-    """Bind textures to units 0.. and set uniforms; names the program does not use are skipped."""
+    """Bind textures to units 0.. and set uniforms; names the program does not use are skipped.
+
+    NumPy arrays for matrix uniforms (mat2..mat4, or arrays of them) are given row-major, as NumPy writes
+    them (m[row, col]); this is the one place they are transposed to GLSL's column-major order."""
     unit = 0
     for name, tex in textures.items():
         if name not in program:
@@ -165,6 +273,8 @@ def bind(program: Any, textures: dict[str, Any], uniforms: dict[str, Any]) -> No
             continue
         member = program[name]
         if isinstance(value, np.ndarray):
+            if getattr(member, "matrix", False) and value.ndim >= 2:
+                value = np.swapaxes(value, -1, -2)  # row-major NumPy -> column-major GLSL
             member.write(np.ascontiguousarray(value, dtype=np.float32).tobytes())
         else:
             member.value = value

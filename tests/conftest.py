@@ -8,10 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-SHARED_MESHES = ROOT.parent / "shared" / "meshes"
-GOLDEN = Path(__file__).parent / "golden"
-FAILURES = Path(__file__).parent / "_failures"
+from tests.helpers import FAILURES, GOLDEN, ROOT, SHARED_MESHES, run_node, shared_mesh
+
+__all__ = ["FAILURES", "GOLDEN", "ROOT", "SHARED_MESHES", "run_node", "shared_mesh"]  # re-exported for old imports
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -48,14 +47,6 @@ def cache_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return d
 
 
-def shared_mesh(name: str) -> Path:
-    """A mesh from ../shared/meshes, or a skip saying where it was looked for."""
-    p = SHARED_MESHES / name
-    if not p.exists():
-        pytest.skip(f"shared test mesh {name} not found at {p} (the shared/ folder sits beside the repository)")
-    return p
-
-
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(1234)
@@ -63,12 +54,3 @@ def rng() -> np.random.Generator:
 
 def pytest_configure(config: pytest.Config) -> None:
     os.environ.setdefault("SKETCHGRAPH_CACHE_DIR", str(ROOT / ".sketchgraph-cache" / "tests"))
-
-
-def run_node(gl, node, inputs: dict, size: tuple[int, int], frame: int = 0, scene: object = None, seed: int = 0,
-             needed: frozenset[str] | None = None) -> dict:
-    """Compute one node outside a pipeline (declared output formats)."""
-    from nodegraph.node import RunContext
-
-    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene)
-    return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)

@@ -6,7 +6,8 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 Color = tuple[float, float, float]
@@ -41,13 +42,13 @@ class Composite(Node):
             return "connect `top` (an RGBA layer), `mask` (an alpha such as particle_sketch.ink), or both"
         return None
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         base = inputs["base"]
         for name in ("top", "mask"):
             if name in inputs and inputs[name].size != base.size:
-                raise ValueError(f"node '{self.id}': input '{name}' is {inputs[name].size[0]}x{inputs[name].size[1]}"
-                                 f", 'base' is {base.size[0]}x{base.size[1]}; composite needs equal sizes")
+                raise NodeError(f"input '{name}' is {inputs[name].size[0]}x{inputs[name].size[1]}, 'base' is "
+                                f"{base.size[0]}x{base.size[1]}; composite needs equal sizes", self.id, self.type_name)
         defines = {"MODE": int(p.mode == "multiply"), "HAS_TOP": int("top" in inputs),
                    "HAS_MASK": int("mask" in inputs)}
         out = ctx.target("color", base.size)

@@ -5,15 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from nodegraph_nodes.distortion_map import MAX_AMPLITUDE
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture, TextureArray
 
-Color = tuple[float, float, float]
-PAPER_COLOR: Color = (0.97, 0.96, 0.93)
-GRAPHITE_COLOR: Color = (0.17, 0.17, 0.19)
+from .._shared.pencil import GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, view_light
 
 
 def screen_bounds(scene: Any, camera: Any, size: tuple[int, int], margin: int) -> tuple[int, int, int, int] | None:
@@ -40,14 +37,6 @@ def screen_bounds(scene: Any, camera: Any, size: tuple[int, int], margin: int) -
     x1 = int(np.clip(np.ceil(hi[0]) + margin, 0, w))
     y1 = int(np.clip(np.ceil(hi[1]) + margin, 0, h))
     return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
-
-
-def view_light(scene: Any, camera: Any) -> np.ndarray:
-    """The scene light as a unit view-space direction towards the light (float64)."""
-    light = np.asarray(scene.light_direction, dtype=np.float64)
-    if scene.light_space == "world":
-        light = camera.view_matrix()[:3, :3] @ light
-    return light / max(float(np.linalg.norm(light)), 1e-12)
 
 
 class Contour(Node):
@@ -93,7 +82,7 @@ class Contour(Node):
         u = np.random.default_rng(seed).random(layers)
         return 1.0 - self.params.pressure_jitter * u
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         dist = inputs["distortion"]
         layers = dist.layers

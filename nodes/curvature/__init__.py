@@ -15,19 +15,13 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import Field
 
-from nodegraph.errors import PipelineError
-from nodegraph.node import HashContext, Input, Node, NodeParams, Output, digest
+from nodegraph.errors import NodeError
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext, digest
 from nodegraph.types import ARRAYS, SCENE
 from nodegraph.values import Arrays
 
-from .principal import DEFAULT_RADIUS, DirectionSource, compute_curvature, mesh_content_key
-
-# per-object arrays, named f"o{index}_{field}"
-FIELDS = ("kmin", "kmax", "dmin", "dmax", "normal", "confidence", "reason", "source", "key")
-
-
-def object_field(index: int, name: str) -> str:
-    return f"o{index}_{name}"
+from .._shared.curvature import DirectionSource, object_field
+from .principal import DEFAULT_RADIUS, compute_curvature, mesh_content_key
 
 
 class Curvature(Node):
@@ -68,11 +62,10 @@ class Curvature(Node):
             return base
         return digest([base, [o.mesh.content_hash() for o in ctx.scene.objects]])
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         scene = inputs.get("scene") or ctx.scene
         if scene is None:
-            raise PipelineError(f"node '{self.id}' (curvature) needs a scene: connect `scene` or give the "
-                                "pipeline one")
+            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
         data: dict[str, np.ndarray] = {}
         done: dict[str, dict[str, np.ndarray]] = {}
         for index, obj in enumerate(scene.objects):

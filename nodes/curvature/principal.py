@@ -45,6 +45,8 @@ import scipy.sparse as sp
 
 from nodegraph.errors import MeshError
 
+from .._shared.curvature import DirectionSource
+
 __all__ = [
     "ALGORITHM_VERSION",
     "CurvatureResult",
@@ -67,14 +69,6 @@ class Reason(IntEnum):
     BAD = 2
     NONFINITE = 3
     UMBILIC = 4
-
-
-class DirectionSource(IntEnum):
-    """Where a vertex's output directions came from."""
-
-    MEASURED = 0
-    SMOOTHED = 1
-    FIXED_FRAME = 2
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

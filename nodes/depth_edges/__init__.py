@@ -6,7 +6,8 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MAGNITUDE"}
@@ -15,7 +16,7 @@ _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MA
 class DepthEdges(Node):
     """The template of where ink is needed, exactly as the seed's pseudocode computes it: the depth map
     blurred by the 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, the seed's Sobel pair (gx, gy) of the blurred depth
-    (= -8 x its gradient, x right, y up; see nodes/particle_sketch/core.py), mag = sqrt(gx^2 + gy^2), and
+    (= -8 x its gradient, x right, y up; see nodes/_shared/filters.py), mag = sqrt(gx^2 + gy^2), and
     edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
     s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
 
@@ -67,21 +68,21 @@ class DepthEdges(Node):
                 raise ValueError(f"range: expected [near, far] with far > near, got {list(self.range)}")
             return self
 
-    def depth_range(self, ctx: Any) -> tuple[float, float]:
+    def depth_range(self, ctx: RunContext) -> tuple[float, float]:
         """The linear depths mapped to 0 and 1."""
         if self.params.range is not None:
             return self.params.range
         cam = ctx.camera
         if cam is None:
-            raise ValueError(f"node '{self.id}': mode: linear needs the scene's camera or an explicit `range` "
-                             "[near, far]; set range, or use mode: window for a depth in [0, 1]")
+            raise NodeError("mode: linear needs the scene's camera or an explicit `range` [near, far]; set range, "
+                            "or use mode: window for a depth in [0, 1]", self.id, self.type_name)
         return float(cam.near), float(cam.far)
 
     def gradient_scale(self, height: int) -> float:
         ref = self.params.reference_height
         return 1.0 if ref is None else height / ref
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         depth = inputs["depth"]

@@ -1,9 +1,10 @@
-"""float64 NumPy version of depth_edges.glsl (through the particle core's filters)."""
+"""float64 NumPy version of depth_edges.glsl (through the shared filters, `nodes/_shared/filters.py`)."""
 
 from __future__ import annotations
 
 import numpy as np
-from nodegraph_nodes.particle_sketch import core
+
+from .._shared import filters
 
 
 def normalised_depth(depth: np.ndarray, mode: str = "window", near: float = 0.0, far: float = 1.0) -> np.ndarray:
@@ -19,6 +20,6 @@ def depth_edges(depth: np.ndarray, threshold: float = 0.03, mode: str = "window"
     """edges (bool), gradient (H, W, 2: the seed's gx, gy, times H / reference_height if given) and magnitude
     of a (H, W) depth map."""
     scale = 1.0 if reference_height is None else np.shape(depth)[0] / reference_height
-    gx, gy = (scale * g for g in core.sobel(core.tent3(normalised_depth(depth, mode, near, far))))
+    gx, gy = (scale * g for g in filters.sobel(filters.tent3(normalised_depth(depth, mode, near, far))))
     mag = np.sqrt(gx * gx + gy * gy)
     return {"edges": mag >= threshold, "gradient": np.stack([gx, gy], axis=-1), "magnitude": mag}

@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 
@@ -64,7 +64,7 @@ class DepthSprite(Node):
             return {"color": "color", "depth": "sketch_depth"}
         return {}
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         has_under = "under_color" in inputs and "under_depth" in inputs
         size = inputs["color"].size
@@ -72,7 +72,6 @@ class DepthSprite(Node):
         depth = ctx.target("depth", size, filter="nearest")
         rb = gl.depth_buffer(size)
         fbo = gl.framebuffer([color, depth], rb)
-        mgl = gl.ctx
         textures = {f"t_{port}": inputs[port] for port in ("color", "offsets", "depth") if port in inputs}
         has_sketch_depth = "sketch_depth" in inputs
         if has_sketch_depth:
@@ -87,17 +86,12 @@ class DepthSprite(Node):
             gl.fullscreen(ctx.program("depth_sprite.glsl", {**sprite_defines, "OVER_PAPER": 1}), [color, depth],
                           textures, uniforms)
             return {"color": color, "depth": depth}
-        mgl.enable(mgl.DEPTH_TEST)
-        try:
-            mgl.depth_func = "1"  # lay down the ordinary geometry's colour and depth
+        with gl.depth_test("1") as state:  # first lay down the ordinary geometry's colour and depth
             gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms,
                           fbo=fbo)
-            mgl.depth_func = "<"
+            state.depth_func("<")
             gl.fullscreen(ctx.program("depth_sprite.glsl", sprite_defines), [color, depth], textures, uniforms,
                           fbo=fbo)
-        finally:
-            mgl.depth_func = "<"
-            mgl.disable(mgl.DEPTH_TEST)
         return {"color": color, "depth": depth}
 
 

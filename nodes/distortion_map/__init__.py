@@ -8,11 +8,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field, model_validator
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import TextureArray
 
-# the largest `amplitude` accepted: consumers may rely on |offset| <= MAX_AMPLITUDE x height per component
-MAX_AMPLITUDE = 0.02
+from .._shared.pencil import MAX_AMPLITUDE
 
 
 class DistortionMap(Node):
@@ -78,7 +77,7 @@ class DistortionMap(Node):
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         return (size[0], size[1], self.params.layers)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         data = self.offsets(ctx.seed, ctx.size)
         return {"out": ctx.gl.texture_array(ctx.size, data.shape[0], "RG16F", data, repeat=False, mipmaps=False)}
 

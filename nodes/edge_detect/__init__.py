@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 _PORTS = {"out": "LOC_OUT", "profile": "LOC_PROFILE", "inner": "LOC_INNER"}
@@ -44,7 +44,7 @@ class EdgeDetect(Node):
         profile_intensity: float = Field(1.0, ge=0, le=1, description="Intensity of profile edges in `out`.")
         inner_intensity: float = Field(1.0, ge=0, le=1, description="Intensity of inner edges in `out`.")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         ports = [port for port in _PORTS if port in needed]
         defines = {_PORTS[port]: i for i, port in enumerate(ports)}

@@ -1,9 +1,10 @@
-"""float64 NumPy version of force_field.glsl (through the particle core's filters)."""
+"""float64 NumPy version of force_field.glsl (through the shared filters, `nodes/_shared/filters.py`)."""
 
 from __future__ import annotations
 
 import numpy as np
-from nodegraph_nodes.particle_sketch import core
+
+from .._shared import filters
 
 
 def force_field(gradient: np.ndarray, clamp: float = 1.0, saturate: float = 0.03,
@@ -11,7 +12,7 @@ def force_field(gradient: np.ndarray, clamp: float = 1.0, saturate: float = 0.03
     """(H, W, 2) field from the seed's Sobel pair (H, W, 2) of the blurred depth (depth_edges.gradient)."""
     g = np.asarray(gradient, np.float64)
     gx, gy = g[..., 0], g[..., 1]
-    hx, hy = core.sobel(core.tent9(np.minimum(np.sqrt(gx * gx + gy * gy), clamp)))
+    hx, hy = filters.sobel(filters.tent9(np.minimum(np.sqrt(gx * gx + gy * gy), clamp)))
     ff2 = (hx, hy) if restoring == "gradient" else (-hy, hx)  # unrotated, or rotated by 90 degrees
     ff = np.stack([-gy - ff2[0], gx - ff2[1]], axis=-1)
     if saturate > 0:

@@ -10,8 +10,8 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from nodegraph.errors import PipelineError
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import TextureArray
 
 from .tam import synthesize_tam
@@ -87,12 +87,12 @@ class HatchingSynthesis(Node):
                 taper=p.taper, grain=p.grain,
             )
         except ValueError as exc:
-            raise PipelineError(f"node '{self.id}' (hatching_synthesis): {exc}") from None
+            raise NodeError(str(exc), self.id, self.type_name) from None
 
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         return (self.params.size, self.params.size, self.params.tones)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
         tam = self.synthesize(seed)
         size = (tam.shape[2], tam.shape[1])

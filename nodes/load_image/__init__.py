@@ -11,7 +11,7 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from nodegraph import imageio
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import HashContext, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 
@@ -41,12 +41,12 @@ class LoadImage(Node):
                 raise ValueError(f"image file not found: {Path(v).absolute()}")
             return v
 
-    def hash_extra(self, ctx: Any) -> Any:
+    def hash_extra(self, ctx: HashContext) -> Any:
         p = Path(self.params.path).resolve()
         st = p.stat()
         return _digest(str(p), st.st_mtime, st.st_size)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         img = imageio.read(self.params.path)
         h, w, c = img.shape
         rgba = np.ones((h, w, 4), np.float32)

@@ -9,7 +9,7 @@ from pydantic import Field, field_validator
 
 from nodegraph.errors import MeshError
 from nodegraph.meshes import load_mesh
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import HashContext, Node, NodeParams, Output, RunContext
 from nodegraph.types import MESH
 
 
@@ -36,10 +36,10 @@ class LoadMesh(Node):
                 raise ValueError(str(exc)) from None
             return v
 
-    def hash_extra(self, ctx: Any) -> Any:
+    def hash_extra(self, ctx: HashContext) -> Any:
         return load_mesh(Path(self.params.path)).content_hash()
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         return {"out": load_mesh(Path(self.params.path))}
 
 

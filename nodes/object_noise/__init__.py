@@ -5,18 +5,19 @@ from __future__ import annotations
 from typing import Any, Literal
 
 import numpy as np
-from nodegraph_nodes.perlin_noise import reference
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
+
+from .._shared import noise
 
 
 class ObjectNoise(Node):
     """Geometry-controlled uncertainty: (off_s, off_t) = F(g(s,t) * k + o), F(g(s,t) * k + o + c1), where
     g(s,t) is the object-space position that `rasterize` wrote for the (enlarged) geometry, F is Perlin
     turbulence (or fbm) in 3D, o the seed's domain offset and c1 a fixed offset that decorrelates the
-    second channel (`nodes/perlin_noise/reference.py`, `noise3_at`). The values stick to the surface, so
+    second channel (`nodes/_shared/noise.py`, `noise3_at`). The values stick to the surface, so
     a moving camera sees the same uncertainty on the same surface point: the shower-door effect of
     screen-space noise goes away (paper §4.3).
 
@@ -56,11 +57,11 @@ class ObjectNoise(Node):
         diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         return p.scale / diag if diag > 0 else p.scale
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         prog = ctx.program("object_noise.glsl")
-        cell, frac = reference.seed_offset_parts(ctx.seed)
+        cell, frac = noise.seed_offset_parts(ctx.seed)
         size = inputs["position"].size
         out = ctx.target("out", size)
         gl.fullscreen(prog, [out], textures={"t_position": inputs["position"]},
@@ -76,7 +77,7 @@ class ObjectNoise(Node):
         p = self.params
         pos = np.asarray(position, dtype=np.float64)
         k = float(np.float32(self.frequency(scene)))
-        vals = reference.noise3_at(pos[..., :3], p.octaves, seed, p.mode, k)
+        vals = noise.noise3_at(pos[..., :3], p.octaves, seed, p.mode, k)
         return np.where(pos[..., 3:4] > 0, vals, np.asarray(p.background, dtype=np.float64))
 
 

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 
@@ -77,7 +77,7 @@ class Paper(Node):
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         return (self.params.size, self.params.size, 1)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
         data = self.normals(seed)
         tex = ctx.gl.texture((self.params.size, self.params.size), ctx.format("out"), data=data, repeat=True)

@@ -1,7 +1,9 @@
 """particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
 
-The float64 CPU core (filters, force field, particle system, SVG, measures) is in `core`, the compiled
-sequential sketcher in `jit`; this node wraps `core.simulate`. `python -m nodegraph_nodes.particle_sketch.bench`
+The float64 CPU core (force field, particle system, measures) is in `core`, the compiled sequential
+sketcher in `jit`; both use `common` (parameters, result) and `rng` (counter-based random numbers), and the
+filters are `nodes/_shared/filters.py`. This node wraps `core.simulate`; its strokes are written as SVG by
+`nodegraph.strokes.to_svg` (the strokes_svg node). `python -m nodegraph_nodes.particle_sketch.bench`
 measures the core on synthetic depth, `sketchgraph bench particles` the node chain on a real scene
 (docs/particles.md).
 """
@@ -13,7 +15,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import STROKES, Texture
 from nodegraph.values import Strokes
 
@@ -103,24 +106,27 @@ class ParticleSketch(Node):
         hold = self.params.hold
         return 0 if hold == 0 else frame // hold * hold
 
-    def hash_extra(self, ctx: Any) -> Any:
+    def hash_extra(self, ctx: HashContext) -> Any:
         return {"seed_frame": self.seed_frame(ctx.frame)}
 
-    def rng(self, ctx: Any) -> np.random.Generator:
+    def rng(self, ctx: RunContext) -> np.random.Generator:
         return np.random.default_rng([ctx.seed_for_frame(self.seed_frame(ctx.frame)), self.params.seed])
 
-    def simulate(self, ctx: Any, edges: Any, force: Any) -> core.SketchResult:
+    def simulate(self, ctx: RunContext, edges: Any, force: Any) -> core.SketchResult:
         """Read back the edge map and the field, and draw (CPU)."""
         if edges.size != force.size:
-            raise ValueError(f"node '{self.id}': inputs 'edges' {edges.size[0]}x{edges.size[1]} and 'force' "
-                             f"{force.size[0]}x{force.size[1]} differ in size; feed both from one depth map")
+            raise NodeError(f"inputs 'edges' {edges.size[0]}x{edges.size[1]} and 'force' {force.size[0]}x"
+                            f"{force.size[1]} differ in size; feed both from one depth map", self.id, self.type_name)
         e = edges.read()[..., 0] >= 0.5 if edges.fmt != "R8" else edges.read_native()[..., 0] >= 128  # v / 255 >= 0.5
         # float32 as read back: the sketcher promotes to float64 before combining values, so the strokes
         # are bit-identical to a float64 copy's (checked), without a 10 MB conversion per frame
         ff = force.read()[..., :2]
-        return core.simulate(e, ff, self.core_params(), self.rng(ctx))
+        try:
+            return core.simulate(e, ff, self.core_params(), self.rng(ctx))
+        except ValueError as exc:  # the core checks its arrays (a force field with NaN or inf)
+            raise NodeError(str(exc), self.id, self.type_name) from None
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         res = self.simulate(ctx, inputs["edges"], inputs["force"])

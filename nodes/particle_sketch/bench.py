@@ -19,6 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from nodegraph.strokes import to_svg
+from nodegraph.values import Strokes
+
 from . import core, synthetic
 
 
@@ -72,7 +75,8 @@ def run(size: int = 800, seed: int = 1, repeat: int = 5, python_repeat: int = 3,
               "speedup_vs_python": round(t_py / t_vec, 1), "rows": rows}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "particle_sketch.svg").write_text(core.strokes_to_svg(res.strokes, size, size, params.line_width))
+        (out / "particle_sketch.svg").write_text(to_svg(Strokes(res.strokes, (size, size), params.line_width,
+                                                                   (0.0, 0.0, 0.0))))
         try:
             import matplotlib.pyplot as plt
 

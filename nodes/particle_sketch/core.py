@@ -5,24 +5,11 @@ so y points up. Positions are continuous: pixel (col i, row j) covers [i, i+1) x
 is (i + 0.5, j + 0.5). Depth is float in [0, 1], 1.0 = background. Only NumPy is needed at run time
 (SciPy is a test dependency of the project, not a runtime one).
 
-Filters (float64 references of the seed's pseudocode)
------------------------------------------------------
-* `tent3` is the seed's [1 2 1; 2 4 2; 1 2 1], divided by 16 so a blur keeps the depth scale (the seed
-  gives no divisor); `tent9` is the outer product of [1 2 3 4 5 4 3 2 1], / 625. Borders clamp to the
-  edge pixel (GL CLAMP_TO_EDGE, scipy mode='nearest').
-* `sobel` uses the seed's kernels unnormalised and, as the seed says, as *convolutions*. They only make
-  sense - ff1 = (-gy, gx) must be tangent to edges, so gx and gy must be derivatives along x and y with
-  the same sign - when read as C arrays k[x][y] (first index the x offset -1, 0, 1, second the y offset
-  with y pointing *down* the seed's 8-bit images, row 0 on top). On our [row (y up), col (x)] arrays
-  that is the weight array W = flipud(K.T) for scipy.ndimage.convolve (W's row 0 = the y-1 neighbour):
+Filters
+-------
+The tent blurs and the Sobel pair are float64 references shared with `depth_edges` and `force_field`
+(`nodes/_shared/filters.py`, which says how the seed's kernels map onto our arrays).
 
-      seed gx kernel K = [-1 -2 -1; 0 0 0; 1 2 1]  ->  W_gx = [-1 0 1; -2 0 2; -1 0 1]
-      seed gy kernel K = [ 1 0 -1; 2 0 -2; 1 0 -1]  ->  W_gy = [-1 -2 -1; 0 0 0; 1 2 1]
-
-  Convolution flips W, so gx = -8 dI/dx and gy = -8 dI/dy (central differences smoothed by [1 2 1]):
-  the seed's (gx, gy) is -8 x the gradient. Magnitudes do not care; the sign picks the direction of
-  circulation: ff1 = (-gy, gx) = 8 (dI/dy, -dI/dx) is the gradient turned clockwise, so particles run
-  clockwise along the rim of a near object on a far background.
 * `depth_edges`: tent3, Sobel, mag = sqrt(gx^2 + gy^2), edge where mag >= threshold. A depth step s
   gives a 4-pixel ridge s * [1, 3, 3, 1]: `threshold` is in depth units (0.03 finds steps >= 0.01).
 * `force_field`: ff1 = rot90(sobel(tent3(depth))), ff2 = rot90(sobel(tent9(min(mag, clamp)))),
@@ -63,9 +50,9 @@ erases, then tests - but the test looks at the edge map from before this segment
 could never see past its own brush. So the last, off-edge segment is drawn, and erase_width must stay
 below 2 n. The default erase_width is the line width; wider erasing ends strokes early.
 
-Random numbers are counter based: one 64-bit key from `rng`, then splitmix64 of (key, stroke, index).
-A stroke's start candidates and forces do not depend on other strokes or on the batch size, and the
-pure-Python reference and the compiled engine draw the very same numbers.
+Random numbers are counter based (module `rng`): one 64-bit key from the generator, then splitmix64
+of (key, stroke, index). A stroke's start candidates and forces do not depend on other strokes or on the
+batch size, and the pure-Python reference and the compiled engine draw the very same numbers.
 
 Defaults (tuned by eye on the 800 x 800 cow, see bench.py): mass 6, drag 1 (tau = 6: strokes overshoot
 and leave tight curves, a new stroke takes over - the loose look), randomness 0.35, step 3 (RK4 is
@@ -99,72 +86,21 @@ default, and batching stays as a measured variant (a heavier, more doubled outli
 
 from __future__ import annotations
 
-import html
 import math
 import warnings
-from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
-# --- filters ---------------------------------------------------------------------------------------
+from .._shared import filters
+from .common import LINE_LEVEL, ParticleParams, SketchResult, disc_offsets, pad_for
+from .rng import PAIR, draw_key, point_np, point_of, point_py, stroke_key_np, stroke_key_py, unit_np, unit_py
 
-_TENT3 = np.array([1.0, 2.0, 1.0]) / 4.0
-_TENT9 = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 4.0, 3.0, 2.0, 1.0]) / 25.0
-_SMOOTH = np.array([1.0, 2.0, 1.0])
-_DIFF = np.array([-1.0, 0.0, 1.0])  # correlation weights: I(+1) - I(-1)
-
-LINE_LEVEL = 0.5
-"""Ink at or above this is a line pixel for the start test (`m`)."""
-
-
-def _correlate1d(img: np.ndarray, weights: np.ndarray, axis: int) -> np.ndarray:
-    """sum_k w[k] * img[i + k - r] along `axis`, edge-clamped borders."""
-    r = len(weights) // 2
-    pad = [(0, 0), (0, 0)]
-    pad[axis] = (r, r)
-    p = np.pad(img, pad, mode="edge")
-    n = img.shape[axis]
-    out = np.zeros(img.shape, np.float64)
-    for k, wk in enumerate(weights):
-        if wk != 0.0:
-            out += wk * (p[k:k + n] if axis == 0 else p[:, k:k + n])
-    return out
-
-
-def _as_image(img: np.ndarray) -> np.ndarray:
-    a = np.asarray(img, dtype=np.float64)
-    if a.ndim != 2:
-        raise ValueError(f"expected a 2D image [row, col], got shape {a.shape}")
-    return a
-
-
-def tent3(img: np.ndarray) -> np.ndarray:
-    """The seed's 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, edge-clamped, float64."""
-    a = _as_image(img)
-    return _correlate1d(_correlate1d(a, _TENT3, 0), _TENT3, 1)
-
-
-def tent9(img: np.ndarray) -> np.ndarray:
-    """9x9 tent, the outer product of [1 2 3 4 5 4 3 2 1] / 625, edge-clamped, float64."""
-    a = _as_image(img)
-    return _correlate1d(_correlate1d(a, _TENT9, 0), _TENT9, 1)
-
-
-def sobel(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The seed's Sobel pair, as convolutions: (gx, gy) = -8 x the gradient in our x-right, y-up frame.
-
-    See the module docstring for how the seed's kernels map onto [row, col]; borders edge-clamped.
-    """
-    a = _as_image(img)
-    gx = -_correlate1d(_correlate1d(a, _SMOOTH, 0), _DIFF, 1)
-    gy = -_correlate1d(_correlate1d(a, _DIFF, 0), _SMOOTH, 1)
-    return gx, gy
-
+# --- depth edges and force field ------------------------------------------------------------------
 
 def depth_edges(depth: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     """Tent blur, Sobel, magnitude; edge where magnitude >= threshold. Returns (edges bool, mag)."""
-    gx, gy = sobel(tent3(depth))
+    gx, gy = filters.sobel(filters.tent3(depth))
     mag = np.sqrt(gx * gx + gy * gy)
     return mag >= threshold, mag
 
@@ -175,14 +111,14 @@ def force_field(depth: np.ndarray, clamp: float = 1.0, saturate: float | None = 
     `clamp` is the seed's 255 for 8-bit depth, rescaled to depth in [0, 1]. With `saturate` the field
     is divided by max(|ff|, saturate) (same streamlines, speed capped at 1; see the module docstring).
     """
-    return _force(*sobel(tent3(depth)), clamp, saturate)
+    return _force(*filters.sobel(filters.tent3(depth)), clamp, saturate)
 
 
 def _force(gx: np.ndarray, gy: np.ndarray, clamp: float, saturate: float | None) -> np.ndarray:
     if saturate is not None and not saturate > 0:
         raise ValueError(f"saturate: expected a value > 0 or None, got {saturate}")
     mag = np.minimum(np.sqrt(gx * gx + gy * gy), clamp)
-    hx, hy = sobel(tent9(mag))
+    hx, hy = filters.sobel(filters.tent9(mag))
     ff = np.stack([-gy - -hy, gx - hx], axis=-1)  # (ff1x - ff2x, ff1y - ff2y)
     if saturate is not None:
         ff /= np.maximum(np.sqrt(ff[..., 0] ** 2 + ff[..., 1] ** 2), saturate)[..., None]
@@ -195,163 +131,12 @@ def prepare(depth: np.ndarray, threshold: float = 0.03, clamp: float = 1.0,
     seed's raw field with saturated=False); the blur and Sobel are computed once."""
     if not threshold > 0:
         raise ValueError(f"threshold: expected a value > 0, got {threshold}")
-    gx, gy = sobel(tent3(depth))
+    gx, gy = filters.sobel(filters.tent3(depth))
     edges = np.sqrt(gx * gx + gy * gy) >= threshold
     return edges, _force(gx, gy, clamp, threshold if saturated else None)
 
 
-# --- parameters and result -------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class ParticleParams:
-    """Particle system parameters; distances in pixels, time in units of the (saturated) force field."""
-
-    strokes: int = 2000  # particles to launch at most
-    n: float = 2.0  # a start, and every position, must be within n px of a remaining edge pixel
-    m: float = 2.0  # a start must not be within m px of a line pixel
-    mass: float = 6.0
-    drag: float = 1.0
-    randomness: float = 0.35  # amplitude of the random force, per component
-    step: float = 3.0  # time step; with the saturated field about `step` px per step at full speed
-    max_steps: int = 25
-    line_width: float = 1.2  # ink line width in px (antialiased)
-    erase_width: float | None = None  # width erased from the edge map; None = line_width
-    integrator: Literal["rk4", "euler"] = "rk4"
-    retries: int = 5000  # random start positions tried per stroke before the run ends
-    batch: int = 1  # 1: strictly sequential (compiled); B > 1: B lanes in lock-step (NumPy)
-
-    def __post_init__(self) -> None:
-        erase = self.erase_width if self.erase_width is not None else 0.0
-        checks = [
-            (self.strokes >= 0, "strokes >= 0"), (self.n >= 0, "n >= 0"), (self.m >= 0, "m >= 0"),
-            (self.mass > 0, "mass > 0"), (self.drag >= 0, "drag >= 0"),
-            (self.randomness >= 0, "randomness >= 0"), (self.step > 0, "step > 0"),
-            (self.max_steps >= 1, "max_steps >= 1"), (self.line_width > 0, "line_width > 0"),
-            (erase >= 0, "erase_width >= 0 or None"),
-            (self.integrator in ("rk4", "euler"), "integrator in {'rk4', 'euler'}"),
-            (self.retries >= 1, "retries >= 1"), (self.batch >= 1, "batch >= 1"),
-        ]
-        for ok, what in checks:
-            if not ok:
-                raise ValueError(f"ParticleParams: expected {what}, got {self!r}")
-        for name in ("n", "m", "mass", "drag", "randomness", "step", "line_width"):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"ParticleParams: expected a finite {name}, got {getattr(self, name)}")
-        if not math.isfinite(erase):
-            raise ValueError(f"ParticleParams: expected a finite erase_width, got {self.erase_width}")
-
-    @property
-    def erase(self) -> float:
-        """The erase width in effect."""
-        return self.erase_width if self.erase_width is not None else self.line_width
-
-
-@dataclass
-class SketchResult:
-    sketch: np.ndarray  # (H, W) float32 ink coverage in [0, 1]
-    edges: np.ndarray  # (H, W) bool, the edge pixels left after erasing
-    strokes: list[np.ndarray] = field(default_factory=list)  # (k, 2) float32 (x, y), k >= 2
-    launched: int = 0  # particles started
-    steps: int = 0  # segments drawn
-    exhausted: bool = False  # the run ended because a stroke found no valid start
-
-
-# --- counter-based random numbers, identical in NumPy and in pure Python ---------------------------
-
-_MASK = (1 << 64) - 1
-_GOLD = 0x9E3779B97F4A7C15
-_STROKE = 0xD1B54A32D192ED03
-_M1, _M2 = 0xBF58476D1CE4E5B9, 0x94D049BB133111EB
-_TO_UNIT = 1.0 / 9007199254740992.0  # 2^-53
-_TO_UNIT32 = 1.0 / 4294967296.0  # 2^-32
-
-
-def _mix_py(z: int) -> int:
-    """splitmix64's output function (after its increment)."""
-    z = (z + _GOLD) & _MASK
-    z = ((z ^ (z >> 30)) * _M1) & _MASK
-    z = ((z ^ (z >> 27)) * _M2) & _MASK
-    return z ^ (z >> 31)
-
-
-def _unit_py(key: int, i: int) -> float:
-    """The i-th number in [0, 1) of stream `key`."""
-    return (_mix_py((key + i * _GOLD) & _MASK) >> 11) * _TO_UNIT
-
-
-def _point_py(key: int, i: int, w: int, h: int) -> tuple[float, float]:
-    """The i-th uniform point of [0, w) x [0, h) of stream `key`: one 64-bit output, 32 bits per axis."""
-    z = _mix_py((key + i * _GOLD) & _MASK)
-    return (z >> 32) * _TO_UNIT32 * w, (z & 0xFFFFFFFF) * _TO_UNIT32 * h
-
-
-def _stroke_key_py(key: int, stroke: int, which: int) -> int:
-    """Stream key of a stroke's start candidates (which=0) or forces (which=1)."""
-    return _mix_py((key + (2 * stroke + which) * _STROKE) & _MASK)
-
-
-_U64 = np.uint64
-_GOLD_U, _STROKE_U, _M1_U, _M2_U = _U64(_GOLD), _U64(_STROKE), _U64(_M1), _U64(_M2)
-_S11, _S27, _S30, _S31, _S32 = _U64(11), _U64(27), _U64(30), _U64(31), _U64(32)
-_LOW32, _TWO_U = _U64(0xFFFFFFFF), _U64(2)
-_PAIR = np.array([0, 1], np.uint64)
-
-
-def _mix_np(z: np.ndarray) -> np.ndarray:
-    z = z + _GOLD_U
-    z = (z ^ (z >> _S30)) * _M1_U
-    z = (z ^ (z >> _S27)) * _M2_U
-    return z ^ (z >> _S31)
-
-
-def _unit_np(key: np.ndarray, i: np.ndarray) -> np.ndarray:
-    """Elementwise `_unit_py`; `i` is uint64."""
-    return (_mix_np(key + i * _GOLD_U) >> _S11).astype(np.float64) * _TO_UNIT
-
-
-def _point_np(key: np.ndarray, i: np.ndarray, w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
-    """(hash z, flat pixel index) of `_point_py`'s points: the pixel is (hi32(z) w >> 32,
-    lo32(z) h >> 32), exactly the floor of the float coordinates (u32 * w < 2^53 is exact).
-    `_mix_np`'s operations, in place."""
-    z = key + i * _GOLD_U
-    z += _GOLD_U
-    z ^= z >> _S30
-    z *= _M1_U
-    z ^= z >> _S27
-    z *= _M2_U
-    z ^= z >> _S31
-    ix = z >> _S32
-    ix *= _U64(w)
-    ix >>= _S32
-    flat = z & _LOW32
-    flat *= _U64(h)
-    flat >>= _S32
-    flat *= _U64(w)
-    flat += ix
-    return z, flat.view(np.int64)  # < 2^63
-
-
-def _point_of(z: np.ndarray, w: int, h: int) -> np.ndarray:
-    """Complex position of hashes z, computed as `_point_py` does."""
-    return ((z >> _S32).astype(np.float64) * _TO_UNIT32 * w
-            + 1j * ((z & _LOW32).astype(np.float64) * _TO_UNIT32 * h))
-
-
-def _stroke_key_np(key: int, strokes: np.ndarray, which: int) -> np.ndarray:
-    return _mix_np(_U64(key) + (_TWO_U * strokes.astype(np.uint64) + _U64(which)) * _STROKE_U)
-
-
-def _draw_key(rng: np.random.Generator | None) -> int:
-    return int((rng if rng is not None else np.random.default_rng(0)).integers(0, 2**64, dtype=np.uint64))
-
-
 # --- shared geometry and checks --------------------------------------------------------------------
-
-def _disc_offsets(r: float) -> list[tuple[int, int]]:
-    """Integer (dx, dy) with dx^2 + dy^2 <= r^2, in a fixed order."""
-    k = int(math.floor(r))
-    return [(dx, dy) for dy in range(-k, k + 1) for dx in range(-k, k + 1) if dx * dx + dy * dy <= r * r]
-
 
 def _dilate_disc(src: np.ndarray, r: float, p: int, h: int, w: int) -> np.ndarray:
     """(h, w) window at offset p of `src` dilated by the disc of radius r (pixel centres, p >= r):
@@ -384,10 +169,6 @@ def _check_inputs(edges: np.ndarray, ff: np.ndarray, params: ParticleParams) -> 
     return h, w
 
 
-def _pad_for(params: ParticleParams) -> int:
-    reach = max(params.n, params.m, params.erase / 2.0, params.line_width / 2.0 + 0.5)
-    return int(math.ceil(reach)) + 2
-
 
 # --- vectorised simulation -------------------------------------------------------------------------
 
@@ -396,7 +177,7 @@ class _Maps:
 
     def __init__(self, edges: np.ndarray, params: ParticleParams):
         h, w = np.shape(edges)
-        self.h, self.w, self.pad = h, w, _pad_for(params)
+        self.h, self.w, self.pad = h, w, pad_for(params)
         p = self.pad
         self.wp = w + 2 * p
         self.edge = np.zeros((h + 2 * p, self.wp), bool)
@@ -405,8 +186,8 @@ class _Maps:
         self.edge_f = self.edge.reshape(-1)
         self.ink_f = self.ink.reshape(-1)
         self.n, self.m = params.n, params.m
-        self.n_off = np.array([dy * self.wp + dx for dx, dy in _disc_offsets(params.n)], np.int64)
-        self.m_off = np.array([dy * self.wp + dx for dx, dy in _disc_offsets(params.m)], np.int64)
+        self.n_off = np.array([dy * self.wp + dx for dx, dy in disc_offsets(params.n)], np.int64)
+        self.m_off = np.array([dy * self.wp + dx for dx, dy in disc_offsets(params.m)], np.int64)
         self.hw = params.line_width / 2.0
         self.re = params.erase / 2.0
         self.reach = max(self.hw + 0.5, self.re)
@@ -549,7 +330,7 @@ class _Dynamics:
 
     def force(self, fkey: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The random force of step t of the streams fkey (complex)."""
-        u = _unit_np(fkey[:, None], (2 * t).astype(np.uint64)[:, None] + _PAIR)
+        u = unit_np(fkey[:, None], (2 * t).astype(np.uint64)[:, None] + PAIR)
         return (self.rnd * (2.0 * u - 1.0)).view(np.complex128)[:, 0]
 
     def acc(self, p: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -574,7 +355,7 @@ class _Dynamics:
 
 
 class _Starts:
-    """Start search: stroke k's candidates are `_point_py(start key of k, i)`, i = 0, 1, ...; the first
+    """Start search: stroke k's candidates are `point_py(start key of k, i)`, i = 0, 1, ...; the first
     valid one wins. Candidates are prefiltered with a cached valid mask (a superset: the valid set only
     shrinks), refreshed when more than half of those passing it fail the exact test, which reads the
     maps as they are now; so the answer is the sequential one whatever the cache holds."""
@@ -597,7 +378,7 @@ class _Starts:
     def find(self, ids: np.ndarray) -> np.ndarray:
         """Complex start of each stroke in `ids`, NaN where none of `retries` candidates is valid."""
         maps, w, h = self.maps, self.maps.w, self.maps.h
-        skey = _stroke_key_np(self.key, ids, 0)
+        skey = stroke_key_np(self.key, ids, 0)
         found = np.full(ids.size, np.nan, np.complex128)
         pending = np.arange(ids.size)
         k0, grow = 0, 1.0
@@ -608,7 +389,7 @@ class _Starts:
                 break
             cnum = int(min(max(32.0, 2.0 * grow / self.frac), 8192, self.retries - k0))
             grow *= 2.0
-            z, flat = _point_np(skey[pending][:, None], np.arange(k0, k0 + cnum, dtype=np.uint64), w, h)
+            z, flat = point_np(skey[pending][:, None], np.arange(k0, k0 + cnum, dtype=np.uint64), w, h)
             ok = self.valid[flat]
             rows, cols = np.nonzero(ok)
             if rows.size:
@@ -622,7 +403,7 @@ class _Starts:
             if has.any():
                 hit = np.flatnonzero(has)
                 first = np.argmax(ok[hit], axis=1)
-                found[pending[hit]] = _point_of(z[hit, first], w, h)
+                found[pending[hit]] = point_of(z[hit, first], w, h)
                 pending = pending[~has]
             k0 += cnum
         return found
@@ -661,7 +442,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
     h, w = _check_inputs(edges, ff, params)
     if engine not in ("auto", "jit", "numpy"):
         raise ValueError(f"engine: expected 'auto', 'jit' or 'numpy', got {engine!r}")
-    key = _draw_key(rng)
+    key = draw_key(rng)
     if engine != "numpy" and params.batch == 1:
         jit = _jit()
         if jit is None and engine == "jit":
@@ -710,7 +491,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
                 vel[ln] = 0.0
                 steps[ln] = 0
                 sid[ln] = ids
-                fkey[ln] = _stroke_key_np(key, ids, 1)
+                fkey[ln] = stroke_key_np(key, ids, 1)
                 active[ln] = True
             a = np.flatnonzero(active)
             if a.size == 0:
@@ -771,7 +552,7 @@ def particle_path(ff: np.ndarray, starts: np.ndarray, params: ParticleParams | N
         raise ValueError(f"ff: expected shape (H, W, 2) with H, W >= 2, got {ffa.shape}")
     s = np.asarray(starts, np.float64).reshape(-1, 2)
     dyn = _Dynamics(ffa, params)
-    fkey = _stroke_key_np(key, np.arange(len(s), dtype=np.int64), 1)
+    fkey = stroke_key_np(key, np.arange(len(s), dtype=np.int64), 1)
     p = s[:, 0] + 1j * s[:, 1]
     v = np.zeros_like(p)
     out = np.empty((len(s), n_steps + 1), np.complex128)
@@ -794,8 +575,8 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
     """
     params = params if params is not None else ParticleParams()
     h, w = _check_inputs(edges, ff, params)
-    key = _draw_key(rng)
-    pad = _pad_for(params)
+    key = draw_key(rng)
+    pad = pad_for(params)
     wp = w + 2 * pad
     edge = [[False] * wp for _ in range(h + 2 * pad)]
     for j, row in enumerate(np.asarray(edges, bool).tolist()):
@@ -804,7 +585,7 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
     ffa = np.asarray(ff, np.float64)
     fxl = ffa[..., 0].reshape(-1).tolist()
     fyl = ffa[..., 1].reshape(-1).tolist()
-    n_xy, m_xy = _disc_offsets(params.n), _disc_offsets(params.m)
+    n_xy, m_xy = disc_offsets(params.n), disc_offsets(params.m)
     hw, re = params.line_width / 2.0, params.erase / 2.0
     reach = max(hw + 0.5, re)
     dt, hdt, dt6 = params.step, 0.5 * params.step, params.step / 6.0
@@ -866,10 +647,10 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
     launched = total_steps = 0
     exhausted = False
     for s in range(params.strokes):
-        skey, fkey = _stroke_key_py(key, s, 0), _stroke_key_py(key, s, 1)
+        skey, fkey = stroke_key_py(key, s, 0), stroke_key_py(key, s, 1)
         start = None
         for k in range(params.retries):
-            x, y = _point_py(skey, k, w, h)
+            x, y = point_py(skey, k, w, h)
             ix, iy = min(int(x), w - 1), min(int(y), h - 1)
             if near_edge(ix, iy) and not near_ink(ix, iy):
                 start = (x, y)
@@ -882,8 +663,8 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
         vx = vy = 0.0
         path = [(x, y)]
         for t in range(params.max_steps):
-            rx = rnd * (2.0 * _unit_py(fkey, 2 * t) - 1.0)
-            ry = rnd * (2.0 * _unit_py(fkey, 2 * t + 1) - 1.0)
+            rx = rnd * (2.0 * unit_py(fkey, 2 * t) - 1.0)
+            ry = rnd * (2.0 * unit_py(fkey, 2 * t + 1) - 1.0)
             a1x, a1y = acc(x, y, vx, vy, rx, ry)
             if rk4:
                 x2, y2 = x + hdt * vx, y + hdt * vy
@@ -920,26 +701,7 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
                         steps=total_steps, exhausted=exhausted)
 
 
-# --- output and measures ---------------------------------------------------------------------------
-
-def strokes_to_svg(strokes: list[np.ndarray], width: int, height: int, line_width: float = 1.2,
-                   color: str = "#000000") -> str:
-    """One <path> per stroke of 2 or more points; y is flipped (SVG y points down) so the SVG looks like
-    the image."""
-    color = html.escape(color, quote=True)
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-           f'viewBox="0 0 {width} {height}">',
-           f'<g fill="none" stroke="{color}" stroke-width="{line_width:g}" stroke-linecap="round" '
-           f'stroke-linejoin="round">']
-    for s in strokes:
-        pts = np.asarray(s, np.float64)
-        if pts.ndim != 2 or pts.shape[0] < 2 or pts.shape[1] != 2:
-            continue
-        d = " L".join(f"{x:.2f} {height - y:.2f}" for x, y in pts)
-        out.append(f'<path d="M{d}"/>')
-    out.append("</g>\n</svg>\n")
-    return "\n".join(out)
-
+# --- measures --------------------------------------------------------------------------------------
 
 def _dilate(mask: np.ndarray, r: float) -> np.ndarray:
     k = int(math.floor(r))

@@ -27,22 +27,12 @@ import sys
 import numpy as np
 from numba import njit
 
-from .core import (
-    _GOLD,
-    _M1,
-    _M2,
-    _STROKE,
-    _TO_UNIT,
-    _TO_UNIT32,
-    LINE_LEVEL,
-    ParticleParams,
-    SketchResult,
-    _disc_offsets,
-    _pad_for,
-)
+from . import rng
+from .common import LINE_LEVEL, ParticleParams, SketchResult, disc_offsets, pad_for
 
 _U = np.uint64
-GOLD, STROKE, M1, M2 = _U(_GOLD), _U(_STROKE), _U(_M1), _U(_M2)
+GOLD, STROKE, M1, M2 = _U(rng.GOLD), _U(rng.STROKE), _U(rng.M1), _U(rng.M2)
+TO_UNIT, TO_UNIT32 = rng.TO_UNIT, rng.TO_UNIT32
 S11, S27, S30, S31, S32 = _U(11), _U(27), _U(30), _U(31), _U(32)
 LOW32, ONE, TWO = _U(0xFFFFFFFF), _U(1), _U(2)
 
@@ -124,8 +114,8 @@ def _run(edge, ink, ff, pad, n_off, m_off, key, strokes, retries, max_steps, rk4
         x = y = 0.0
         for k in range(retries):
             z = _mix(skey + np.uint64(k) * GOLD)
-            x = np.float64(z >> S32) * _TO_UNIT32 * w
-            y = np.float64(z & LOW32) * _TO_UNIT32 * h
+            x = np.float64(z >> S32) * TO_UNIT32 * w
+            y = np.float64(z & LOW32) * TO_UNIT32 * h
             ix, iy = min(int(x), w - 1), min(int(y), h - 1)
             if _near(edge, ix, iy, pad, n_off) and not _near_ink(ink, ix, iy, pad, m_off):
                 found = True
@@ -143,8 +133,8 @@ def _run(edge, ink, ff, pad, n_off, m_off, key, strokes, retries, max_steps, rk4
         npts += 1
         vx = vy = 0.0
         for t in range(max_steps):
-            rx = rnd * (2.0 * (np.float64(_mix(fkey + np.uint64(2 * t) * GOLD) >> S11) * _TO_UNIT) - 1.0)
-            ry = rnd * (2.0 * (np.float64(_mix(fkey + np.uint64(2 * t + 1) * GOLD) >> S11) * _TO_UNIT) - 1.0)
+            rx = rnd * (2.0 * (np.float64(_mix(fkey + np.uint64(2 * t) * GOLD) >> S11) * TO_UNIT) - 1.0)
+            ry = rnd * (2.0 * (np.float64(_mix(fkey + np.uint64(2 * t + 1) * GOLD) >> S11) * TO_UNIT) - 1.0)
             a1x = (_sample(ff, 0, w, h, x, y) - drag * vx + rx) * inv_mass
             a1y = (_sample(ff, 1, w, h, x, y) - drag * vy + ry) * inv_mass
             if rk4:
@@ -190,7 +180,7 @@ def _run(edge, ink, ff, pad, n_off, m_off, key, strokes, retries, max_steps, rk4
 
 
 def _offsets(r: float) -> np.ndarray:
-    return np.array(_disc_offsets(r), np.int64).reshape(-1, 2)
+    return np.array(disc_offsets(r), np.int64).reshape(-1, 2)
 
 
 def _say_if_compiling() -> None:
@@ -210,7 +200,7 @@ def _say_if_compiling() -> None:
 def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int) -> SketchResult:
     """Runs the compiled sequential sketcher on checked inputs (`core.simulate` checks them)."""
     h, w = np.shape(edges)
-    pad = _pad_for(params)
+    pad = pad_for(params)
     edge = np.zeros((h + 2 * pad, w + 2 * pad), np.bool_)
     edge[pad:pad + h, pad:pad + w] = np.asarray(edges, bool)
     ink = np.zeros(edge.shape, np.float64)

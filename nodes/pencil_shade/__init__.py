@@ -6,19 +6,17 @@ import math
 from typing import Any, Literal
 
 import numpy as np
-from nodegraph_nodes.contour import GRAPHITE_COLOR, PAPER_COLOR, view_light
-from nodegraph_nodes.curvature import object_field
-from nodegraph_nodes.curvature.principal import DirectionSource
 from pydantic import Field, model_validator
 
-from nodegraph.errors import PipelineError
-from nodegraph.gl import bind
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.gl import MeshArrays, bind
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
+from .._shared.curvature import DirectionSource, object_field
+from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, view_light
 from . import reference
 
-Color = tuple[float, float, float]
 _GEOMETRY_PORTS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND"}
 
 
@@ -100,13 +98,12 @@ class PencilShade(Node):
     def layer_shifts(self) -> np.ndarray:
         return reference.LAYER_SHIFTS[: self.params.layers].astype(np.float32)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         if scene is None:
-            raise PipelineError(f"node '{self.id}' (pencil_shade) needs a scene: connect `scene` or give the "
-                                "pipeline one")
+            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
         curv = inputs["curvature"]
         tam = inputs["tam"]
         paper = inputs.get("paper")
@@ -123,8 +120,7 @@ class PencilShade(Node):
         if "blend" in targets:
             gl.framebuffer([targets["blend"]]).clear(0.0, 0.0, 0.0, -1.0)
         fbo.use()
-        mgl = gl.ctx
-        mgl.viewport = (0, 0, w, h)
+        gl.ctx.viewport = (0, 0, w, h)
         cam = scene.camera_at(ctx.frame)
         view = cam.view_matrix()
         proj = cam.projection_matrix(w / h)
@@ -135,7 +131,7 @@ class PencilShade(Node):
         light = view_light(scene, cam)
         max_tone = p.max_darkness * (tam.layers - 1)
         bind(prog, textures, {
-            "u_view": _mat(view), "u_proj": _mat(proj), "u_viewport": (float(w), float(h)),
+            "u_view": view, "u_proj": proj, "u_viewport": (float(w), float(h)),
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
@@ -146,31 +142,27 @@ class PencilShade(Node):
         # one texel per pixel or coarser needs no mipmaps: plain bilinear is 3x cheaper on llvmpipe
         sampler = _sampler(gl, mipmaps=p.texel_scale > 1.0)
         sampler.use(location=0)  # t_tam is bound first, to unit 0
-        mgl.enable(mgl.DEPTH_TEST)
         try:
-            for index, obj in enumerate(scene.objects):
-                vao = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self.id)
-                if vao is None:
-                    continue
-                # closed meshes hide their back faces: culling them halves the shaded fragments
-                if obj.mesh.topology().closed:
-                    outward = (obj.mesh.signed_volume() > 0.0) != obj.mirrored
-                    mgl.cull_face = "back" if outward else "front"
-                    mgl.enable(mgl.CULL_FACE)
-                else:
-                    mgl.disable(mgl.CULL_FACE)
-                model = np.asarray(obj.transform, dtype=np.float64)
-                anchor = (0.0, 0.0)
-                if p.anchor == "object":
-                    anchor = reference.project_to_pixels(0.5 * np.add(*obj.world_bounds()), view, proj, (w, h))
-                normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
-                bind(prog, {}, {"u_model": _mat(model), "u_normal_view": _mat(normal_view),
-                                "u_anchor": tuple(float(a) for a in anchor)})
-                vao.render(mgl.TRIANGLES)
+            with gl.depth_test() as state:
+                for index, obj in enumerate(scene.objects):
+                    vao = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
+                    if vao is None:
+                        continue
+                    # closed meshes hide their back faces: culling them halves the shaded fragments
+                    face = None
+                    if obj.mesh.topology().closed:
+                        outward = (obj.mesh.signed_volume() > 0.0) != obj.mirrored
+                        face = "back" if outward else "front"
+                    state.cull(face)
+                    model = np.asarray(obj.transform, dtype=np.float64)
+                    anchor = (0.0, 0.0)
+                    if p.anchor == "object":
+                        anchor = reference.project_to_pixels(0.5 * np.add(*obj.world_bounds()), view, proj, (w, h))
+                    normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
+                    bind(prog, {}, {"u_model": model, "u_normal_view": normal_view,
+                                    "u_anchor": tuple(float(a) for a in anchor)})
+                    vao.render(gl.ctx.TRIANGLES)
         finally:
-            mgl.disable(mgl.DEPTH_TEST)
-            mgl.disable(mgl.CULL_FACE)
-            mgl.cull_face = "back"
             sampler.clear(location=0)
         out = {port: targets[port] for port in geo_ports if port in needed}
         if "color" in needed:
@@ -191,11 +183,6 @@ class PencilShade(Node):
         return out
 
 
-def _mat(m: np.ndarray) -> np.ndarray:
-    """Row-major float64 matrix -> column-major float32 for GLSL."""
-    return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype=np.float32)
-
-
 def _sampler(gl: Any, mipmaps: bool) -> Any:
     key = ("pencil_shade.sampler", mipmaps)
     smp = gl.resources.get(key)
@@ -207,41 +194,29 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node_id: str) -> Any:
-    """Vertex buffers (position, split normal, curvature direction, trust) per (mesh, crease, curvature)."""
+def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node: Node) -> Any:
+    """The program's vertex array over position, split normal, curvature direction and trust, per (mesh,
+    crease angle, curvature)."""
     if mesh.n_faces == 0:
         return None
     name = object_field(index, "dmin")
     if name not in curv.data:
-        raise PipelineError(f"node '{node_id}' (pencil_shade): the curvature input has no arrays for object "
-                            f"{index}; connect the curvature node of the same scene")
+        raise NodeError(f"the curvature input has no arrays for object {index}; connect the curvature node of the "
+                        "same scene", node.id, node.type_name)
     dmin = curv.data[name]
     if dmin.shape != (mesh.n_vertices, 3):
-        raise PipelineError(f"node '{node_id}' (pencil_shade): curvature of object {index} has {dmin.shape[0]} "
-                            f"vertices, its mesh {mesh.n_vertices}; connect the curvature node of the same scene")
+        raise NodeError(f"curvature of object {index} has {dmin.shape[0]} vertices, its mesh {mesh.n_vertices}; "
+                        "connect the curvature node of the same scene", node.id, node.type_name)
     ckey = str(curv.data.get(object_field(index, "key"), ""))
-    key = ("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey)
-    entry = gl.resources.get(key)
-    if entry is None:
+
+    def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
         src = ra.source_vertex
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
-        c = gl.ctx
-        bufs = {
-            "in_pos": (c.buffer(np.ascontiguousarray(ra.positions, dtype=np.float32).tobytes()), "3f"),
-            "in_normal": (c.buffer(np.ascontiguousarray(ra.normals, dtype=np.float32).tobytes()), "3f"),
-            "in_dir": (c.buffer(np.ascontiguousarray(dmin[src], dtype=np.float32).tobytes()), "3f"),
-            "in_trust": (c.buffer(np.ascontiguousarray(trust).tobytes()), "1f"),
-        }
-        ibo = c.buffer(np.ascontiguousarray(ra.indices, dtype=np.uint32).tobytes())
-        entry = {"bufs": bufs, "ibo": ibo, "vaos": {}}
-        gl.resources[key] = entry
-    vao = entry["vaos"].get(id(prog))
-    if vao is None:
-        content = [(buf, fmt, name) for name, (buf, fmt) in entry["bufs"].items() if name in prog]
-        vao = gl.ctx.vertex_array(prog, content, index_buffer=entry["ibo"], index_element_size=4)
-        entry["vaos"][id(prog)] = vao
-    return vao
+        return MeshArrays({"in_pos": (ra.positions, "3f"), "in_normal": (ra.normals, "3f"),
+                           "in_dir": (dmin[src], "3f"), "in_trust": (trust, "1f")}, ra.indices)
+
+    return gl.mesh_buffers(("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey), build).vao(prog)
 
 
 NODE = PencilShade

@@ -6,10 +6,10 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from nodegraph.node import Node, NodeParams, Output
+from nodegraph.node import Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
-from . import reference
+from .._shared import noise
 
 
 class PerlinNoise(Node):
@@ -23,7 +23,7 @@ class PerlinNoise(Node):
     not change with the frame (`animate: true` reseeds every frame: no coherence, the classic boil).
     Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
     `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is
-    in `reference.py`; the GPU output matches it to about 1e-6."""
+    in `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6."""
 
     version = "1"
     shaders = ("perlin_noise.glsl",)  # includes improved_noise.glsl: hashed with it
@@ -46,15 +46,15 @@ class PerlinNoise(Node):
             keys.add("frame")
         return frozenset(keys)
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         prog = ctx.program("perlin_noise.glsl", {"KIND": 0 if p.kind == "perlin" else 1})
         seed = ctx.seed
-        cell, frac = reference.seed_offset_parts(seed)
+        cell, frac = noise.seed_offset_parts(seed)
         out = ctx.target("out")
         w, h = ctx.size
         ctx.gl.fullscreen(prog, [out],
-                          uniforms={"u_scale_split": reference.split_scale(p.scale),
+                          uniforms={"u_scale_split": noise.split_scale(p.scale),
                                     "u_seed_cell": tuple(int(c) for c in cell),
                                     "u_seed_frac": tuple(float(f) for f in frac),
                                     "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
@@ -67,8 +67,8 @@ class PerlinNoise(Node):
         """The float64 CPU computation of this node's output, (H, W, 2)."""
         p = self.params
         if p.kind == "white":
-            return reference.white_offsets(width, height, seed, frame)
-        return reference.screen_offsets(width, height, p.scale, p.octaves, seed, p.mode)
+            return noise.white_offsets(width, height, seed, frame)
+        return noise.screen_offsets(width, height, p.scale, p.octaves, seed, p.mode)
 
 
 NODE = PerlinNoise

@@ -8,8 +8,9 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
 
 # output port -> (clear value, shader define)
@@ -76,7 +77,7 @@ class Rasterize(Node):
             "draw both sides otherwise (teapot.obj: culling would change 0.5% of its pixels); draw: always both "
             "sides; cull: never draw back faces.")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         ports = [p for p in _OUTPUTS if p in needed]
@@ -93,8 +94,6 @@ class Rasterize(Node):
                 gl.framebuffer([targets[p]]).clear(*_OUTPUTS[p][0])
         fbo.use()
         gl.ctx.viewport = (0, 0, w, h)
-        mgl = gl.ctx
-        mgl.enable(mgl.DEPTH_TEST)
         cam = scene.camera_at(ctx.frame)
         _warn_depth_range_once(cam, "depth" in ports)
         view = cam.view_matrix()
@@ -105,7 +104,7 @@ class Rasterize(Node):
         light = light / max(np.linalg.norm(light), 1e-12)
         lo, hi = scene.bounds()
         scene_diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
-        try:
+        with gl.depth_test() as state:
             for index, obj in enumerate(scene.objects):
                 if self.params.select == "sketchy" and not obj.sketchy:
                     continue
@@ -117,21 +116,15 @@ class Rasterize(Node):
                 model = np.asarray(obj.transform, dtype=np.float64)
                 mv = view @ model
                 normal_view = np.linalg.inv(mv[:3, :3]).T
-                _set(prog, "u_model", model)
-                _set(prog, "u_view", view)
-                _set(prog, "u_proj", proj)
-                _set(prog, "u_normal_view", normal_view)
                 if self.params.enlarge_unit == "scene":  # a world distance, in this object's units
                     diag = scene_diag / max(abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0), 1e-12)
-                _set(prog, "u_enlarge", float(self.params.enlarge * diag))
-                _set(prog, "u_color", tuple(float(c) for c in obj.color))
-                _set(prog, "u_light", tuple(float(c) for c in light))
-                _set(prog, "u_object_id", float(index + 1))
-                _set(prog, "u_ambient", float(self.params.ambient))
-                _draw(mgl, vao, obj, self.params.backfaces)
-        finally:
-            mgl.disable(mgl.DEPTH_TEST)
-            mgl.disable(mgl.CULL_FACE)
+                bind(prog, {}, {
+                    "u_model": model, "u_view": view, "u_proj": proj, "u_normal_view": normal_view,
+                    "u_enlarge": float(self.params.enlarge * diag), "u_color": tuple(float(c) for c in obj.color),
+                    "u_light": tuple(float(c) for c in light), "u_object_id": float(index + 1),
+                    "u_ambient": float(self.params.ambient)})
+                state.cull(_cull_face(obj, self.params.backfaces))
+                vao.render(gl.ctx.TRIANGLES)
         return targets
 
 
@@ -140,55 +133,31 @@ class Rasterize(Node):
 HOLE_SHARE_CULL = 0.01
 
 
-def _draw(mgl: Any, vao: Any, obj: Any, backfaces: str) -> None:
-    """One draw: back faces culled (closed meshes under `auto`, or `cull`), or both sides.
+def _cull_face(obj: Any, backfaces: str) -> str | None:
+    """The faces one draw culls: back faces (front ones for mirrored objects) for closed meshes under `auto`,
+    or under `cull`; None draws both sides.
 
     Drawing back faces in a second, front-culled draw after the front faces was measured as no faster
     on llvmpipe (the rejected fragments still cost their setup), so open meshes take one two-sided draw."""
     cull = backfaces == "cull" or (backfaces == "auto" and obj.mesh.hole_share() <= HOLE_SHARE_CULL)
-    if cull:
-        mgl.enable(mgl.CULL_FACE)
-        mgl.cull_face = "front" if bool(getattr(obj, "mirrored", False)) else "back"
-    else:
-        mgl.disable(mgl.CULL_FACE)
-    vao.render(mgl.TRIANGLES)
-    mgl.cull_face = "back"
-
-
-def _set(prog: Any, name: str, value: Any) -> None:
-    if name not in prog:
-        return
-    if isinstance(value, np.ndarray):
-        prog[name].write(np.ascontiguousarray(value.T, dtype=np.float32).tobytes())  # column-major
-    else:
-        prog[name].value = value
-
+    if not cull:
+        return None
+    return "front" if bool(getattr(obj, "mirrored", False)) else "back"
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float]:
-    """Vertex buffers per (mesh content, crease angle), kept for the life of the GL context."""
-    key = ("mesh", mesh.content_hash(), float(crease_angle))
-    entry = gl.resources.get(key)
-    if entry is None:
+    """The program's vertex array over the mesh's buffers (per mesh content and crease angle), and the
+    mesh's bounding-box diagonal."""
+
+    def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
-        ctx = gl.ctx
-        bufs = {
-            "in_pos": ctx.buffer(np.ascontiguousarray(ra.positions, dtype=np.float32).tobytes()),
-            "in_normal": ctx.buffer(np.ascontiguousarray(ra.normals, dtype=np.float32).tobytes()),
-            "in_smooth": ctx.buffer(np.ascontiguousarray(enlarge_normals(mesh, crease_angle),
-                                                         dtype=np.float32).tobytes()),
-        }
-        ibo = ctx.buffer(np.ascontiguousarray(ra.indices, dtype=np.uint32).tobytes())
         bmin, bmax = mesh.bounds()
-        diag = float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin)))
-        entry = {"bufs": bufs, "ibo": ibo, "vaos": {}, "diag": diag}
-        gl.resources[key] = entry
-    vao = entry["vaos"].get(id(prog))
-    if vao is None:
-        content = [(buf, "3f", name) for name, buf in entry["bufs"].items() if name in prog]
-        vao = gl.ctx.vertex_array(prog, content, index_buffer=entry["ibo"], index_element_size=4)
-        entry["vaos"][id(prog)] = vao
-    return vao, entry["diag"]
+        return MeshArrays({"in_pos": (ra.positions, "3f"), "in_normal": (ra.normals, "3f"),
+                           "in_smooth": (enlarge_normals(mesh, crease_angle), "3f")}, ra.indices,
+                          meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin)))})
+
+    entry = gl.mesh_buffers(("rasterize.mesh", mesh.content_hash(), float(crease_angle)), build)
+    return entry.vao(prog), entry.meta["diag"]
 
 
 def enlarge_normals(mesh: Any, crease_angle: float = 40.0) -> np.ndarray:

@@ -7,7 +7,7 @@ from typing import Any
 
 from pydantic import Field, field_validator
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.scene import load_scene, scene_for_mesh
 from nodegraph.types import MESH, SCENE
 
@@ -39,10 +39,10 @@ class SceneNode(Node):
             return "give either params.path or the `mesh` input, not both or neither"
         return None
 
-    def hash_extra(self, ctx: Any) -> Any:
+    def hash_extra(self, ctx: HashContext) -> Any:
         return load_scene(self.params.path, Path.cwd()).content_hash() if self.params.path else None
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         if "mesh" in inputs:
             return {"out": scene_for_mesh(inputs["mesh"])}
         return {"out": load_scene(self.params.path, Path.cwd())}

@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.errors import NodeError
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 Matrix = tuple[tuple[float, float], tuple[float, float]]
@@ -78,11 +79,11 @@ class Sketch(Node):
         p = self.params
         return list(p.edge_layers) or [EdgeLayer(matrix=p.edge_matrix, color=p.edge_color)]
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         ports = [port for port in ("color", "offsets", "depth") if port in needed]
         if "depth" in ports and "depth" not in inputs:
-            raise ValueError(f"node '{self.id}': output 'depth' needs input 'depth' (connect rasterize.depth)")
+            raise NodeError("output 'depth' needs input 'depth' (connect rasterize.depth)", self.id, self.type_name)
         layers = self.layers()
         defines: dict[str, Any] = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
         defines["LAYERS"] = len(layers)
@@ -93,11 +94,11 @@ class Sketch(Node):
             textures["t_depth"] = inputs["depth"]
             defines["HAS_DEPTH"] = 1
         prog = ctx.program("sketch.glsl", defines)
-        mats = np.stack([np.asarray(layer.matrix, dtype=np.float32).T for layer in layers])  # GLSL: column-major
+        mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures=textures,
-                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32).T,
+                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32),
                                     "u_edge_matrix": mats, "u_edge_color": colors,
                                     "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),
                                     "u_paper": tuple(p.paper)})

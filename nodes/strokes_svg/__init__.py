@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import FILE, STROKES
 
 
@@ -26,12 +26,17 @@ class StrokesSvg(Node):
     class Params(NodeParams):
         path: str = Field(description="SVG file to write (must end in .svg); #### = frame number.")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        @field_validator("path")
+        @classmethod
+        def _svg(cls, v: str) -> str:
+            if not v.lower().endswith(".svg"):
+                raise ValueError(f"path {v!r}: expected a file ending in .svg")
+            return v
+
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         from nodegraph.render import frame_path, write_value
 
         path = frame_path(self.params.path, ctx.frame, False)
-        if path.suffix.lower() != ".svg":
-            raise ValueError(f"node '{self.id}': path {self.params.path!r}: expected a file ending in .svg")
         return {"file": write_value(inputs["strokes"], path)}
 
 

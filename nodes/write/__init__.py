@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import FILE, Texture
 
 
@@ -26,7 +26,7 @@ class Write(Node):
     class Params(NodeParams):
         path: str = Field(description="File to write; the extension picks the format; #### = frame number.")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         from nodegraph.render import frame_path, write_value
 
         return {"file": write_value(inputs["image"], frame_path(self.params.path, ctx.frame, False))}

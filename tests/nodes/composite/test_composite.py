@@ -7,7 +7,8 @@ import pytest
 from nodegraph_nodes.composite import Composite
 from pydantic import ValidationError
 
-from tests.conftest import run_node
+from nodegraph.errors import NodeError
+from tests.helpers import run_node
 
 W, H = 37, 23
 
@@ -41,7 +42,7 @@ def test_errors(gl):
     assert Composite.check_connections({"base"}) is not None
     assert Composite.check_connections({"base", "mask"}) is None
     small = gl.upload(np.zeros((5, 5)), "R8")
-    with pytest.raises(ValueError, match="composite needs equal sizes"):
+    with pytest.raises(NodeError, match="composite needs equal sizes"):
         run_node(gl, Composite("c"), {"base": gl.upload(np.zeros((H, W, 4)), "RGBA8"), "mask": small}, (W, H))
     with pytest.raises(ValidationError):
         Composite.Params(opacity=2.0)

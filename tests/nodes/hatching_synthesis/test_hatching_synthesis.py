@@ -10,7 +10,7 @@ from nodegraph_nodes.hatching_synthesis.tam import measured_darkness, synthesize
 
 from nodegraph import pipeline as pl
 from nodegraph.cache import Cache
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError, PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
 
@@ -92,7 +92,7 @@ def test_computed_once_then_from_memory_then_from_disk(gl, tmp_path: Path):
 
 def test_unreachable_darkness_is_a_one_line_error(gl):
     ex = Executor(load(["tam.strokes=5"]), None, gl=gl)
-    with pytest.raises(PipelineError, match=r"node 'tam' \(hatching_synthesis\): max_darkness 0.6 not reached"):
+    with pytest.raises(NodeError, match=r"node 'tam' \(hatching_synthesis\): max_darkness 0.6 not reached"):
         ex.run()
 
 

@@ -1,4 +1,5 @@
-"""Float64 NumPy reference for the `perlin_noise` node; `improved_noise.glsl` computes the same on the GPU.
+"""Float64 NumPy reference of the `perlin_noise` and `object_noise` nodes; `nodes/perlin_noise/improved_noise.glsl`
+computes the same on the GPU.
 
 Noise: Ken Perlin's improved noise (2002): his permutation table `PERM`, the quintic fade
 6t^5 - 15t^4 + 10t^3, the 12 gradient directions picked by `hash & 15` exactly as in his reference

@@ -12,11 +12,11 @@ import pytest
 if TYPE_CHECKING:
     import moderngl
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 
-from nodegraph_nodes.perlin_noise import reference as ref  # noqa: E402
+from nodegraph_nodes._shared import noise as ref  # noqa: E402
 
 GLSL_INCLUDE = ROOT / "nodes" / "perlin_noise" / "improved_noise.glsl"
 

@@ -6,7 +6,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from nodegraph_nodes.contour import Contour, reference, screen_bounds, view_light
+from nodegraph_nodes._shared.pencil import view_light
+from nodegraph_nodes.contour import Contour, reference, screen_bounds
 
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor

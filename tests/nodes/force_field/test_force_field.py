@@ -11,7 +11,7 @@ from nodegraph_nodes.particle_sketch import core, synthetic
 from pydantic import ValidationError
 from scipy import ndimage
 
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)
 SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)

@@ -6,12 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from nodegraph_nodes.curvature import FIELDS, object_field, smooth_line_field
+from nodegraph_nodes._shared.curvature import FIELDS, object_field
+from nodegraph_nodes.curvature import smooth_line_field
 from nodegraph_nodes.curvature.principal import DirectionSource
 
 from nodegraph import pipeline as pl
 from nodegraph.cache import Cache
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh
 from nodegraph.node import HashContext
@@ -195,5 +196,5 @@ def test_line_field_smoothing_is_sign_invariant_and_keeps_fixed():
 
 def test_no_scene_is_a_clear_error():
     pipe = pl.loads(TEXT, "t.yaml", load_scene=False)
-    with pytest.raises(PipelineError, match="needs a scene"):
+    with pytest.raises(NodeError, match=r"node '\w+' \(curvature\): needs a scene"):
         Executor(pipe, None).run()

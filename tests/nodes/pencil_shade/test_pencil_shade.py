@@ -16,14 +16,14 @@ from nodegraph_nodes.paper import paper_height, paper_normals
 from nodegraph_nodes.pencil_shade import PencilShade, reference
 
 from nodegraph import pipeline as pl
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import RunContext
 from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 W, H = 96, 80
 
 
@@ -212,9 +212,9 @@ def test_gpu_darkness_is_monotonic_in_brightness_on_a_sphere(gl):
 def test_curvature_of_another_scene_is_a_clear_error(gl, tam):
     scene = top_down_plane()
     bad = Arrays({object_field(0, "dmin"): np.zeros((3, 3), np.float32), "objects": np.array(1)})
-    with pytest.raises(PipelineError, match="curvature of object 0 has 3 vertices"):
+    with pytest.raises(NodeError, match="curvature of object 0 has 3 vertices"):
         render(gl, scene, bad, tam)
-    with pytest.raises(PipelineError, match="no arrays for object 0"):
+    with pytest.raises(NodeError, match="no arrays for object 0"):
         render(gl, scene, Arrays({}), tam)
 
 
@@ -241,7 +241,7 @@ def test_golden_pencil_torus(gl, request):
     """pencil.yaml on builtin:torus at 128x96 against tests/golden/pencil_torus.exr (regenerate with
     --regen-golden; a failure writes the image and a diff to tests/_failures/)."""
     from nodegraph import imageio
-    from tests.conftest import FAILURES, GOLDEN
+    from tests.helpers import FAILURES, GOLDEN
 
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(128, 96))
     img = Executor(pipe, None, gl=gl).run().values[("shade", "color")].read()

@@ -18,13 +18,13 @@ from nodegraph_nodes.strokes_svg import StrokesSvg
 from pydantic import ValidationError
 
 from nodegraph import pipeline as pl
-from nodegraph.errors import PipelineError
+from nodegraph.errors import NodeError, PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext, RunContext
 from nodegraph.values import Strokes
-from tests.conftest import run_node, shared_mesh
+from tests.helpers import run_node, shared_mesh
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SIZE = (160, 160)
 
 
@@ -120,7 +120,7 @@ def test_strokes_svg_is_well_formed_with_one_path_per_stroke(gl, inputs, tmp_pat
 def test_errors(gl, inputs):
     small = run_node(gl, ForceField("ff"), {"gradient": gl.upload(np.zeros((40, 50, 2), np.float32), "RG32F")},
                      (50, 40))["out"]
-    with pytest.raises(ValueError, match="differ in size"):
+    with pytest.raises(NodeError, match="differ in size"):
         _draw(gl, {"edges": inputs["edges"], "force": small})
     for bad in ({"mass": 0.0}, {"step": float("inf")}, {"randomness": float("nan")}, {"hold": -1},
                 {"integrator": "midpoint"}, {"colour": (0, 0, 0)}):

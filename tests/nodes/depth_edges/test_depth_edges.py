@@ -10,7 +10,8 @@ from nodegraph_nodes.particle_sketch import synthetic
 from pydantic import ValidationError
 from scipy import ndimage
 
-from tests.conftest import run_node
+from nodegraph.errors import NodeError
+from tests.helpers import run_node
 
 # The seed's kernels exactly as printed; k[x][y] with y down the image (see nodes/particle_sketch/core.py).
 SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)
@@ -113,7 +114,7 @@ def test_reference_height_keeps_a_slope_the_same_at_every_size(gl):
 
 
 def test_linear_depth_needs_a_camera_or_a_range(gl, depth):
-    with pytest.raises(ValueError, match="needs the scene's camera or an explicit `range`"):
+    with pytest.raises(NodeError, match="needs the scene's camera or an explicit `range`"):
         _run(gl, depth, mode="linear")
 
 

@@ -11,7 +11,7 @@ from nodegraph import imageio
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
-from tests.conftest import shared_mesh
+from tests.helpers import shared_mesh
 
 RASTER = """\
 pipeline: t

@@ -12,9 +12,10 @@ from nodegraph_nodes.sketch import Sketch
 from nodegraph_nodes.sketch.reference import sketch as sketch_ref
 
 from nodegraph import pipeline as pl
+from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import derive_seed
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -112,7 +113,7 @@ def test_sketch_depth_output_needs_depth_input(gl):
     inputs = {"edges": gl.upload(np.zeros((h, w, 1), np.float32), "R16F"),
               "shade": gl.upload(np.zeros((h, w, 4), np.float32), "RGBA8"),
               "offset": gl.upload(np.zeros((h, w, 2), np.float32), "RG16F")}
-    with pytest.raises(ValueError, match="needs input 'depth'"):
+    with pytest.raises(NodeError, match="needs input 'depth'"):
         run_node(gl, Sketch("s"), inputs, (w, h), needed=frozenset({"depth"}))
 
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import nodegraph_nodes.rasterize as rasterize_mod
 import numpy as np
 import pytest
+from nodegraph_nodes._shared.noise import noise3_at
 from nodegraph_nodes.object_noise import ObjectNoise
-from nodegraph_nodes.perlin_noise.reference import noise3_at
 from nodegraph_nodes.rasterize import Rasterize
 from scipy import ndimage
 from scipy.spatial import Delaunay
@@ -20,9 +20,9 @@ from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from tests.conftest import run_node, shared_mesh
+from tests.helpers import run_node, shared_mesh
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _position(gl, scene, size, enlarge=0.0, frame=0, cull=False):
@@ -31,8 +31,7 @@ def _position(gl, scene, size, enlarge=0.0, frame=0, cull=False):
 
 
 def _forget_vertex_buffers(gl):
-    for key in [k for k in gl.resources if isinstance(k, tuple) and k and k[0] == "mesh"]:
-        del gl.resources[key]
+    gl.release_meshes()
 
 
 # -- the band around the silhouette ---------------------------------------------------------------

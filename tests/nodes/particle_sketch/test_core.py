@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-import xml.etree.ElementTree as ET
 from dataclasses import replace
 from pathlib import Path
 
@@ -11,21 +10,13 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 if str(ROOT) not in sys.path:  # until the project configures pytest's pythonpath
     sys.path.insert(0, str(ROOT))
 
 from nodegraph_nodes.particle_sketch import core, synthetic  # noqa: E402
 
-# The seed's kernels exactly as printed.
-SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)
-SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)
-SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
-
-
-def _as_weights(k: np.ndarray) -> np.ndarray:
-    """The seed's k[x][y] (y down the image) as a weight array over our [row (y up), col (x)]."""
-    return np.flipud(k.T)
+from tests.helpers import SEED_GX, SEED_GY, SEED_TENT, seed_weights  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -43,45 +34,19 @@ def cow160() -> tuple[np.ndarray, np.ndarray]:
 
 # --- filters ---------------------------------------------------------------------------------------
 
-def test_tent3_and_tent9_match_scipy(depth):
-    d = depth.astype(np.float64)
-    ref3 = ndimage.convolve(d, SEED_TENT / 16.0, mode="nearest")
-    np.testing.assert_allclose(core.tent3(depth), ref3, rtol=0, atol=1e-14)
-    t = np.array([1, 2, 3, 4, 5, 4, 3, 2, 1], float)
-    ref9 = ndimage.correlate(d, np.outer(t, t) / 625.0, mode="nearest")  # symmetric: no flip issue
-    np.testing.assert_allclose(core.tent9(depth), ref9, rtol=0, atol=1e-14)
-    assert core.tent3(depth).dtype == np.float64
-
-
-def test_sobel_is_the_seeds_convolution(depth):
-    d = depth.astype(np.float64)
-    gx, gy = core.sobel(depth)
-    wx, wy = _as_weights(SEED_GX), _as_weights(SEED_GY)
-    np.testing.assert_allclose(gx, ndimage.convolve(d, wx, mode="nearest"), rtol=0, atol=1e-13)
-    np.testing.assert_allclose(gy, ndimage.convolve(d, wy, mode="nearest"), rtol=0, atol=1e-13)
-    # convolution = correlation with the kernel turned 180 degrees; unturned it is the opposite sign
-    np.testing.assert_allclose(gx, ndimage.correlate(d, wx[::-1, ::-1], mode="nearest"), atol=1e-13)
-    np.testing.assert_allclose(gx, -ndimage.correlate(d, wx, mode="nearest"), atol=1e-13)
-    # orientation: on a ramp the seed's pair is -8 x the gradient (x = col, y = row, row 0 at the bottom)
-    y, x = np.mgrid[0:20, 0:30]
-    rx, ry = core.sobel(0.01 * x + 0.02 * y)
-    np.testing.assert_allclose(rx[1:-1, 1:-1], -0.08, atol=1e-12)
-    np.testing.assert_allclose(ry[1:-1, 1:-1], -0.16, atol=1e-12)
-
-
 def test_depth_edges_and_force_field_match_an_independent_pipeline(depth):
     d = depth.astype(np.float64)
     blur = ndimage.convolve(d, SEED_TENT / 16.0, mode="nearest")
-    gx = ndimage.convolve(blur, _as_weights(SEED_GX), mode="nearest")
-    gy = ndimage.convolve(blur, _as_weights(SEED_GY), mode="nearest")
+    gx = ndimage.convolve(blur, seed_weights(SEED_GX), mode="nearest")
+    gy = ndimage.convolve(blur, seed_weights(SEED_GY), mode="nearest")
     mag = np.hypot(gx, gy)
     edges, m = core.depth_edges(depth, 0.05)
     np.testing.assert_allclose(m, mag, rtol=0, atol=1e-13)
     assert np.array_equal(edges, m >= 0.05) and 0 < edges.sum() < edges.size
     t = np.array([1, 2, 3, 4, 5, 4, 3, 2, 1], float)
     b = ndimage.convolve(np.minimum(mag, 0.3), np.outer(t, t) / 625.0, mode="nearest")
-    hx = ndimage.convolve(b, _as_weights(SEED_GX), mode="nearest")
-    hy = ndimage.convolve(b, _as_weights(SEED_GY), mode="nearest")
+    hx = ndimage.convolve(b, seed_weights(SEED_GX), mode="nearest")
+    hy = ndimage.convolve(b, seed_weights(SEED_GY), mode="nearest")
     ref = np.stack([(-gy) - (-hy), gx - hx], axis=-1)
     ff = core.force_field(depth, clamp=0.3)
     assert ff.shape == depth.shape + (2,) and ff.dtype == np.float64
@@ -375,13 +340,11 @@ def test_bad_inputs_raise():
         core.ParticleParams(randomness=float("inf"))
     with pytest.raises(ValueError, match="ff"):
         core.simulate(np.zeros((8, 8), bool), np.zeros((8, 9, 2)))
-    with pytest.raises(ValueError, match="2D"):
-        core.tent3(np.zeros((2, 3, 4)))
     empty = core.simulate(np.zeros((8, 8), bool), np.zeros((8, 8, 2)))
     assert empty.launched == 0 and empty.exhausted and not empty.strokes and not empty.sketch.any()
 
 
-# --- output and measures ---------------------------------------------------------------------------
+# --- measures ---------------------------------------------------------------------------------------
 
 def test_coverage_precision_by_hand():
     edges = np.zeros((20, 20), bool)
@@ -405,17 +368,3 @@ def test_disc_dilation_matches_scipy(r):
     yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
     ref = ndimage.binary_dilation(mask, structure=xx ** 2 + yy ** 2 <= r * r)
     assert np.array_equal(core._dilate(mask, r), ref)
-
-
-def test_svg_flips_y_and_writes_a_path_per_stroke():
-    strokes = [np.array([[10, 0], [20, 5]], np.float32), np.array([[1, 1]], np.float32),
-               np.array([[0, 100], [50, 50], [60, 40]], np.float32)]
-    svg = core.strokes_to_svg(strokes, 200, 100, line_width=1.5, color="#123456")
-    root = ET.fromstring(svg)
-    ns = {"s": "http://www.w3.org/2000/svg"}
-    paths = root.findall(".//s:path", ns)
-    assert root.get("width") == "200" and root.get("height") == "100" and len(paths) == 2
-    assert paths[0].get("d") == "M10.00 100.00 L20.00 95.00"
-    assert paths[1].get("d") == "M0.00 0.00 L50.00 50.00 L60.00 60.00"
-    group = root.find("s:g", ns)
-    assert group.get("stroke") == "#123456" and group.get("stroke-width") == "1.5"

@@ -19,7 +19,7 @@ from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.sampling import nearest
 from nodegraph.scene import load_scene
-from tests.conftest import run_node
+from tests.helpers import run_node
 
 ROOT = Path(__file__).resolve().parents[2]
 
