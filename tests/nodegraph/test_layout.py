@@ -13,7 +13,6 @@ from functools import cache
 from pathlib import Path
 
 import networkx as nx
-import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("nodegraph", "nodes")
@@ -115,8 +114,6 @@ def test_no_import_circle_in_the_engine():
     assert not circles, "import circles: " + "; ".join(" -> ".join(c + c[:1]) for c in circles)
 
 
-@pytest.mark.xfail(strict=False, reason="nodes/particle_sketch: core imports jit, which imports core (the "
-                   "nodes' own files; their layout work is on another branch)")
 def test_no_import_circle_in_the_nodes():
     circles = _circles("nodes")
     assert not circles, "import circles: " + "; ".join(" -> ".join(c + c[:1]) for c in circles)
@@ -127,9 +124,6 @@ def test_nothing_in_the_engine_imports_the_nodes():
     assert not bad, "nodegraph/ must find nodes through the registry: " + ", ".join(f"{a} -> {b}" for a, b in bad)
 
 
-@pytest.mark.xfail(strict=False, reason="nodes still import siblings (pencil_shade -> contour, curvature; "
-                   "object_noise -> perlin_noise; contour -> distortion_map; depth_edges, force_field -> "
-                   "particle_sketch) until the nodes' branch moves shared helpers to nodes/_shared")
 def test_no_node_imports_a_sibling():
     bad = [(a, b) for a, b in import_graph().edges if _is_node_package(a) and _is_node_package(b)
            and _node_of(a) != _node_of(b) and not _node_of(b).startswith("_")]
