@@ -283,6 +283,20 @@ def schema() -> None:
     click.echo(json.dumps(pl.json_schema(), indent=2))
 
 
+@main.command()
+@click.option("--paths", "show_paths", is_flag=True, help="Also print where each file is installed.")
+def pipelines(show_paths: bool) -> None:
+    """The shipped pipelines, one a line: `sketchgraph run NAME` runs one from any folder."""
+    from . import shipped
+
+    found = shipped.paths()
+    if not found:
+        raise SketchgraphError(f"no shipped pipelines found (is the {shipped.PACKAGE} package installed?)")
+    width = max(len(n) for n in found)
+    for name, path in found.items():
+        click.echo(f"{name:<{width}}  {shipped.describe(path)}" + (f"  [{path}]" if show_paths else ""))
+
+
 # -- cache ----------------------------------------------------------------------------------
 @main.group()
 def cache() -> None:

@@ -28,6 +28,7 @@ from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
 from .node import Node
 from .registry import Registry, default
+from .shipped import resolve
 
 _ID = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
 
@@ -113,11 +114,13 @@ class Pipeline:
 
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True) -> Pipeline:
-    """Load and fully validate a pipeline file. Raises PipelineError (one line, file:line:col)."""
-    file = str(path)
-    data = yamlio.load(path)
+    """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
+    PipelineError (one line, file:line:col)."""
+    found = resolve(path)
+    file = str(path) if found == Path(path) else str(found)  # messages name the file as the user wrote it
+    data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
-                 load_scene=load_scene, base_dir=Path(path).parent)
+                 load_scene=load_scene, base_dir=found.parent)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
