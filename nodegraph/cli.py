@@ -278,8 +278,15 @@ def to_dot(pipe: pl.Pipeline) -> str:
 
 
 @main.command()
-def schema() -> None:
+@click.option("--scene", "scene_format", is_flag=True, help="The scene file format instead (objects, camera, "
+              "light, orbit).")
+def schema(scene_format: bool) -> None:
     """JSON Schema of the pipeline format (every node type's params), for editor completion."""
+    if scene_format:
+        from .scene import json_schema as scene_schema
+
+        click.echo(json.dumps(scene_schema(), indent=2))
+        return
     click.echo(json.dumps(pl.json_schema(), indent=2))
 
 

@@ -286,11 +286,14 @@ class _Locator:
 
 def json_schema(registry: Registry | None = None) -> dict[str, Any]:
     """JSON Schema of the pipeline format with every node type's params, for editor completion."""
+    from .schemas import DIALECT, hoist_defs
+
     reg = registry or default()
     schema = PipelineSpec.model_json_schema()
+    defs: dict[str, Any] = schema.setdefault("$defs", {})
     variants = []
     for name, cls in reg.items():
-        pschema = cls.Params.model_json_schema()
+        pschema = hoist_defs(cls.Params.model_json_schema(), defs, name)  # refs resolve from the root
         pschema.pop("title", None)
         variants.append({
             "type": "object",
@@ -307,7 +310,9 @@ def json_schema(registry: Registry | None = None) -> dict[str, Any]:
             "additionalProperties": False,
         })
     schema["properties"]["nodes"]["additionalProperties"] = {"oneOf": variants}
-    schema.get("$defs", {}).pop("NodeSpec", None)
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    defs.pop("NodeSpec", None)
+    if not defs:
+        schema.pop("$defs")
+    schema["$schema"] = DIALECT
     schema["title"] = "sketchgraph pipeline"
     return schema
