@@ -100,3 +100,22 @@ def test_cli_lists_and_runs_by_name(gl, tmp_path, monkeypatch):
     assert imageio.read(tmp_path / "a.png").shape == (32, 48, 3)
     r = runner.invoke(main, ["run", "nienhaus", "-o", "a.png"], env=env)
     assert r.exit_code == 2 and r.output.count("\n") == 1 and "did you mean 'nienhaus_sketchy'" in r.output
+
+
+def test_a_gallery_entry_may_name_a_shipped_pipeline(tmp_path):
+    from nodegraph.tools import gallery as gal
+
+    f = tmp_path / "gallery.yaml"
+    f.write_text("entries:\n  - {name: mine, pipeline: chalk, size: [16, 16]}\n")
+    entry = gal.load(f).entries[0]
+    assert entry.pipeline == shipped.paths()["chalk"].absolute() and entry.pipeline_rel == "chalk"
+    f.write_text("entries:\n  - {name: mine, pipeline: chalky}\n")
+    with pytest.raises(gal.SketchgraphError, match=r"entries\[0\] \(mine\): pipeline: .*did you mean 'chalk'"):
+        gal.load(f)
+
+
+def test_gallery_outside_a_checkout_names_the_option(tmp_path):
+    from nodegraph.tools import gallery as gal
+
+    with pytest.raises(gal.SketchgraphError, match="pass --gallery FILE"):
+        gal.load(tmp_path / "gallery" / "gallery.yaml")
