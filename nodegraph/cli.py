@@ -284,11 +284,32 @@ def to_dot(pipe: Pipeline) -> str:
 
 
 @main.command()
-def schema() -> None:
+@click.option("--scene", "scene_format", is_flag=True, help="The scene file format instead (objects, camera, "
+              "light, orbit).")
+def schema(scene_format: bool) -> None:
     """JSON Schema of the pipeline format (every node type's params), for editor completion."""
+    if scene_format:
+        from .scene import json_schema as scene_schema
+
+        click.echo(json.dumps(scene_schema(), indent=2))
+        return
     from .pipeline import json_schema
 
     click.echo(json.dumps(json_schema(), indent=2))
+
+
+@main.command()
+@click.option("--paths", "show_paths", is_flag=True, help="Also print where each file is installed.")
+def pipelines(show_paths: bool) -> None:
+    """The shipped pipelines, one a line: `sketchgraph run NAME` runs one from any folder."""
+    from . import shipped
+
+    found = shipped.paths()
+    if not found:
+        raise SketchgraphError(f"no shipped pipelines found (is the {shipped.PACKAGE} package installed?)")
+    width = max(len(n) for n in found)
+    for name, path in found.items():
+        click.echo(f"{name:<{width}}  {shipped.describe(path)}" + (f"  [{path}]" if show_paths else ""))
 
 
 # -- cache ----------------------------------------------------------------------------------

@@ -27,6 +27,7 @@ from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
 from .node import Node
 from .registry import Registry, default
+from .shipped import resolve
 
 if TYPE_CHECKING:
     import networkx as nx
@@ -117,11 +118,13 @@ class Pipeline:
 
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True) -> Pipeline:
-    """Load and fully validate a pipeline file. Raises PipelineError (one line, file:line:col)."""
-    file = str(path)
-    data = yamlio.load(path)
+    """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
+    PipelineError (one line, file:line:col)."""
+    found = resolve(path)
+    file = str(path) if found == Path(path) else str(found)  # messages name the file as the user wrote it
+    data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
-                 load_scene=load_scene, base_dir=Path(path).parent)
+                 load_scene=load_scene, base_dir=found.parent)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -289,11 +292,14 @@ class _Locator:
 
 def json_schema(registry: Registry | None = None) -> dict[str, Any]:
     """JSON Schema of the pipeline format with every node type's params, for editor completion."""
+    from .schemas import DIALECT, hoist_defs
+
     reg = registry or default()
     schema = PipelineSpec.model_json_schema()
+    defs: dict[str, Any] = schema.setdefault("$defs", {})
     variants = []
     for name, cls in reg.items():
-        pschema = cls.Params.model_json_schema()
+        pschema = hoist_defs(cls.Params.model_json_schema(), defs, name)  # refs resolve from the root
         pschema.pop("title", None)
         variants.append({
             "type": "object",
@@ -310,7 +316,9 @@ def json_schema(registry: Registry | None = None) -> dict[str, Any]:
             "additionalProperties": False,
         })
     schema["properties"]["nodes"]["additionalProperties"] = {"oneOf": variants}
-    schema.get("$defs", {}).pop("NodeSpec", None)
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    defs.pop("NodeSpec", None)
+    if not defs:
+        schema.pop("$defs")
+    schema["$schema"] = DIALECT
     schema["title"] = "sketchgraph pipeline"
     return schema

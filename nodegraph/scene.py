@@ -25,6 +25,7 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationInfo,
+    WithJsonSchema,
     field_validator,
     model_validator,
 )
@@ -386,10 +387,18 @@ def _positive(value: Vec) -> Vec:
     return value
 
 
+def _triple(item: dict[str, Any]) -> dict[str, Any]:
+    return {"type": "array", "prefixItems": [item] * 3, "minItems": 3, "maxItems": 3}
+
+
+_POSITIVE = {"type": "number", "exclusiveMinimum": 0}
 Vec3 = Annotated[Vec, BeforeValidator(_three)]
 Dir3 = Annotated[Vec, BeforeValidator(_three), AfterValidator(_nonzero)]
-Color = Annotated[Vec, BeforeValidator(_rgb), AfterValidator(_in_unit)]
-Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive)]
+# the JSON Schema says what the validators accept (for `sketchgraph schema --scene`)
+Color = Annotated[Vec, BeforeValidator(_rgb), AfterValidator(_in_unit),
+                  WithJsonSchema(_triple({"type": "number", "minimum": 0, "maximum": 1}))]
+Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive),
+                   WithJsonSchema({"anyOf": [_POSITIVE, _triple(_POSITIVE)]})]
 
 
 class _Spec(BaseModel):
@@ -543,6 +552,29 @@ PRIMITIVE_SPECS: dict[str, type[_PrimSpec]] = {
     "plane": PlaneSpec, "box": BoxSpec, "sphere": SphereSpec, "uv_sphere": UVSphereSpec,
     "cylinder": CylinderSpec, "cone": ConeSpec, "torus": TorusSpec, "ellipsoid": EllipsoidSpec, "arch": ArchSpec,
 }
+
+
+def json_schema() -> dict[str, Any]:
+    """JSON Schema of scene files: SceneSpec, with `primitive` spelled out per type (PRIMITIVE_SPECS)."""
+    from .schemas import DIALECT, hoist_defs
+
+    schema = SceneSpec.model_json_schema()
+    defs = schema.setdefault("$defs", {})
+    variants = []
+    for name, spec in PRIMITIVE_SPECS.items():
+        sub = hoist_defs(spec.model_json_schema(), defs, name)
+        sub.pop("title", None)
+        sub["description"] = sub["properties"]["type"].get("description", name)
+        variants.append(sub)
+    obj = defs["ObjectSpec"]
+    prim = obj["properties"]["primitive"]
+    obj["properties"]["primitive"] = {"description": prim.get("description", ""), "oneOf": variants}
+    # ObjectSpec._one_source: a mesh file or a primitive, not both
+    obj["oneOf"] = [{"required": ["mesh"], "not": {"required": ["primitive"]}},
+                    {"required": ["primitive"], "not": {"required": ["mesh"]}}]
+    schema["$schema"] = DIALECT
+    schema["title"] = "sketchgraph scene"
+    return schema
 
 
 def primitive_mesh(spec: _PrimSpec) -> Mesh:

@@ -41,8 +41,9 @@ from .measure import (
     scene_for,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
-SHARED_MESHES = ROOT.parent / "shared" / "meshes"
+# the shared test meshes sit beside a checkout (../shared/meshes); an installed package has no such
+# folder, so there the command asks for --meshes DIR
+SHARED_MESHES = Path(__file__).resolve().parents[3] / "shared" / "meshes"
 TARGET_MESHES = ("fandisk.obj", "spot.obj", "stanford-bunny.obj")
 TARGET_F1 = 0.85
 FAMILIES = ("edges", "curvature", "particles", "hatching", "noise", "pipelines", "stability")
@@ -208,7 +209,9 @@ def bench_pipelines(quick: bool) -> dict[str, Any]:
     sizes = [400, 800] if quick else [400, 800, 1600]
     frames = 5 if quick else 12
     entries = []
-    files = sorted((ROOT / "pipelines").glob("*.yaml"))
+    from ..shipped import paths
+
+    files = list(paths().values())  # the shipped pipelines, in a checkout and installed alike
     for f in files:
         for s in sizes:
             try:
@@ -277,9 +280,10 @@ def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, A
 @click.option("--quick", is_flag=True, help="Fewer meshes, settings and sizes (about a minute or two).")
 @click.option("--families", default=",".join(FAMILIES), show_default=True,
               help="Comma-separated families to run.")
-@click.option("--meshes", "meshes_dir", type=click.Path(path_type=Path), default=SHARED_MESHES,
-              show_default=True, help="Folder of the shared test meshes.")
-def command(json_path: Path | None, charts_dir: Path | None, quick: bool, families: str, meshes_dir: Path) -> None:
+@click.option("--meshes", "meshes_dir", type=click.Path(path_type=Path), default=None,
+              help="Folder of the shared test meshes (default: ../shared/meshes beside the checkout).")
+def command(json_path: Path | None, charts_dir: Path | None, quick: bool, families: str,
+            meshes_dir: Path | None) -> None:
     """Accuracy against independent references and cost, per method family; JSON and charts."""
     from ..errors import SketchgraphError
 
@@ -287,8 +291,13 @@ def command(json_path: Path | None, charts_dir: Path | None, quick: bool, famili
     unknown = [f for f in fams if f not in FAMILIES]
     if unknown:
         raise SketchgraphError(f"bench accuracy: unknown families {unknown}; choose from {', '.join(FAMILIES)}")
+    if meshes_dir is None:
+        if not SHARED_MESHES.is_dir():
+            raise SketchgraphError("bench accuracy: needs the shared test meshes; pass --meshes DIR (a folder of .obj "
+                                   f"files, the repository's ../shared/meshes; not found at {SHARED_MESHES})")
+        meshes_dir = SHARED_MESHES
     if not meshes_dir.is_dir():
-        raise SketchgraphError(f"bench accuracy: mesh folder {meshes_dir} not found (--meshes DIR)")
+        raise SketchgraphError(f"bench accuracy: mesh folder {meshes_dir} not found; pass --meshes DIR")
     result = run(fams, quick, meshes_dir)
     print_summary(result)
     if json_path:

@@ -32,9 +32,9 @@ import numpy as np
 
 from ..errors import SketchgraphError
 
-PIPELINES = Path(__file__).resolve().parents[2] / "pipelines"
-SCREEN_PIPELINE = PIPELINES / "nienhaus_sketchy.yaml"
-OBJECT_PIPELINE = PIPELINES / "object_space_uncertainty.yaml"
+# shipped pipelines, by name (nodegraph.shipped): found in a checkout and in an installed package alike
+SCREEN_PIPELINE = "nienhaus_sketchy"
+OBJECT_PIPELINE = "object_space_uncertainty"
 
 
 def _sketch_refs(pipe: Any) -> tuple[tuple[str, str], tuple[str, str]]:
@@ -148,6 +148,8 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
             screen: str | Path = SCREEN_PIPELINE, object_: str | Path = OBJECT_PIPELINE,
             depth_tol: float = 0.01) -> dict[str, Any]:
     """Screen-space and object-space uncertainty on the same scene, orbit and size."""
+    from ..shipped import resolve
+
     t0 = time.perf_counter()
     s = measure(screen, scene, frames, size, degrees_per_frame, depth_tol)
     o = measure(object_, scene, frames, size, degrees_per_frame, depth_tol)
@@ -169,7 +171,7 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
         "relative_to_spread": {  # the same change divided by the offsets' spread about their mean instead
             "screen_space": s["metric_vs_spread"], "object_space": o["metric_vs_spread"],
             "ratio": ratio_of(o["metric_vs_spread"], s["metric_vs_spread"])},
-        "pipelines": {"screen_space": str(screen), "object_space": str(object_)},
+        "pipelines": {"screen_space": str(resolve(screen)), "object_space": str(resolve(object_))},
         "per_pair": {"screen_space": s["per_pair"], "object_space": o["per_pair"]},
         "pixels_compared": {"screen_space": s["pixels_compared"], "object_space": o["pixels_compared"]},
         "seconds": time.perf_counter() - t0,
@@ -182,10 +184,10 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
 @click.option("--frames", default=60, show_default=True, help="Frames along the orbit (pairs = frames - 1).")
 @click.option("--size", default="400x400", show_default=True, help="WxH of the renders measured.")
 @click.option("--degrees-per-frame", type=float, default=None, help="Override the orbit's step (0 = static camera).")
-@click.option("--screen", "screen", default=str(SCREEN_PIPELINE), show_default=True,
-              help="Pipeline with screen-space uncertainty.")
-@click.option("--object", "object_", default=str(OBJECT_PIPELINE), show_default=True,
-              help="Pipeline with object-space uncertainty.")
+@click.option("--screen", "screen", default=SCREEN_PIPELINE, show_default=True,
+              help="Pipeline with screen-space uncertainty (a file or a shipped pipeline's name).")
+@click.option("--object", "object_", default=OBJECT_PIPELINE, show_default=True,
+              help="Pipeline with object-space uncertainty (a file or a shipped pipeline's name).")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(scene: str, frames: int, size: str, degrees_per_frame: float | None, screen: str, object_: str,
             json_path: Path | None) -> None:

@@ -75,13 +75,23 @@ class WatchEvent:
                 f"in {self.ms:.0f} ms ({self.node_ms:.0f} ms in nodes) -> {self.wrote}")
 
 
+def _watched_file(pipeline: str | Path) -> Path:
+    """The file to watch: the path given, or the shipped pipeline it names (an error shows at the first step)."""
+    from ..shipped import resolve
+
+    try:
+        return resolve(pipeline)
+    except SketchgraphError:
+        return Path(pipeline)
+
+
 class Watcher:
     """Loads and runs a pipeline, and again whenever one of its files changes (see `step`)."""
 
     def __init__(self, pipeline: str | Path, out: str | Path | None = None, output_name: str | None = None,
                  overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
                  cache: Any = None, frame: int = 0, load: Callable[..., Pipeline] | None = None):
-        self.pipeline_path = Path(pipeline)
+        self.pipeline_path = _watched_file(pipeline)
         self.out = Path(out) if out else Path("out") / f"{self.pipeline_path.stem}.png"
         self.output_name = output_name
         self.overrides = tuple(overrides)

@@ -22,7 +22,7 @@ from ...node import digest
 from ...pipeline import Pipeline
 from .. import viz
 from .. import wedge as wedgemod
-from .model import FORMAT, REPO, VERSIONED, Entry, EntryResult, Gallery, _rel
+from .model import FORMAT, VERSIONED, Entry, EntryResult, Gallery, _rel
 from .page import write_index
 
 
@@ -270,7 +270,7 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
         t1 = time.perf_counter()
         missing = entry.missing_shared()
         if missing:
-            res = EntryResult(entry.name, "skipped", note=f"needs {', '.join(_rel(p, REPO) for p in missing)} "
+            res = EntryResult(entry.name, "skipped", note=f"needs {', '.join(_rel(p, Path.cwd()) for p in missing)} "
                                                           "(../shared is absent here); kept its manifest record")
             if entry.name in old.get("entries", {}):
                 records[entry.name] = old["entries"][entry.name]

@@ -21,7 +21,7 @@ FORMAT = 1
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]*$")
 DEFAULT_TOLERANCE = {"per_pixel": 0.1, "outliers": 0.005, "mean": 0.01}
 VERSIONED = ("numpy", "moderngl", "glcontext", "OpenImageIO", "pydantic", "PyYAML", "libigl", "networkx", "scipy")
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[3]  # the checkout this module runs from (installed: not a repository)
 SHARED = REPO.parent / "shared"
 
 
@@ -59,7 +59,9 @@ class Entry:
         return self.shared or any(_inside(p, SHARED) for p in self.scene_files())
 
     def missing_shared(self) -> list[Path]:
-        return [p for p in self.scene_files() if _inside(p, SHARED) and not p.exists()]
+        """Scene files from ../shared that are absent here (also for a `shared: true` entry whose files are
+        elsewhere, as when the gallery file is used with an installed package)."""
+        return [p for p in self.scene_files() if (self.shared or _inside(p, SHARED)) and not p.exists()]
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -130,7 +132,8 @@ def load(path: str | Path) -> Gallery:
     that name already."""
     file = Path(path)
     if not file.exists():
-        raise SketchgraphError(f"gallery file not found: {file}")
+        raise SketchgraphError(f"gallery file not found: {file}; the gallery lives in the repository "
+                               "(gallery/gallery.yaml): run from the repository's root or pass --gallery FILE")
     try:
         data = yaml.safe_load(file.read_text()) or {}
     except yaml.YAMLError as exc:
@@ -174,6 +177,14 @@ def _entry(raw: dict[str, Any], root: Path, where: str, auto: bool = False) -> E
     if not _NAME.match(name):
         raise SketchgraphError(f"{where}: name '{name}': letters, digits, '_' and '-' only")
     pipeline = (root / str(raw["pipeline"])).absolute()
+    pipeline_rel = _rel(pipeline, root)
+    if not pipeline.exists():  # not a file beside the gallery: a shipped pipeline by name, if it is one
+        from ...shipped import resolve
+
+        try:
+            pipeline, pipeline_rel = resolve(str(raw["pipeline"])).absolute(), str(raw["pipeline"])
+        except SketchgraphError as exc:
+            raise SketchgraphError(f"{where} ({name}): pipeline: {exc}") from None
     scene = raw.get("scene")
     scene_spec = None
     if scene is not None:
@@ -185,7 +196,7 @@ def _entry(raw: dict[str, Any], root: Path, where: str, auto: bool = False) -> E
     outputs = raw.get("outputs")
     if isinstance(outputs, str):
         outputs = [outputs]
-    return Entry(name=name, pipeline=pipeline, pipeline_rel=_rel(pipeline, root), scene=scene_spec,
+    return Entry(name=name, pipeline=pipeline, pipeline_rel=pipeline_rel, scene=scene_spec,
                  scene_rel=scene, overrides=_overrides(raw.get("set"), where),
                  size=tuple(size) if size else None, frames=_frames(raw.get("frames"), where),
                  wedge=wedgemod.axes_from(raw["wedge"]) if raw.get("wedge") else None, outputs=outputs,

@@ -13,7 +13,7 @@ import numpy as np
 from ...errors import SketchgraphError
 from .. import viz
 from .build import _progress, _renderer, file_sha256, plan_entry, read_manifest, render_entry, versions
-from .model import DEFAULT_TOLERANCE, REPO, Gallery, _rel
+from .model import DEFAULT_TOLERANCE, Gallery, _rel
 
 
 # -- verify ----------------------------------------------------------------------------------------------
@@ -61,7 +61,8 @@ def verify(gallery: Gallery, cache: Any, *, only: list[str] | None = None, echo:
     for entry in bar:
         missing = entry.missing_shared()
         if missing:
-            checks.append(EntryCheck(entry.name, "skipped", note=f"needs {', '.join(_rel(p, REPO) for p in missing)}"))
+            needs = ", ".join(_rel(p, Path.cwd()) for p in missing)
+            checks.append(EntryCheck(entry.name, "skipped", note=f"needs {needs}"))
             continue
         rec = recorded.get(entry.name)
         if rec is None:
