@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 from pydantic import Field
 
 from nodegraph.errors import NodeError
@@ -131,6 +130,8 @@ def smooth_line_field(F: np.ndarray, d: np.ndarray, normal: np.ndarray, weight: 
     its 1-ring), then takes at each vertex the dominant eigenvector projected onto its tangent plane:
     sign-invariant, and vertices of high weight (confidence) dominate their surroundings. Vertices in
     `fixed` (no measured direction anywhere near) keep theirs and give no weight."""
+    import scipy.sparse as sp
+
     n = len(d)
     d = np.asarray(d, dtype=np.float64).copy()
     if rounds <= 0 or n == 0:

@@ -39,9 +39,7 @@ import hashlib
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-import igl
 import numpy as np
-import scipy.sparse as sp
 
 from nodegraph.errors import MeshError
 
@@ -165,6 +163,8 @@ def compute_curvature(
     ``radius`` is libigl's k-ring size (>= 2).  The default 3 is the largest that keeps both curvatures of a
     10k-vertex analytic torus within 5% (measured: 3.2% for 1/r, 2.9% for the other; radius 5 gives 8.4%).
     """
+    import igl  # imported here: `sketchgraph nodes` and key-only runs need no libigl
+
     V = np.asarray(V)
     F = np.asarray(F)
     if V.ndim != 2 or V.shape[1] != 3:
@@ -310,6 +310,8 @@ def _spread_directions(
     source: np.ndarray,
 ) -> None:
     """Fill unreliable directions ring by ring from resolved 1-ring neighbours (in place)."""
+    import scipy.sparse as sp
+
     if known.all() or not known.any() or rings == 0:
         return
     e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
