@@ -42,11 +42,11 @@ def test_issue_example_equals_the_cli_png(gl, tmp_path: Path, cache_dir: Path) -
     """The issue's example, run as written (a mesh from shared/, 1200x900, an override), against the PNG that
     `sketchgraph run` writes with the same arguments: the same pixels, row 0 at the top."""
     spot = shared_mesh("spot.obj")
-    pipe = ng.load(PIPE, scene=str(spot), size=(1200, 900), set={"edges.width": 3})
+    pipe = ng.load("nienhaus_sketchy", scene=str(spot), size=(1200, 900), set={"edges.width": 3})  # shipped name
     img = pipe.render()
     assert img.dtype == np.uint8 and img.shape == (900, 1200, 4)
     out = tmp_path / "a.png"
-    res = CliRunner().invoke(main, ["run", PIPE, "--scene", str(spot), "--size", "1200x900",
+    res = CliRunner().invoke(main, ["run", "nienhaus_sketchy", "--scene", str(spot), "--size", "1200x900",
                                     "--set", "edges.width=3", "-o", str(out), "-q"])
     assert res.exit_code == 0, res.output
     png = _read_png(out)
