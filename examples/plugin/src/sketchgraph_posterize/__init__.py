@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from nodegraph.node import Input, Node, NodeParams, Output
+from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
 __all__ = ["Posterize", "register"]
@@ -28,7 +28,7 @@ class Posterize(Node):
         levels: int = Field(4, ge=2, le=256, description="Output values per channel, evenly spaced from 0 to 1.")
         alpha: bool = Field(False, description="Posterize alpha too (otherwise alpha passes unchanged).")
 
-    def compute(self, ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         src = inputs["color"]
         out = ctx.target("color", src.size)
         prog = ctx.program("posterize.glsl", {"POSTERIZE_ALPHA": self.params.alpha})
