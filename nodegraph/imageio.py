@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SketchgraphError
+from .fsio import IncompleteWrite, atomic_output, clean
 
 WRITABLE = (".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg")
 
@@ -24,7 +25,6 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
         a = a[:, :, None]
     a = np.ascontiguousarray(a[::-1])
     h, w, c = a.shape
-    p.parent.mkdir(parents=True, exist_ok=True)
     if ext == ".exr":
         spec = oiio.ImageSpec(w, h, c, oiio.HALF if half else oiio.FLOAT)
         spec.attribute("compression", "zip")
@@ -39,13 +39,16 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
         spec.channelnames = ("Y",)
     for k, v in (attributes or {}).items():
         spec.attribute(k, v)
-    out = oiio.ImageOutput.create(str(p))
-    if out is None or not out.open(str(p), spec):
-        raise SketchgraphError(f"{p}: cannot write: {oiio.geterror() or (out.geterror() if out else '')}")
-    ok = out.write_image(data)
-    out.close()
-    if not ok:
-        raise SketchgraphError(f"{p}: write failed: {oiio.geterror()}")
+    with atomic_output(p) as tmp:  # OIIO picks the format from the name: the temporary name keeps it
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise IncompleteWrite(clean(oiio.geterror() or (out.geterror() if out else "")))
+        ok = out.write_image(data)
+        problem = out.geterror()  # some writers (PNG) report short writes here and still return True
+        closed = out.close()
+        problem = problem or out.geterror()
+        if not ok or not closed or problem:
+            raise IncompleteWrite(clean(problem or oiio.geterror()))
     return p
 
 

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import MeshError
+from .fsio import check_input, clean, show_path
 
 SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
 
@@ -473,16 +474,15 @@ def load_mesh(path: str | Path) -> Mesh:
     faces removed with a `MeshWarning`. Memoised by (absolute path, mtime, size)."""
     p = Path(path).expanduser().absolute()
     if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
-        raise MeshError(f"{p}: unsupported mesh format '{p.suffix or '(no extension)'}'; supported: "
-                        + ", ".join(SUPPORTED_EXTENSIONS))
+        raise MeshError(f"{show_path(p)}: unsupported mesh format '{show_path(p.suffix or '(no extension)', 20)}'; "
+                        "supported: " + ", ".join(SUPPORTED_EXTENSIONS))
     try:
-        st = p.stat()
+        os.stat(p)
     except FileNotFoundError:
-        raise MeshError(f"{p}: mesh file not found") from None
-    except OSError as exc:
-        raise MeshError(f"{p}: cannot access mesh file: {exc.strerror}") from None
-    if not p.is_file():
-        raise MeshError(f"{p}: not a regular file")
+        raise MeshError(f"{show_path(p)}: mesh file not found") from None
+    except (OSError, ValueError):
+        pass  # check_input says what is wrong
+    st = check_input(p, "mesh file", error=MeshError)  # a FIFO or /dev/zero is refused, not read
     key = (str(p), st.st_mtime_ns, st.st_size)
     with _LOAD_LOCK:
         cached = _LOAD_CACHE.get(key)
@@ -505,6 +505,7 @@ def clear_mesh_cache() -> None:
 
 def _load_uncached(p: Path) -> Mesh:
     ext = p.suffix.lower()
+    note = ""
     if ext == ".ply":
         try:
             v, f = _read_ply(p)
@@ -513,7 +514,9 @@ def _load_uncached(p: Path) -> Mesh:
         except OSError as exc:
             raise MeshError(f"{p}: cannot read: {exc.strerror}") from None
     else:
-        v, f = _igl_read(p)
+        if ext == ".stl":
+            _check_stl(p)
+        v, f, note = _igl_read(p)
     if v.size == 0 or v.ndim != 2 or v.shape[1] != 3:
         raise MeshError(f"{p}: no vertices could be read (not a valid {ext[1:].upper()} file?)")
     if not (isinstance(f, np.ndarray) and f.ndim == 2 and f.shape[1] == 3):
@@ -525,12 +528,15 @@ def _load_uncached(p: Path) -> Mesh:
     if bad.any():
         raise MeshError(f"{p}: {int(bad.sum())} of {_plural(len(v), 'vertex', 'vertices')} with NaN/Inf "
                         f"coordinates (first: vertex {int(np.argmax(bad))})")
+    _check_float32(p, v)
     out = (f < 0) | (f >= len(v))
     if out.any():
         rows = out.any(axis=1)
         raise MeshError(f"{p}: face index out of range in {_plural(int(rows.sum()), 'face', 'faces')} (index "
                         f"{int(f[out][0])} in face {int(np.argmax(rows))}; the file has "
                         f"{_plural(len(v), 'vertex', 'vertices')}, numbered from 0)")
+    if note:
+        warnings.warn(f"{show_path(p)}: {note}", MeshWarning, stacklevel=3)
     return _repair(Mesh(p.stem, v, f.astype(np.int32), str(p)))
 
 
@@ -555,10 +561,11 @@ def _triangulate(polygons: Any) -> np.ndarray:
     return np.stack([flat[first], flat[first + 1 + j], flat[first + 2 + j]], axis=1)
 
 
-def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray]:
+def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray, str]:
     """libigl's reader with file descriptor 2 captured: libigl explains failures on stderr only.
 
-    Whatever lands on stderr meanwhile is written back after a successful read, so nothing is lost."""
+    Its warnings quote the file's lines, so they are never echoed: the third value is a short note
+    (the first problem in libigl's own words) for a warning once the mesh is known good."""
     import igl
 
     try:
@@ -583,15 +590,74 @@ def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray]:
         tmp.seek(0)
         text = tmp.read(1 << 16).decode("utf-8", "replace")
     if result is not None:
-        if text:
-            sys.stderr.write(text)
-        return result
+        notes = [ln for ln in text.splitlines() if ln[:1].strip()]
+        first = _reader_note(notes[0]) if notes else ""
+        note = ("the mesh reader reported problems" + (f" (first: {first})" if first else "")) if notes else ""
+        return (*result, note)
     nonfinite = _count_nonfinite_text(p)
     if nonfinite:
         raise MeshError(f"{p}: {_plural(nonfinite, 'vertex', 'vertices')} with NaN/Inf coordinates") from None
-    lines = [ln.strip() for ln in text.replace("Error:", "\n").splitlines() if ln.strip()]
-    reason = lines[0] if lines else ""
+    lines = [ln for ln in text.splitlines() if ln[:1].strip()]  # indented lines quote the file
+    reason = _reader_note(lines[0]) if lines else ""
     raise MeshError(f"{p}: unreadable mesh file" + (f" ({reason})" if reason else "")) from None
+
+
+def _reader_note(line: str) -> str:
+    """A line of libigl's stderr fit for a message: its own words only, up to the first ':' (what follows
+    quotes the file), printable and short."""
+    head = line.replace("Warning:", "").replace("Error:", "").strip()
+    head = head.split(":")[0] if ":" in head else head
+    return clean(head, 80)
+
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+_FLOAT32_SPAN = 2.0**20
+"""A mesh whose coordinates are this many times larger than its extent keeps fewer than ~8 distinct
+float32 positions across itself (float32 has 24 bits): nothing of its shape survives on the GPU."""
+
+
+def _check_float32(p: Path, v: np.ndarray) -> None:
+    """Coordinates the GPU (float32) can hold: no overflow, and not so far out that the shape is lost."""
+    big = np.abs(v).max(axis=1) > FLOAT32_MAX
+    if big.any():
+        raise MeshError(f"{show_path(p)}: {int(big.sum())} of {_plural(len(v), 'vertex', 'vertices')} with "
+                        f"coordinates beyond float32 range (expected |x| <= {FLOAT32_MAX:.3g}, found "
+                        f"{float(np.abs(v).max()):.3g} at vertex {int(np.argmax(big))})")
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    extent = float(np.max(hi - lo))
+    reach = float(np.abs(v).max())
+    if not np.isfinite(extent) or (reach > 0 and reach > extent * _FLOAT32_SPAN):
+        raise MeshError(f"{show_path(p)}: coordinates reach {reach:.3g} but the mesh spans only {extent:.3g}: "
+                        f"float32 (as the GPU holds them) cannot tell its vertices apart; expected coordinates "
+                        f"at most {_FLOAT32_SPAN:.0f} times the mesh's extent (move it near the origin)")
+
+
+_TEXT_BYTES = bytes(range(32, 127)) + b"\t\n\r\f\v"
+
+
+def _check_stl(p: Path) -> None:
+    """Decide binary or ASCII STL before libigl reads it (libigl loops forever on a 'solid' header followed
+    by binary data, and allocates whatever triangle count a binary header declares)."""
+    size = p.stat().st_size
+    with p.open("rb") as fh:
+        head = fh.read(84)
+    n = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
+    if size >= 84 and size == 84 + 50 * n:
+        return  # binary, and libigl reads it as binary (it checks this size too)
+    if head.lstrip()[:5].lower() == b"solid":
+        with p.open("rb") as fh:
+            while chunk := fh.read(1 << 20):
+                if chunk.translate(None, _TEXT_BYTES):  # a byte that is not printable ASCII text
+                    raise MeshError(f"{show_path(p)}: starts like ASCII STL ('solid') but holds binary data; "
+                                    "expected ASCII STL text, or a binary STL of 84 + 50 x N bytes for the N "
+                                    f"triangles its header declares (N = {n}: {84 + 50 * n} bytes; found "
+                                    f"{size} bytes)")
+        return
+    if size < 84:
+        raise MeshError(f"{show_path(p)}: not an STL file: expected ASCII text starting with 'solid' or a binary "
+                        f"STL of at least 84 bytes, found {size} bytes")
+    raise MeshError(f"{show_path(p)}: binary STL header declares {n} triangles, so expected 84 + 50 x {n} = "
+                    f"{84 + 50 * n} bytes, found {size} bytes (truncated or not an STL file)")
 
 
 def _plural(k: int, one: str, many: str) -> str:

@@ -25,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
+from .fsio import show_path
 from .node import Node
 from .registry import Registry, default
 
@@ -220,7 +221,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
             raise PipelineError(exc.message, where) from None
         except Exception as exc:  # MeshError and friends: keep the message, add where it came from
             if type(exc).__name__ in ("MeshError",):
-                raise PipelineError(f"scene '{pipe.scene_spec}': {exc}", where) from None
+                raise PipelineError(f"scene '{show_path(pipe.scene_spec, 80)}': {exc}", where) from None
             raise
     return pipe
 

@@ -81,11 +81,10 @@ def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> P
     if path.suffix.lower() == ".svg":
         if not isinstance(value, Strokes):
             raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
+        from .fsio import atomic_write_text
         from .strokes import to_svg
 
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(to_svg(value))
-        return path
+        return atomic_write_text(path, to_svg(value))
     arr = to_image(value)
     if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
         arr = arr[:, :, :3]
