@@ -760,6 +760,9 @@ def _ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
         if parts[0] == "format" and len(parts) >= 2:
             fmt = parts[1]
         elif parts[0] == "element" and len(parts) == 3:
+            if not parts[2].isdigit() or len(parts[2]) > 12:
+                raise _PlyError(f"element '{clean(parts[1], 40)}': expected a count of 0 to 10^12 rows, found "
+                                f"'{clean(parts[2], 20)}'")
             elements.append(_PlyElement(parts[1], int(parts[2]), []))
         elif parts[0] == "property" and elements:
             try:
@@ -768,19 +771,21 @@ def _ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
                 elif len(parts) == 3:
                     elements[-1].props.append((parts[2], _PLY_TYPES[parts[1]], None))
                 else:
-                    raise _PlyError(f"bad header line '{raw.strip()}'")
+                    raise _PlyError(f"bad header line '{clean(raw, 60)}'")
             except KeyError as exc:
-                raise _PlyError(f"unknown property type {exc}") from None
+                raise _PlyError(f"unknown property type '{clean(exc.args[0], 20)}'") from None
         else:
-            raise _PlyError(f"bad header line '{raw.strip()}'")
+            raise _PlyError(f"bad header line '{clean(raw, 60)}'")
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise _PlyError(f"unknown format '{fmt}'")
+        raise _PlyError(f"unknown format '{clean(fmt, 30)}'; expected ascii, binary_little_endian or "
+                        "binary_big_endian")
     return fmt, elements, body
 
 
 def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
     data = p.read_bytes()
     fmt, elements, pos = _ply_header(data)
+    _check_ply_counts(fmt, elements, len(data) - pos)
     reader = _ply_ascii_elements if fmt == "ascii" else _ply_binary_elements
     columns = reader(data[pos:], elements, "<" if fmt == "binary_little_endian" else ">")
     vert = columns.get("vertex", {})
@@ -792,6 +797,21 @@ def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
     if lists is None:
         return v, np.zeros((0, 3), np.int64)
     return v, lists
+
+
+def _check_ply_counts(fmt: str, elements: list[_PlyElement], available: int) -> None:
+    """Refuse element counts the file cannot hold before anything is allocated for them: each row takes
+    at least its fixed-size values (binary) or two characters per value (ASCII)."""
+    need = 0
+    for el in elements:
+        if fmt == "ascii":
+            row = 2 * max(len(el.props), 1)
+        else:
+            row = max(sum(np.dtype(cnt or t).itemsize for _, t, cnt in el.props), 1)
+        need += el.count * row
+        if need > available + 1:
+            raise _PlyError(f"header declares {el.count} '{clean(el.name, 40)}' rows, at least {el.count * row} "
+                            f"bytes, but only {available} bytes follow the header (a wrong count or a truncated file)")
 
 
 def _ply_binary_elements(buf: bytes, elements: list[_PlyElement], endian: str) -> dict[str, dict[str, Any]]:
