@@ -30,7 +30,7 @@ class _Group(click.Group):
         except SketchgraphError as exc:
             if os.environ.get("SKETCHGRAPH_DEBUG"):
                 raise
-            click.echo(f"error: {exc}", err=True)
+            click.echo("error: " + " ".join(str(exc).splitlines()), err=True)  # one line, whatever it quotes
             sys.exit(2)
 
 

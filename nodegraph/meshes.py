@@ -5,6 +5,7 @@ All derived data is vectorised NumPy and cached on the (immutable) `Mesh` instan
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import sys
@@ -562,31 +563,32 @@ def _triangulate(polygons: Any) -> np.ndarray:
 
 
 def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray, str]:
-    """libigl's reader with file descriptor 2 captured: libigl explains failures on stderr only.
+    """libigl's reader with file descriptors 1 and 2 captured: libigl explains failures there only.
 
     Its warnings quote the file's lines, so they are never echoed: the third value is a short note
     (the first problem in libigl's own words) for a warning once the mesh is known good."""
     import igl
 
-    try:
-        saved = os.dup(2)
-    except OSError:  # no stderr to capture
-        saved = -1
+    saved: dict[int, int] = {}
+    for fd in (1, 2):  # some libigl readers (OFF) print to stdout
+        with contextlib.suppress(OSError):  # nothing to capture
+            saved[fd] = os.dup(fd)
     result: tuple[np.ndarray, np.ndarray] | None = None
     text = ""
     with tempfile.TemporaryFile() as tmp:
-        if saved >= 0:
-            sys.stderr.flush()
-            os.dup2(tmp.fileno(), 2)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        for fd in saved:
+            os.dup2(tmp.fileno(), fd)
         try:
             v, f = igl.read_triangle_mesh(str(p))
             result = (np.asarray(v), np.asarray(f))
         except Exception:
             result = None
         finally:
-            if saved >= 0:
-                os.dup2(saved, 2)
-                os.close(saved)
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
         tmp.seek(0)
         text = tmp.read(1 << 16).decode("utf-8", "replace")
     if result is not None:
@@ -712,6 +714,8 @@ def _repair(mesh: Mesh) -> Mesh:
     if n_dup == 0 and n_deg == 0:
         return mesh
     keep = np.sort(idx_keep[unique_mask])
+    if len(keep) == 0:  # an error, not a warning and then an error
+        raise MeshError(f"{mesh.source}: no faces left after removing {n_deg} degenerate faces")
     warnings.warn(
         f"mesh '{mesh.name}' ({mesh.source}): removed {n_deg} degenerate faces (repeated vertex or zero "
         f"area) and {n_dup} duplicate faces; {len(keep)} of {len(f)} faces remain",

@@ -244,7 +244,8 @@ def _parse_ref(ref: str, nodes: dict[str, Node], where: Location, what: str) -> 
 
 
 def _parse_override(text: str, nodes: dict[str, Node]) -> tuple[str, str, Any, Location]:
-    where = Location(f"--set {text}")
+    shown = text if text.isprintable() else ascii(text)[1:-1]
+    where = Location(f"--set {shown if len(shown) <= 80 else shown[:77] + '...'}")
     target, eq, value = text.partition("=")
     nid, dot, pname = target.strip().partition(".")
     if not eq or not dot or not pname:
