@@ -43,7 +43,18 @@ def default_root() -> Path:
 
 def default_limit() -> int:
     env = os.environ.get("SKETCHGRAPH_CACHE_LIMIT")
-    return parse_bytes(env) if env else DEFAULT_LIMIT
+    if not env:
+        return DEFAULT_LIMIT
+    try:
+        limit = parse_bytes(env)
+    except (ValueError, OverflowError):
+        limit = -1
+    if limit < 0:
+        from .errors import SketchgraphError
+
+        shown = "".join(c if c.isprintable() else "?" for c in env[:40]) + ("..." if len(env) > 40 else "")
+        raise SketchgraphError(f"SKETCHGRAPH_CACHE_LIMIT: expected a size such as 500M, 2G or 0, found '{shown}'")
+    return limit
 
 
 def parse_bytes(text: str) -> int:

@@ -16,7 +16,7 @@ from .errors import SketchgraphError
 from .render import frame_path, open_cache, open_pipeline, parse_frames, write_value
 
 if TYPE_CHECKING:
-    from .pipeline import Pipeline
+    pass
 
 
 def _warn_one_line(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
@@ -30,7 +30,7 @@ class _Group(click.Group):
         except SketchgraphError as exc:
             if os.environ.get("SKETCHGRAPH_DEBUG"):
                 raise
-            click.echo(f"error: {exc}", err=True)
+            click.echo("error: " + " ".join(str(exc).splitlines()), err=True)  # one line, whatever it quotes
             sys.exit(2)
 
 
@@ -257,30 +257,10 @@ def _node_info(cls: Any) -> dict[str, Any]:
 @pipeline_options
 def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None) -> None:
     """Print the DAG as Graphviz DOT text (pipe into `dot -Tsvg`)."""
+    from .tools.dot import to_dot
+
     pipe = open_pipeline(pipeline, overrides, size, scene, load_scene=False)
     click.echo(to_dot(pipe))
-
-
-def to_dot(pipe: Pipeline) -> str:
-    def q(s: str) -> str:
-        return '"' + s.replace('"', r"\"") + '"'
-
-    lines = [f"digraph {q(pipe.name)} {{", "  rankdir=LR;", '  node [shape=record, fontname="Helvetica"];']
-    for nid, node in pipe.nodes.items():
-        ins = "|".join(f"<i_{p}> {p}" for p in node.inputs)
-        outs = "|".join(f"<o_{p}> {p}" for p in node.outputs)
-        middle = f"{nid}\\n({node.type_name})|{{{outs}}}"
-        label = f"{{{{{ins}}}|{middle}}}" if ins else f"{{{middle}}}"
-        lines.append(f"  {q(nid)} [label={q(label)}];")
-    for nid, conns in pipe.connections.items():
-        for port, (src, sport) in conns.items():
-            ptype = pipe.nodes[src].outputs[sport].type
-            lines.append(f"  {q(src)}:o_{sport} -> {q(nid)}:i_{port} [label={q(str(ptype))}];")
-    for name, (nid, port) in pipe.outputs.items():
-        lines.append(f"  {q('out:' + name)} [shape=oval, label={q(name)}];")
-        lines.append(f"  {q(nid)}:o_{port} -> {q('out:' + name)};")
-    lines.append("}")
-    return "\n".join(lines)
 
 
 @main.command()
@@ -343,8 +323,10 @@ def cache_prune(cache_dir: Path | None, max_size: str | None) -> None:
     c = Cache(cache_dir)
     try:
         limit = parse_bytes(max_size) if max_size is not None else None
-    except ValueError:
-        raise SketchgraphError(f"--max-size: expected a size such as 500M or 2G, found '{max_size}'") from None
+    except (ValueError, OverflowError):
+        limit = -1
+    if limit is not None and limit < 0:
+        raise SketchgraphError(f"--max-size: expected a size such as 500M or 2G, found '{max_size[:40]}'")
     files, freed = c.prune(limit)
     click.echo(f"removed {files} entries ({_mb(freed)}); {_mb(c.info()['bytes'])} left in {c.root}")
 

@@ -73,6 +73,7 @@ class Executor:
             from . import gl as glmod
 
             self._gl = glmod.get()
+            self._gl.check_size(self.pipeline.size, f"pipeline '{self.pipeline.name}' size")
         return self._gl
 
     # -- keys ------------------------------------------------------------------------------

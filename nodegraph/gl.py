@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from . import types
-from .errors import GLUnavailableError
+from .errors import GLUnavailableError, SketchgraphError
 from .glsl import ProgramCache
 from .values import Tex, TexArray
 
@@ -41,6 +41,25 @@ class GL:
     def renderer(self) -> str:
         info = self.ctx.info
         return f"{info.get('GL_RENDERER', '?')} | {info.get('GL_VERSION', '?')}"
+
+    @property
+    def max_texture_size(self) -> int:
+        """The largest texture width or height this context allocates (GL_MAX_TEXTURE_SIZE, capped by
+        GL_MAX_VIEWPORT_DIMS: a texture is drawn into through a viewport of its size)."""
+        info = self.ctx.info
+        limit = int(info.get("GL_MAX_TEXTURE_SIZE", 0) or 0)
+        dims = info.get("GL_MAX_VIEWPORT_DIMS")
+        if dims:
+            limit = min(limit, *(int(d) for d in dims)) if limit else min(int(d) for d in dims)
+        return limit
+
+    def check_size(self, size: tuple[int, int], what: str = "size") -> None:
+        """Refuse a render size this context cannot allocate, naming both numbers."""
+        limit = self.max_texture_size
+        if limit and (int(size[0]) > limit or int(size[1]) > limit):
+            raise SketchgraphError(f"{what} {int(size[0])}x{int(size[1])}: expected width and height at most "
+                                     f"{limit}, the largest texture this OpenGL context allocates "
+                                     f"(GL_MAX_TEXTURE_SIZE; {self.renderer})")
 
     # -- textures --------------------------------------------------------------------------
     def texture(self, size: tuple[int, int], fmt: str, data: np.ndarray | None = None,

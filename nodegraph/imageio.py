@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SketchgraphError
+from .fsio import IncompleteWrite, atomic_output, clean
 
 WRITABLE = (".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg")
 
@@ -24,7 +25,6 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
         a = a[:, :, None]
     a = np.ascontiguousarray(a[::-1])
     h, w, c = a.shape
-    p.parent.mkdir(parents=True, exist_ok=True)
     if ext == ".exr":
         spec = oiio.ImageSpec(w, h, c, oiio.HALF if half else oiio.FLOAT)
         spec.attribute("compression", "zip")
@@ -39,14 +39,66 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
         spec.channelnames = ("Y",)
     for k, v in (attributes or {}).items():
         spec.attribute(k, v)
-    out = oiio.ImageOutput.create(str(p))
-    if out is None or not out.open(str(p), spec):
-        raise SketchgraphError(f"{p}: cannot write: {oiio.geterror() or (out.geterror() if out else '')}")
-    ok = out.write_image(data)
-    out.close()
-    if not ok:
-        raise SketchgraphError(f"{p}: write failed: {oiio.geterror()}")
+    with atomic_output(p) as tmp:  # OIIO picks the format from the name: the temporary name keeps it
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise IncompleteWrite(clean(oiio.geterror() or (out.geterror() if out else "")))
+        ok = out.write_image(data)
+        problem = out.geterror()  # some writers (PNG) report short writes only here and still return True
+        closed = out.close()
+        problem = problem or out.geterror()
+        if not ok or not closed:
+            raise IncompleteWrite(clean(problem or oiio.geterror()))
+        _verify(oiio, tmp, w, h, c, problem)
     return p
+
+
+def _verify(oiio: object, path: Path, w: int, h: int, c: int, problem: str = "") -> None:
+    """Check the written file is whole: some writers (PNG) lose a failed final flush (a file size limit, a
+    full disk) and report success. PNG and JPEG are checked by structure (chunks up to IEND, the end
+    marker), without decoding (libpng would print to stderr); other formats are read back."""
+    ext = path.suffix.lower()
+    if ext == ".png":
+        if not _png_complete(path.read_bytes()):
+            raise IncompleteWrite(clean(problem) or "the written PNG is incomplete")
+        return
+    if ext in (".jpg", ".jpeg"):
+        data = path.read_bytes()
+        if not (data.startswith(b"\xff\xd8") and data.rstrip(b"\0").endswith(b"\xff\xd9")):
+            raise IncompleteWrite(clean(problem) or "the written JPEG is incomplete")
+        return
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise IncompleteWrite(clean(oiio.geterror()) or "the written file cannot be read back")
+    try:
+        spec = inp.spec()
+        pixels = inp.read_image(oiio.FLOAT)
+        read_problem = inp.geterror()
+    finally:
+        inp.close()
+    if pixels is None or read_problem or (spec.width, spec.height, spec.nchannels) != (w, h, c):
+        raise IncompleteWrite(clean(problem or read_problem) or "the written file is incomplete")
+
+
+def _png_complete(data: bytes) -> bool:
+    """A PNG signature, then chunks whose lengths and CRCs hold, ending with IEND at the end of the file."""
+    import zlib
+
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return False
+    pos = 8
+    while pos + 12 <= len(data):
+        n = int.from_bytes(data[pos:pos + 4], "big")
+        kind = data[pos + 4:pos + 8]
+        end = pos + 12 + n
+        if end > len(data):
+            return False
+        if zlib.crc32(data[pos + 4:pos + 8 + n]) != int.from_bytes(data[pos + 8 + n:end], "big"):
+            return False
+        if kind == b"IEND":
+            return end == len(data)
+        pos = end
+    return False
 
 
 def to_uint8(arr: np.ndarray) -> np.ndarray:

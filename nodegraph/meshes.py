@@ -5,6 +5,7 @@ All derived data is vectorised NumPy and cached on the (immutable) `Mesh` instan
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import sys
@@ -18,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from .errors import MeshError
+from .fsio import check_input, clean, show_path
 
 SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
 
@@ -473,16 +475,15 @@ def load_mesh(path: str | Path) -> Mesh:
     faces removed with a `MeshWarning`. Memoised by (absolute path, mtime, size)."""
     p = Path(path).expanduser().absolute()
     if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
-        raise MeshError(f"{p}: unsupported mesh format '{p.suffix or '(no extension)'}'; supported: "
-                        + ", ".join(SUPPORTED_EXTENSIONS))
+        raise MeshError(f"{show_path(p)}: unsupported mesh format '{show_path(p.suffix or '(no extension)', 20)}'; "
+                        "supported: " + ", ".join(SUPPORTED_EXTENSIONS))
     try:
-        st = p.stat()
+        os.stat(p)
     except FileNotFoundError:
-        raise MeshError(f"{p}: mesh file not found") from None
-    except OSError as exc:
-        raise MeshError(f"{p}: cannot access mesh file: {exc.strerror}") from None
-    if not p.is_file():
-        raise MeshError(f"{p}: not a regular file")
+        raise MeshError(f"{show_path(p)}: mesh file not found") from None
+    except (OSError, ValueError):
+        pass  # check_input says what is wrong
+    st = check_input(p, "mesh file", error=MeshError)  # a FIFO or /dev/zero is refused, not read
     key = (str(p), st.st_mtime_ns, st.st_size)
     with _LOAD_LOCK:
         cached = _LOAD_CACHE.get(key)
@@ -505,6 +506,7 @@ def clear_mesh_cache() -> None:
 
 def _load_uncached(p: Path) -> Mesh:
     ext = p.suffix.lower()
+    note = ""
     if ext == ".ply":
         try:
             v, f = _read_ply(p)
@@ -513,7 +515,9 @@ def _load_uncached(p: Path) -> Mesh:
         except OSError as exc:
             raise MeshError(f"{p}: cannot read: {exc.strerror}") from None
     else:
-        v, f = _igl_read(p)
+        if ext == ".stl":
+            _check_stl(p)
+        v, f, note = _igl_read(p)
     if v.size == 0 or v.ndim != 2 or v.shape[1] != 3:
         raise MeshError(f"{p}: no vertices could be read (not a valid {ext[1:].upper()} file?)")
     if not (isinstance(f, np.ndarray) and f.ndim == 2 and f.shape[1] == 3):
@@ -525,12 +529,15 @@ def _load_uncached(p: Path) -> Mesh:
     if bad.any():
         raise MeshError(f"{p}: {int(bad.sum())} of {_plural(len(v), 'vertex', 'vertices')} with NaN/Inf "
                         f"coordinates (first: vertex {int(np.argmax(bad))})")
+    _check_float32(p, v)
     out = (f < 0) | (f >= len(v))
     if out.any():
         rows = out.any(axis=1)
         raise MeshError(f"{p}: face index out of range in {_plural(int(rows.sum()), 'face', 'faces')} (index "
                         f"{int(f[out][0])} in face {int(np.argmax(rows))}; the file has "
                         f"{_plural(len(v), 'vertex', 'vertices')}, numbered from 0)")
+    if note:
+        warnings.warn(f"{show_path(p)}: {note}", MeshWarning, stacklevel=3)
     return _repair(Mesh(p.stem, v, f.astype(np.int32), str(p)))
 
 
@@ -555,43 +562,104 @@ def _triangulate(polygons: Any) -> np.ndarray:
     return np.stack([flat[first], flat[first + 1 + j], flat[first + 2 + j]], axis=1)
 
 
-def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray]:
-    """libigl's reader with file descriptor 2 captured: libigl explains failures on stderr only.
+def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray, str]:
+    """libigl's reader with file descriptors 1 and 2 captured: libigl explains failures there only.
 
-    Whatever lands on stderr meanwhile is written back after a successful read, so nothing is lost."""
+    Its warnings quote the file's lines, so they are never echoed: the third value is a short note
+    (the first problem in libigl's own words) for a warning once the mesh is known good."""
     import igl
 
-    try:
-        saved = os.dup(2)
-    except OSError:  # no stderr to capture
-        saved = -1
+    saved: dict[int, int] = {}
+    for fd in (1, 2):  # some libigl readers (OFF) print to stdout
+        with contextlib.suppress(OSError):  # nothing to capture
+            saved[fd] = os.dup(fd)
     result: tuple[np.ndarray, np.ndarray] | None = None
     text = ""
     with tempfile.TemporaryFile() as tmp:
-        if saved >= 0:
-            sys.stderr.flush()
-            os.dup2(tmp.fileno(), 2)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        for fd in saved:
+            os.dup2(tmp.fileno(), fd)
         try:
             v, f = igl.read_triangle_mesh(str(p))
             result = (np.asarray(v), np.asarray(f))
         except Exception:
             result = None
         finally:
-            if saved >= 0:
-                os.dup2(saved, 2)
-                os.close(saved)
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
         tmp.seek(0)
         text = tmp.read(1 << 16).decode("utf-8", "replace")
     if result is not None:
-        if text:
-            sys.stderr.write(text)
-        return result
+        notes = [ln for ln in text.splitlines() if ln[:1].strip()]
+        first = _reader_note(notes[0]) if notes else ""
+        note = ("the mesh reader reported problems" + (f" (first: {first})" if first else "")) if notes else ""
+        return (*result, note)
     nonfinite = _count_nonfinite_text(p)
     if nonfinite:
         raise MeshError(f"{p}: {_plural(nonfinite, 'vertex', 'vertices')} with NaN/Inf coordinates") from None
-    lines = [ln.strip() for ln in text.replace("Error:", "\n").splitlines() if ln.strip()]
-    reason = lines[0] if lines else ""
+    lines = [ln for ln in text.splitlines() if ln[:1].strip()]  # indented lines quote the file
+    reason = _reader_note(lines[0]) if lines else ""
     raise MeshError(f"{p}: unreadable mesh file" + (f" ({reason})" if reason else "")) from None
+
+
+def _reader_note(line: str) -> str:
+    """A line of libigl's stderr fit for a message: its own words only, up to the first ':' (what follows
+    quotes the file), printable and short."""
+    head = line.replace("Warning:", "").replace("Error:", "").strip()
+    head = head.split(":")[0] if ":" in head else head
+    return clean(head, 80)
+
+
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+_FLOAT32_SPAN = 2.0**20
+"""A mesh whose coordinates are this many times larger than its extent keeps fewer than ~8 distinct
+float32 positions across itself (float32 has 24 bits): nothing of its shape survives on the GPU."""
+
+
+def _check_float32(p: Path, v: np.ndarray) -> None:
+    """Coordinates the GPU (float32) can hold: no overflow, and not so far out that the shape is lost."""
+    big = np.abs(v).max(axis=1) > FLOAT32_MAX
+    if big.any():
+        raise MeshError(f"{show_path(p)}: {int(big.sum())} of {_plural(len(v), 'vertex', 'vertices')} with "
+                        f"coordinates beyond float32 range (expected |x| <= {FLOAT32_MAX:.3g}, found "
+                        f"{float(np.abs(v).max()):.3g} at vertex {int(np.argmax(big))})")
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    extent = float(np.max(hi - lo))
+    reach = float(np.abs(v).max())
+    if not np.isfinite(extent) or (reach > 0 and reach > extent * _FLOAT32_SPAN):
+        raise MeshError(f"{show_path(p)}: coordinates reach {reach:.3g} but the mesh spans only {extent:.3g}: "
+                        f"float32 (as the GPU holds them) cannot tell its vertices apart; expected coordinates "
+                        f"at most {_FLOAT32_SPAN:.0f} times the mesh's extent (move it near the origin)")
+
+
+_TEXT_BYTES = bytes(range(32, 127)) + b"\t\n\r\f\v"
+
+
+def _check_stl(p: Path) -> None:
+    """Decide binary or ASCII STL before libigl reads it (libigl loops forever on a 'solid' header followed
+    by binary data, and allocates whatever triangle count a binary header declares)."""
+    size = p.stat().st_size
+    with p.open("rb") as fh:
+        head = fh.read(84)
+    n = int.from_bytes(head[80:84], "little") if len(head) == 84 else 0
+    if size >= 84 and size == 84 + 50 * n:
+        return  # binary, and libigl reads it as binary (it checks this size too)
+    if head.lstrip()[:5].lower() == b"solid":
+        with p.open("rb") as fh:
+            while chunk := fh.read(1 << 20):
+                if chunk.translate(None, _TEXT_BYTES):  # a byte that is not printable ASCII text
+                    raise MeshError(f"{show_path(p)}: starts like ASCII STL ('solid') but holds binary data; "
+                                    "expected ASCII STL text, or a binary STL of 84 + 50 x N bytes for the N "
+                                    f"triangles its header declares (N = {n}: {84 + 50 * n} bytes; found "
+                                    f"{size} bytes)")
+        return
+    if size < 84:
+        raise MeshError(f"{show_path(p)}: not an STL file: expected ASCII text starting with 'solid' or a binary "
+                        f"STL of at least 84 bytes, found {size} bytes")
+    raise MeshError(f"{show_path(p)}: binary STL header declares {n} triangles, so expected 84 + 50 x {n} = "
+                    f"{84 + 50 * n} bytes, found {size} bytes (truncated or not an STL file)")
 
 
 def _plural(k: int, one: str, many: str) -> str:
@@ -646,6 +714,8 @@ def _repair(mesh: Mesh) -> Mesh:
     if n_dup == 0 and n_deg == 0:
         return mesh
     keep = np.sort(idx_keep[unique_mask])
+    if len(keep) == 0:  # an error, not a warning and then an error
+        raise MeshError(f"{mesh.source}: no faces left after removing {n_deg} degenerate faces")
     warnings.warn(
         f"mesh '{mesh.name}' ({mesh.source}): removed {n_deg} degenerate faces (repeated vertex or zero "
         f"area) and {n_dup} duplicate faces; {len(keep)} of {len(f)} faces remain",
@@ -694,6 +764,9 @@ def _ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
         if parts[0] == "format" and len(parts) >= 2:
             fmt = parts[1]
         elif parts[0] == "element" and len(parts) == 3:
+            if not parts[2].isdigit() or len(parts[2]) > 12:
+                raise _PlyError(f"element '{clean(parts[1], 40)}': expected a count of 0 to 10^12 rows, found "
+                                f"'{clean(parts[2], 20)}'")
             elements.append(_PlyElement(parts[1], int(parts[2]), []))
         elif parts[0] == "property" and elements:
             try:
@@ -702,19 +775,21 @@ def _ply_header(data: bytes) -> tuple[str, list[_PlyElement], int]:
                 elif len(parts) == 3:
                     elements[-1].props.append((parts[2], _PLY_TYPES[parts[1]], None))
                 else:
-                    raise _PlyError(f"bad header line '{raw.strip()}'")
+                    raise _PlyError(f"bad header line '{clean(raw, 60)}'")
             except KeyError as exc:
-                raise _PlyError(f"unknown property type {exc}") from None
+                raise _PlyError(f"unknown property type '{clean(exc.args[0], 20)}'") from None
         else:
-            raise _PlyError(f"bad header line '{raw.strip()}'")
+            raise _PlyError(f"bad header line '{clean(raw, 60)}'")
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise _PlyError(f"unknown format '{fmt}'")
+        raise _PlyError(f"unknown format '{clean(fmt, 30)}'; expected ascii, binary_little_endian or "
+                        "binary_big_endian")
     return fmt, elements, body
 
 
 def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
     data = p.read_bytes()
     fmt, elements, pos = _ply_header(data)
+    _check_ply_counts(fmt, elements, len(data) - pos)
     reader = _ply_ascii_elements if fmt == "ascii" else _ply_binary_elements
     columns = reader(data[pos:], elements, "<" if fmt == "binary_little_endian" else ">")
     vert = columns.get("vertex", {})
@@ -726,6 +801,21 @@ def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
     if lists is None:
         return v, np.zeros((0, 3), np.int64)
     return v, lists
+
+
+def _check_ply_counts(fmt: str, elements: list[_PlyElement], available: int) -> None:
+    """Refuse element counts the file cannot hold before anything is allocated for them: each row takes
+    at least its fixed-size values (binary) or two characters per value (ASCII)."""
+    need = 0
+    for el in elements:
+        if fmt == "ascii":
+            row = 2 * max(len(el.props), 1)
+        else:
+            row = max(sum(np.dtype(cnt or t).itemsize for _, t, cnt in el.props), 1)
+        need += el.count * row
+        if need > available + 1:
+            raise _PlyError(f"header declares {el.count} '{clean(el.name, 40)}' rows, at least {el.count * row} "
+                            f"bytes, but only {available} bytes follow the header (a wrong count or a truncated file)")
 
 
 def _ply_binary_elements(buf: bytes, elements: list[_PlyElement], endian: str) -> dict[str, dict[str, Any]]:

@@ -25,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
+from .fsio import show_path
 from .node import Node
 from .registry import Registry, default
 from .shipped import resolve
@@ -61,8 +62,8 @@ class PipelineSpec(BaseModel):
     @field_validator("size")
     @classmethod
     def _positive(cls, v: tuple[int, int]) -> tuple[int, int]:
-        if v[0] < 1 or v[1] < 1 or v[0] > 16384 or v[1] > 16384:
-            raise ValueError("width and height between 1 and 16384")
+        if v[0] < 1 or v[1] < 1 or v[0] > MAX_SIZE or v[1] > MAX_SIZE:
+            raise ValueError(f"width and height between 1 and {MAX_SIZE}")
         return v
 
 
@@ -223,7 +224,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
             raise PipelineError(exc.message, where) from None
         except Exception as exc:  # MeshError and friends: keep the message, add where it came from
             if type(exc).__name__ in ("MeshError",):
-                raise PipelineError(f"scene '{pipe.scene_spec}': {exc}", where) from None
+                raise PipelineError(f"scene '{show_path(pipe.scene_spec, 80)}': {exc}", where) from None
             raise
     return pipe
 
@@ -246,7 +247,8 @@ def _parse_ref(ref: str, nodes: dict[str, Node], where: Location, what: str) -> 
 
 
 def _parse_override(text: str, nodes: dict[str, Node]) -> tuple[str, str, Any, Location]:
-    where = Location(f"--set {text}")
+    shown = text if text.isprintable() else ascii(text)[1:-1]
+    where = Location(f"--set {shown if len(shown) <= 80 else shown[:77] + '...'}")
     target, eq, value = text.partition("=")
     nid, dot, pname = target.strip().partition(".")
     if not eq or not dot or not pname:
@@ -274,11 +276,21 @@ def _check_cycles(pipe: Pipeline, loc: _Locator) -> None:
                      loc.at(["nodes", cycle[0][0]], key=True))
 
 
+MAX_SIZE = 16384
+"""Largest width or height, from the command line or a pipeline's `size` (a GL context may allow less:
+the executor checks its GL_MAX_TEXTURE_SIZE when it creates one)."""
+
+
 def parse_size(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX×]\s*(\d+)\s*", text)
-    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
-        raise PipelineError(f"--size: expected WIDTHxHEIGHT such as 1200x900, found '{text}'")
-    return int(m.group(1)), int(m.group(2))
+    m = re.fullmatch(r"\s*(\d{1,30})\s*[xX×]\s*(\d{1,30})\s*", text)
+    if not m:
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        raise PipelineError(f"--size: expected WIDTHxHEIGHT such as 1200x900, found '{shown}'")
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
+        raise PipelineError(f"--size: expected width and height between 1 and {MAX_SIZE}, found "
+                            f"{w}x{h}")
+    return w, h
 
 
 class _Locator:

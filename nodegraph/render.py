@@ -28,19 +28,33 @@ def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
     return None if no_cache else Cache(cache_dir)
 
 
+MAX_FRAMES = 1_000_000
+"""Most frames one --frames range may name."""
+MAX_FRAME = 2**31 - 1
+"""Frame numbers are stored as 32-bit integers (shader uniforms, seeds): |frame| at most this."""
+
+
 def parse_frames(text: str | None) -> list[int]:
     if text is None:
         return [0]
-    m = re.fullmatch(r"\s*(-?\d+)\s*(?::\s*(-?\d+)\s*(?::\s*(\d+)\s*)?)?", text)
+    shown = text if len(text) <= 60 else text[:57] + "..."
+    m = re.fullmatch(r"\s*(-?\d{1,30})\s*(?::\s*(-?\d{1,30})\s*(?::\s*(\d{1,30})\s*)?)?", text)
     if not m:
-        raise SketchgraphError(f"--frames: expected N or START:END[:STEP] (END exclusive), found '{text}'")
-    start = int(m.group(1))
+        raise SketchgraphError(f"--frames: expected N or START:END[:STEP] (END exclusive), found '{shown}'")
+    numbers = [int(g) for g in m.groups() if g is not None]
+    if any(abs(n) > MAX_FRAME for n in numbers):
+        raise SketchgraphError(f"--frames: expected frame numbers between {-MAX_FRAME} and {MAX_FRAME}, found "
+                               f"'{shown}'")
+    start = numbers[0]
     if m.group(2) is None:
         return [start]
     end, step = int(m.group(2)), int(m.group(3) or 1)
     if end <= start or step < 1:
-        raise SketchgraphError(f"--frames: empty range '{text}'")
-    return list(range(start, end, step))
+        raise SketchgraphError(f"--frames: empty range '{shown}'")
+    frames = range(start, end, step)
+    if len(frames) > MAX_FRAMES:
+        raise SketchgraphError(f"--frames: expected at most {MAX_FRAMES} frames, found {len(frames)} in '{shown}'")
+    return list(frames)
 
 
 def frame_path(pattern: str, frame: int, many: bool) -> Path:
@@ -81,11 +95,10 @@ def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> P
     if path.suffix.lower() == ".svg":
         if not isinstance(value, Strokes):
             raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
+        from .fsio import atomic_write_text
         from .strokes import to_svg
 
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(to_svg(value))
-        return path
+        return atomic_write_text(path, to_svg(value))
     arr = to_image(value)
     if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
         arr = arr[:, :, :3]

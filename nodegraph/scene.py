@@ -12,6 +12,7 @@ import functools
 import hashlib
 import json
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -32,6 +33,7 @@ from pydantic import (
 
 from . import primitives, yamlio
 from .errors import Location, MeshError, PipelineError
+from .fsio import show_path
 from .meshes import SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
 
 SCENE_EXTENSIONS = (".yaml", ".yml")
@@ -402,7 +404,7 @@ Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive),
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # every float finite
 
 
 class TransformSpec(_Spec):
@@ -617,9 +619,13 @@ def scene_from_yaml(path: str | Path) -> Scene:
                 mesh_path = base / mesh_path
             mesh_path = mesh_path.absolute()
             loc = yamlio.locate(data, (*where, "mesh"), file)
-            if not mesh_path.exists():
-                raise PipelineError(f"object {i}: mesh file not found: {mesh_path} (mesh paths are relative to "
-                                    "the scene file)", loc)
+            try:
+                os.stat(mesh_path)
+            except FileNotFoundError:
+                raise PipelineError(f"object {i}: mesh file not found: {show_path(mesh_path)} (mesh paths are "
+                                    "relative to the scene file)", loc) from None
+            except (OSError, ValueError):
+                pass  # load_mesh says what is wrong
             try:
                 mesh = load_mesh(mesh_path)
             except MeshError as exc:
@@ -892,8 +898,12 @@ def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
         hint = yamlio.suggest(spec, [f"builtin:{n}" for n in BUILTIN_SCENES]) if ":" in spec else ""
         raise PipelineError(f"scene '{spec}': expected builtin:NAME, a scene file ({', '.join(SCENE_EXTENSIONS)}) "
                             f"or a mesh file ({', '.join(SUPPORTED_EXTENSIONS)}){hint}")
-    if not path.exists():
-        raise PipelineError(f"scene file not found: {path.absolute()}")
+    try:
+        os.stat(path)
+    except FileNotFoundError:
+        raise PipelineError(f"scene file not found: {show_path(path.absolute())}") from None
+    except (OSError, ValueError):
+        pass  # the loaders check the file and say what is wrong with it
     if ext in SCENE_EXTENSIONS:
         return scene_from_yaml(path)
     return mesh_scene(path)

@@ -14,6 +14,7 @@ import yaml
 
 from . import yamlio
 from .errors import PipelineError
+from .fsio import check_input, show_path
 
 PACKAGE = "nodegraph_pipelines"
 SUFFIXES = (".yaml", ".yml")
@@ -45,10 +46,15 @@ def resolve(spec: str | Path) -> Path:
     """An existing file as it is; else the shipped pipeline `spec` names ('nienhaus_sketchy' or
     'nienhaus_sketchy.yaml'). Anything else is a one-line PipelineError naming the shipped pipelines."""
     path = Path(spec).expanduser()
-    if path.is_file():
+    try:
+        exists, is_dir = path.is_file(), path.is_dir()
+    except (OSError, ValueError):  # a name too long for the filesystem, a NUL byte: say so in one line
+        check_input(path, "pipeline file", error=PipelineError)
+        raise  # check_input raised already; never reached
+    if exists:
         return path
-    if path.is_dir():
-        raise PipelineError(f"{path} is a folder; expected a pipeline file or a shipped pipeline's name")
+    if is_dir:
+        raise PipelineError(f"{show_path(path)} is a folder; expected a pipeline file or a shipped pipeline's name")
     text = str(spec)
     shipped = paths()
     looks_like_name = len(path.parts) == 1 and not text.startswith(".")
@@ -60,7 +66,8 @@ def resolve(spec: str | Path) -> Path:
         raise PipelineError(f"no pipeline file or shipped pipeline named '{text}'"
                             f"{yamlio.suggest(name, shipped)}; {listing} (`sketchgraph pipelines` lists them)")
     hint = f" (the shipped pipeline '{name}' runs by name: give '{name}')" if name in shipped else ""
-    raise PipelineError(f"pipeline file not found: {path}{hint}; relative paths start at the current directory; "
+    raise PipelineError(f"pipeline file not found: {show_path(path)}{hint}; relative paths start at the current "
+                        "directory; "
                         f"{listing}")
 
 

@@ -7,6 +7,7 @@ key/item (1-based), so a pydantic error path can be turned into `file:line:col`.
 from __future__ import annotations
 
 import difflib
+import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -15,6 +16,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from .errors import Location, PipelineError
+from .fsio import clean, read_input, show_path
 
 T = TypeVar("T", bound=BaseModel)
 
@@ -36,8 +38,60 @@ def _pos(node: yaml.Node) -> tuple[int, int]:
     return (node.start_mark.line + 1, node.start_mark.column + 1)
 
 
-class _MarkedLoader(yaml.SafeLoader):
+MAX_BYTES = 16 * 1024**2
+"""Largest YAML file read (pipelines and scenes are a few KiB)."""
+MAX_DEPTH = 64
+"""Deepest nesting of mappings and sequences, counted through aliases."""
+MAX_VALUES = 100_000
+"""Most values (scalars, mappings, sequences) a document may hold once its aliases are expanded:
+aliases are shared when loading, but every consumer (validation, hashing) walks the expanded tree."""
+
+
+class _LimitError(yaml.MarkedYAMLError):
     pass
+
+
+class _MarkedLoader(yaml.SafeLoader):
+    """SafeLoader that builds marked containers and refuses deep nesting and alias bombs while composing
+    (before anything recurses): every node's expanded size and height are known once it is composed."""
+
+    def __init__(self, stream: Any):
+        super().__init__(stream)
+        self._depth = 0
+        self._expanded: dict[int, tuple[int, int]] = {}  # id(node) -> (values when expanded, height)
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                mark = self.peek_event().start_mark
+                raise _LimitError(None, None, f"nested more than {MAX_DEPTH} levels deep; expected at most "
+                                  f"{MAX_DEPTH} levels of mappings and sequences", mark)
+            node = super().compose_node(parent, index)
+            self._measure(node)
+            return node
+        finally:
+            self._depth -= 1
+
+    def _measure(self, node: yaml.Node) -> None:
+        key = id(node)
+        if key in self._expanded:
+            size, height = self._expanded[key]  # an alias: its target was measured when composed
+        elif isinstance(node, yaml.SequenceNode):
+            parts = [self._expanded.get(id(c), (1, 1)) for c in node.value]
+            size, height = 1 + sum(p[0] for p in parts), 1 + max((p[1] for p in parts), default=0)
+        elif isinstance(node, yaml.MappingNode):
+            parts = [self._expanded.get(id(c), (1, 1)) for kv in node.value for c in kv]
+            size, height = 1 + sum(p[0] for p in parts), 1 + max((p[1] for p in parts), default=0)
+        else:
+            size, height = 1, 1
+        self._expanded[key] = (size, height)
+        if height + self._depth - 1 > MAX_DEPTH:
+            raise _LimitError(None, None, f"nested more than {MAX_DEPTH} levels deep once aliases are expanded; "
+                              f"expected at most {MAX_DEPTH} levels", node.start_mark)
+        if size > MAX_VALUES:
+            raise _LimitError(None, None, f"aliases expand to more than {MAX_VALUES} values (found {size} so "
+                              f"far); expected at most {MAX_VALUES} (an alias bomb?)", node.start_mark)
 
 
 def _construct_mapping(loader: _MarkedLoader, node: yaml.MappingNode) -> MarkedDict:
@@ -74,27 +128,55 @@ _MarkedLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _
 
 
 def loads(text: str, file: str = "<string>") -> Any:
-    """Parse YAML text; syntax errors become a one-line PipelineError with the position."""
+    """Parse YAML text; syntax errors and refused input (NUL bytes, nesting deeper than `MAX_DEPTH`,
+    aliases expanding past `MAX_VALUES`) become a one-line PipelineError with the position."""
+    nul = text.find("\0")
+    if nul >= 0:
+        line, col = _line_col(text, nul)
+        raise PipelineError("expected YAML text, found a NUL byte (a binary file?)", Location(file, line, col))
     try:
         return yaml.load(text, Loader=_MarkedLoader)  # noqa: S506 - SafeLoader subclass
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         loc = Location(file, mark.line + 1, mark.column + 1) if mark else Location(file)
-        what = (exc.problem or exc.context or "invalid YAML").strip()
-        raise PipelineError(f"invalid YAML: {what}", loc) from None
+        what = clean((exc.problem or exc.context or "invalid YAML").strip(), 200)
+        prefix = "YAML " if isinstance(exc, _LimitError) else "invalid YAML: "
+        raise PipelineError(f"{prefix}{what}", loc) from None
+    except yaml.reader.ReaderError as exc:
+        line, col = _line_col(text, exc.position)
+        raise PipelineError(f"invalid YAML: unacceptable character #x{exc.character:04x} (control characters "
+                            "are not allowed)" if isinstance(exc.character, int) else "invalid YAML: bad character",
+                            Location(file, line, col)) from None
     except yaml.YAMLError as exc:  # pragma: no cover - non-marked yaml errors are rare
-        raise PipelineError(f"invalid YAML: {exc}", Location(file)) from None
+        raise PipelineError(f"invalid YAML: {clean(str(exc))}", Location(file)) from None
+    except RecursionError:  # pragma: no cover - the depth limit comes first
+        raise PipelineError(f"YAML nested too deeply; expected at most {MAX_DEPTH} levels", Location(file)) from None
+
+
+def _line_col(text: str, offset: int) -> tuple[int, int]:
+    line_start = text.rfind("\n", 0, offset) + 1
+    return text.count("\n", 0, offset) + 1, offset - line_start + 1
 
 
 def load(path: str | Path) -> Any:
+    """Read and parse a YAML file: a regular file of at most `MAX_BYTES`, UTF-8 text, checked before
+    it is opened (a FIFO, a device or a folder is refused, not read)."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        os.stat(p)
     except FileNotFoundError:
-        raise PipelineError(f"file not found: {p} (check the path; relative paths start at the current "
+        raise PipelineError(f"file not found: {show_path(p)} (check the path; relative paths start at the current "
                             "directory)") from None
-    except OSError as exc:
-        raise PipelineError(f"cannot read {p}: {exc.strerror}") from None
+    except (OSError, ValueError):
+        pass  # read_input says what is wrong
+    data = read_input(p, "YAML file", MAX_BYTES, PipelineError)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise PipelineError(f"expected UTF-8 text, found byte 0x{data[exc.start]:02x} (save the file as UTF-8)",
+                            Location(show_path(path), line, col)) from None
     return loads(text, str(path))
 
 

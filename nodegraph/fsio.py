@@ -1,0 +1,206 @@
+"""Files in and out: check an input path before opening it, and write outputs atomically.
+
+Inputs: `check_input` stats a path (following symlinks) and refuses what is not a regular file of a
+sane size (a folder, a FIFO, `/dev/zero`, an over-long name) with one line, before anything is read.
+
+Outputs: `atomic_output(path)` yields a temporary path in the same folder (same extension, so
+libraries that pick the format from the name still work); the file is synced and renamed onto `path`
+only when the writer finished without error, so a failed write (a full disk, a size limit) leaves the
+previous file as it was and no partial file behind.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import stat
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+from .errors import SketchgraphError
+
+
+class OutputError(SketchgraphError):
+    """An output file could not be written; the previous file (if any) is unchanged."""
+
+
+class IncompleteWrite(OutputError):
+    """Raised by a writer (inside `atomic_output`) whose library reported a failure without an OS error;
+    `atomic_output` then looks for the OS reason itself."""
+
+
+def show_path(path: str | os.PathLike[str], limit: int = 160) -> str:
+    """A path for a message: whole when short, else its start and end around an ellipsis."""
+    text = os.fspath(path)
+    if len(text) <= limit:
+        return text
+    keep = (limit - 1) // 2
+    return f"{text[:keep]}…{text[-keep:]} ({len(text)} characters)"
+
+
+def clean(text: str, limit: int = 120) -> str:
+    """A library's message fit for one line: printable ASCII only, whitespace collapsed, capped."""
+    out = "".join(c if 32 <= ord(c) < 127 else " " for c in str(text))
+    out = " ".join(out.split())
+    return out if len(out) <= limit else out[: limit - 1] + "…"
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _os_reason(exc: OSError) -> str:
+    if exc.errno == errno.ENAMETOOLONG:
+        return "path too long for the filesystem (File name too long)"
+    return exc.strerror or type(exc).__name__
+
+
+def check_input(path: str | os.PathLike[str], what: str = "file", max_bytes: int | None = None,
+                error: type[SketchgraphError] = SketchgraphError) -> os.stat_result:
+    """`os.stat(path)`, refusing anything but a regular file of at most `max_bytes` with one line."""
+    shown = show_path(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise error(f"{shown}: {what} not found (check the path)") from None
+    except NotADirectoryError:
+        raise error(f"{shown}: {what} not found (a part of the path is not a folder)") from None
+    except OSError as exc:
+        raise error(f"{shown}: cannot access {what}: {_os_reason(exc)}") from None
+    except ValueError:  # embedded NUL in the path
+        raise error(f"{shown}: cannot access {what}: the path contains a NUL character") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise error(f"{shown}: expected a regular {what}, found {_kind(st.st_mode)}")
+    if max_bytes is not None and st.st_size > max_bytes:
+        raise error(f"{shown}: {what} too large: expected at most {_size(max_bytes)}, found {_size(st.st_size)}")
+    return st
+
+
+def read_input(path: str | os.PathLike[str], what: str = "file", max_bytes: int = 16 * 1024**2,
+               error: type[SketchgraphError] = SketchgraphError) -> bytes:
+    """The bytes of a regular file of at most `max_bytes` (checked before opening and while reading)."""
+    check_input(path, what, max_bytes, error)
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise error(f"{show_path(path)}: cannot read {what}: {_os_reason(exc)}") from None
+    if len(data) > max_bytes:  # grew after the stat
+        raise error(f"{show_path(path)}: {what} too large: expected at most {_size(max_bytes)}")
+    return data
+
+
+def _size(n: int) -> str:
+    if n >= 1024**2:
+        return f"{n / 1024**2:.1f} MiB"
+    if n >= 1024:
+        return f"{n / 1024:.1f} KiB"
+    return f"{n} bytes"
+
+
+def make_folder(folder: Path, for_path: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{show_path(for_path)}: cannot create folder {show_path(folder)}: "
+                          f"{_os_reason(exc)}") from None
+    if not folder.is_dir():
+        raise OutputError(f"{show_path(for_path)}: cannot write: {show_path(folder)} is not a folder")
+
+
+def _probe_reason(tmp: Path) -> str | None:
+    """Why writing to `tmp`'s filesystem fails now, from the OS: append 64 KiB and see what happens."""
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_APPEND)
+    except OSError as exc:
+        return _os_reason(exc)
+    try:
+        os.write(fd, b"\0" * 65536)
+        os.fsync(fd)
+    except OSError as exc:
+        return _os_reason(exc)
+    finally:
+        os.close(fd)
+    return None
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _remove(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        path.unlink()
+
+
+def _mode_for(path: Path) -> int:
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterator[Path]:
+    """Yield a temporary path beside `path` (`.NAME.tmp-XXXX.EXT`); when the body returns, sync it and
+    rename it onto `path`. Any failure removes the temporary file, leaves `path` untouched and raises
+    one line naming `path` and the OS error. `nonempty`: an empty result counts as a failure."""
+    p = Path(path)
+    make_folder(p.parent if str(p.parent) else Path("."), p)
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{p.name}.tmp-", suffix=p.suffix, dir=p.parent)
+    except OSError as exc:
+        raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        try:
+            yield tmp
+        except IncompleteWrite as exc:
+            detail = _probe_reason(tmp) or clean(str(exc)) or "the writer failed"
+            raise OutputError(f"{show_path(p)}: cannot write: {detail}") from None
+        except OSError as exc:
+            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+        try:
+            if nonempty and tmp.stat().st_size == 0:
+                reason = _probe_reason(tmp)
+                raise OutputError(f"{show_path(p)}: cannot write: {reason or 'the writer produced an empty file'}")
+            _fsync(tmp)
+            os.chmod(tmp, _mode_for(p))
+            os.replace(tmp, p)
+        except OSError as exc:
+            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write `data` to `path` atomically (see `atomic_output`); returns `path`."""
+    p = Path(path)
+    with atomic_output(p, nonempty=False) as tmp, open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+    return p
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:
+    return atomic_write_bytes(path, text.encode(encoding))

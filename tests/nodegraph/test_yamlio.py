@@ -1,0 +1,173 @@
+"""The located YAML loader refuses what it cannot read sanely, each time with one located line."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import pytest
+
+from nodegraph import yamlio
+from nodegraph.errors import PipelineError
+from tests.nodegraph.faultkit import assert_one_line_error, cli, cli_subprocess
+
+
+def _err(path: Path) -> str:
+    with pytest.raises(PipelineError) as info:
+        yamlio.load(path)
+    msg = str(info.value)
+    assert "\n" not in msg
+    return msg
+
+
+def test_valid_file_still_loads_with_marks(tmp_path: Path) -> None:
+    p = tmp_path / "ok.yaml"
+    p.write_text("a: &x [1, 2]\nb: *x\nc: {d: é}\n", encoding="utf-8")
+    data = yamlio.load(p)
+    assert data == {"a": [1, 2], "b": [1, 2], "c": {"d": "é"}}
+    assert data.key_marks["c"] == (3, 1)
+
+
+def test_not_utf8_names_line_column_and_byte(tmp_path: Path) -> None:
+    p = tmp_path / "latin1.yaml"
+    p.write_bytes("pipeline: x\nname: caf\xe9 secret\n".encode("latin-1"))
+    msg = _err(p)
+    assert msg.startswith(f"{p}:2:10: expected UTF-8 text, found byte 0xe9")
+    assert "secret" not in msg
+
+
+def test_nul_bytes_are_a_binary_file(tmp_path: Path) -> None:
+    p = tmp_path / "bin.yaml"
+    p.write_bytes(b"pipeline: x\nab\x00cd secret")
+    msg = _err(p)
+    assert msg.startswith(f"{p}:2:3: expected YAML text, found a NUL byte")
+    assert "secret" not in msg
+
+
+def test_control_character_is_one_located_line(tmp_path: Path) -> None:
+    p = tmp_path / "ctl.yaml"
+    p.write_bytes(b"a: 1\nb: x\x07y\n")
+    msg = _err(p)
+    assert msg.startswith(f"{p}:2:5: invalid YAML: unacceptable character #x0007")
+
+
+@pytest.mark.parametrize("style", ["flow", "block"])
+def test_deep_nesting_is_refused_before_recursion(tmp_path: Path, style: str) -> None:
+    n = 20_000
+    p = tmp_path / "deep.yaml"
+    if style == "flow":
+        p.write_text("a: " + "[" * n + "]" * n + "\n")
+    else:
+        p.write_text("".join("  " * i + f"k{i}:\n" for i in range(200)) + "  " * 200 + "v: 1\n")
+    msg = _err(p)
+    assert f"nested more than {yamlio.MAX_DEPTH} levels deep" in msg and msg.startswith(f"{p}:")
+
+
+def test_nesting_at_the_limit_loads(tmp_path: Path) -> None:
+    n = yamlio.MAX_DEPTH - 1  # the top mapping is one level
+    p = tmp_path / "ok.yaml"
+    p.write_text("a: " + "[" * n + "]" * n + "\n")
+    assert yamlio.load(p)["a"] is not None
+
+
+def test_nesting_through_aliases_counts(tmp_path: Path) -> None:
+    inner = "[" * 40 + "]" * 40
+    p = tmp_path / "alias_deep.yaml"
+    p.write_text(f"a: &x {inner}\nb: " + "[" * 30 + "*x" + "]" * 30 + "\n")
+    assert "once aliases are expanded" in _err(p)
+
+
+def _bomb(levels: int, width: int = 10) -> str:
+    lines = ["a0: &a0 [" + ", ".join(["lol"] * width) + "]"]
+    for i in range(1, levels):
+        lines.append(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]")
+    return "\n".join(lines) + "\n"
+
+
+def test_alias_bomb_is_refused_quickly(tmp_path: Path) -> None:
+    p = tmp_path / "bomb.yaml"
+    p.write_text(_bomb(12))  # 10^12 values once expanded
+    t0 = time.perf_counter()
+    msg = _err(p)
+    assert time.perf_counter() - t0 < 2.0
+    assert f"aliases expand to more than {yamlio.MAX_VALUES} values" in msg
+    assert msg.startswith(f"{p}:")
+
+
+def test_alias_bomb_through_the_cli_does_not_hang(tmp_path: Path) -> None:
+    p = tmp_path / "bomb.yaml"
+    p.write_text("pipeline: x\n" + _bomb(9) + "nodes: {n: {type: rasterize, params: {x: *a8}}}\noutputs: {}\n")
+    out = cli_subprocess("run", p, "-o", tmp_path / "o.png", timeout=60)
+    assert_one_line_error(out, "aliases expand")
+
+
+def test_small_aliases_are_fine(tmp_path: Path) -> None:
+    p = tmp_path / "a.yaml"
+    p.write_text(_bomb(3))  # 1000 values
+    assert len(yamlio.load(p)["a2"]) == 10
+
+
+def test_recursive_alias_is_one_line(tmp_path: Path) -> None:
+    p = tmp_path / "rec.yaml"
+    p.write_text("a: &x [1, *x]\n")
+    msg = _err(p)
+    assert msg.startswith(f"{p}:1:") and "recursive" in msg
+
+
+def test_huge_file_is_refused_before_reading(tmp_path: Path) -> None:
+    p = tmp_path / "huge.yaml"
+    with p.open("wb") as fh:  # sparse: no disk used
+        fh.truncate(yamlio.MAX_BYTES + 1)
+    msg = _err(p)
+    assert "too large: expected at most 16.0 MiB" in msg
+
+
+def test_fifo_is_not_opened(tmp_path: Path) -> None:
+    p = tmp_path / "pipe.yaml"
+    os.mkfifo(p)
+    t0 = time.perf_counter()
+    assert "expected a regular YAML file, found a FIFO" in _err(p)
+    assert time.perf_counter() - t0 < 1.0
+
+
+def test_symlink_to_dev_zero_is_not_read(tmp_path: Path) -> None:
+    p = tmp_path / "zero.yaml"
+    p.symlink_to("/dev/zero")
+    assert "found a character device" in _err(p)
+
+
+def test_directory(tmp_path: Path) -> None:
+    p = tmp_path / "dir.yaml"
+    p.mkdir()
+    assert "found a folder" in _err(p)
+
+
+def test_over_long_path(tmp_path: Path) -> None:
+    p = tmp_path / ("x" * 5000 + ".yaml")
+    msg = _err(p)
+    assert "File name too long" in msg and len(msg) < 400
+
+
+def test_missing_file_keeps_its_message(tmp_path: Path) -> None:
+    assert "file not found" in _err(tmp_path / "nope.yaml")
+
+
+@pytest.mark.parametrize("make", ["fifo", "zero", "dir", "long", "latin", "nul", "deep"])
+def test_cli_one_line_for_each(tmp_path: Path, make: str) -> None:
+    p = tmp_path / "p.yaml"
+    if make == "fifo":
+        os.mkfifo(p)
+    elif make == "zero":
+        p.symlink_to("/dev/zero")
+    elif make == "dir":
+        p.mkdir()
+    elif make == "long":
+        p = tmp_path / ("y" * 4000 + ".yaml")
+    elif make == "latin":
+        p.write_bytes(b"pipeline: \xff\n")
+    elif make == "nul":
+        p.write_bytes(b"\x00\x01\x02")
+    else:
+        p.write_text("a: " + "{b: " * 5000 + "1" + "}" * 5000)
+    assert_one_line_error(cli("run", p, "-o", tmp_path / "o.png"))
