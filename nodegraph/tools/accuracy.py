@@ -28,6 +28,7 @@ from typing import Any
 import click
 import numpy as np
 
+from ..fsio import atomic_write_text
 from .measure import (
     NodeRunner,
     gbuffer,
@@ -302,7 +303,7 @@ def command(json_path: Path | None, charts_dir: Path | None, quick: bool, famili
     print_summary(result)
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(jsonable(result), indent=1) + "\n")
+        atomic_write_text(json_path, json.dumps(jsonable(result), indent=1) + "\n")
         click.echo(f"wrote {json_path}")
     if charts_dir:
         from .accuracy_charts import draw_all

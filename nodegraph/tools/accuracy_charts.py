@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from ..fsio import atomic_output
+
 MODE_COLORS = {"normal_depth": "#1b6ca8", "normal": "#d1495b", "depth": "#edae49"}
 OP_MARKERS = {"four_neighbour": "o", "sobel": "s"}
 PARETO_STYLE = dict(color="#222222", lw=1.0, ls="--", zorder=1)
@@ -66,7 +68,8 @@ def _save(fig: Any, out: Path, name: str) -> list[Path]:
     for ext in ("png", "svg"):
         p = out / f"{name}.{ext}"
         meta = {"Date": None} if ext == "svg" else {"Software": None}
-        fig.savefig(p, dpi=110, bbox_inches="tight", metadata=meta)
+        with atomic_output(p) as tmp:
+            fig.savefig(tmp, dpi=110, bbox_inches="tight", metadata=meta, format=ext)
         paths.append(p)
     import matplotlib.pyplot as plt
 

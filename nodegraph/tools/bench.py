@@ -19,6 +19,7 @@ from typing import Any
 import click
 
 from ..errors import SketchgraphError
+from ..fsio import atomic_write_text
 
 # named benchmarks: name -> "module:click_command"
 NAMED: dict[str, str] = {
@@ -55,7 +56,7 @@ def _pipeline_command(path: str) -> click.Command:
         print_result(result)
         if json_path:
             json_path.parent.mkdir(parents=True, exist_ok=True)
-            json_path.write_text(json.dumps(result, indent=2) + "\n")
+            atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
             click.echo(f"wrote {json_path}")
 
     return cmd

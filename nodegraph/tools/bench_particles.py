@@ -35,6 +35,8 @@ from typing import Any
 import click
 import numpy as np
 
+from ..fsio import atomic_write_text
+
 CHAIN = """\
 pipeline: bench-particles
 size: [{w}, {h}]
@@ -164,7 +166,7 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         out.mkdir(parents=True, exist_ok=True)
         write(out / "particles.png", res.values[("particles", "image")].read()[..., :3], None, half=False)
         s = Strokes(list(sim.strokes), size, params.line_width, node.params.color)
-        (out / "particles.svg").write_text(to_svg(s))
+        atomic_write_text(out / "particles.svg", to_svg(s))
     return result
 
 
@@ -194,5 +196,5 @@ def command(scene: str, strokes: int, size: str, seed: int, repeat: int, overrid
     print_result(result)
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(result, indent=2) + "\n")
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
         click.echo(f"wrote {json_path}")

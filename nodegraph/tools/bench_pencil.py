@@ -20,6 +20,8 @@ from typing import Any
 
 import click
 
+from ..fsio import atomic_write_text
+
 HATCHING = """\
 pipeline: bench-hatching
 size: [64, 64]
@@ -88,7 +90,7 @@ def _emit(result: dict[str, Any], json_path: Path | None) -> None:
     print_result(result)
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(result, indent=2) + "\n")
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
         click.echo(f"wrote {json_path}")
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..fsio import atomic_write_text
 from ..node import HashContext, Node, digest
 from ..pipeline import Pipeline
 from ..plan import plan
@@ -273,7 +274,7 @@ def _write(report: DiffReport, out: Path, cell: int) -> None:
                   viz.Cell(img_d, ["|A-B|", f"max {p.max_abs:.3g} mean {p.mean_abs:.3g}"])]
     if cells:
         viz.write_png(out / "diff_sheet.png", viz.contact_sheet(cells, cell=cell, columns=3, title="A | B | |A-B|"))
-    (out / "diff.json").write_text(json.dumps(report.as_dict(), indent=1, sort_keys=True) + "\n")
+    atomic_write_text(out / "diff.json", json.dumps(report.as_dict(), indent=1, sort_keys=True) + "\n")
 
 
 def format_report(report: DiffReport) -> str:

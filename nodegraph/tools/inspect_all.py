@@ -17,6 +17,7 @@ import networkx as nx
 import numpy as np
 
 from ..executor import Executor, RunResult, describe
+from ..fsio import atomic_output, atomic_write_text
 from ..pipeline import Pipeline, PortRef
 from ..plan import plan
 from . import viz
@@ -148,11 +149,12 @@ def write_exact(value: Any, base: Path, attrs: dict[str, str]) -> Path | None:
                              half=False)
     if isinstance(value, Strokes):
         p = base.with_name(base.name + ".svg")
-        p.write_text(to_svg(value))
+        atomic_write_text(p, to_svg(value))
         return p
     if isinstance(value, Arrays):
         p = base.with_name(base.name + ".npz")
-        np.savez(p, **value.data)
+        with atomic_output(p) as tmp:
+            np.savez(tmp, **value.data)
         return p
     return None
 
@@ -183,8 +185,8 @@ def write_inspection(insp: Inspection, out: Path, exact: bool = True, cell: int 
                 exacts[(p.node, p.port)] = written.name
     viz.write_png(out / "contact_sheet.png", sheet(insp, cell))
     summary = summarize(insp, images, exacts)
-    (out / "stats.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
-    (out / "index.html").write_text(html_page(insp, images, exacts, "contact_sheet.png"))
+    atomic_write_text(out / "stats.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
+    atomic_write_text(out / "index.html", html_page(insp, images, exacts, "contact_sheet.png"))
     return summary
 
 

@@ -31,6 +31,7 @@ import click
 import numpy as np
 
 from ..errors import SketchgraphError
+from ..fsio import atomic_write_text
 
 # shipped pipelines, by name (nodegraph.shipped): found in a checkout and in an installed package alike
 SCREEN_PIPELINE = "nienhaus_sketchy"
@@ -206,5 +207,5 @@ def command(scene: str, frames: int, size: str, degrees_per_frame: float | None,
                f"object {rs['object_space']:.4f}, ratio {rs['ratio']:.4f}")
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(json.dumps(result, indent=2) + "\n")
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
         click.echo(f"wrote {json_path}")

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..fsio import atomic_write_text
 from .measure import NodeRunner, gbuffer, log, node_class, node_module, particle_depth, release, scene_for
 
 
@@ -370,7 +371,7 @@ def sweep_umbilic(quick: bool) -> dict[str, Any]:
 # -- broken meshes ---------------------------------------------------------------------------------
 def _write(tmp: Path, name: str, text: str) -> Path:
     p = tmp / name
-    p.write_text(text)
+    atomic_write_text(p, text)
     return p
 
 

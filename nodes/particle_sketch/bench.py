@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nodegraph.fsio import atomic_output, atomic_write_text
 from nodegraph.strokes import to_svg
 from nodegraph.values import Strokes
 
@@ -75,15 +76,16 @@ def run(size: int = 800, seed: int = 1, repeat: int = 5, python_repeat: int = 3,
               "speedup_vs_python": round(t_py / t_vec, 1), "rows": rows}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        (out / "particle_sketch.svg").write_text(to_svg(Strokes(res.strokes, (size, size), params.line_width,
-                                                                   (0.0, 0.0, 0.0))))
+        atomic_write_text(out / "particle_sketch.svg", to_svg(Strokes(res.strokes, (size, size), params.line_width,
+                                                                        (0.0, 0.0, 0.0))))
         try:
             import matplotlib.pyplot as plt
 
-            plt.imsave(out / "particle_sketch.png", 1.0 - res.sketch[::-1], cmap="gray", vmin=0, vmax=1)
+            with atomic_output(out / "particle_sketch.png") as tmp:
+                plt.imsave(tmp, 1.0 - res.sketch[::-1], cmap="gray", vmin=0, vmax=1, format="png")
         except ImportError:
             pass
-        (out / "particle_sketch_bench.json").write_text(json.dumps(report, indent=1))
+        atomic_write_text(out / "particle_sketch_bench.json", json.dumps(report, indent=1))
     return report
 
 

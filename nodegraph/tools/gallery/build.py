@@ -18,6 +18,7 @@ import numpy as np
 
 from ...errors import SketchgraphError
 from ...executor import Executor
+from ...fsio import atomic_write_text
 from ...node import digest
 from ...pipeline import Pipeline
 from .. import viz
@@ -314,7 +315,7 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
         "tolerance": gallery.tolerance,
         "entries": {k: records[k] for k in sorted(records)},
     }
-    gallery.manifest_path.write_text(manifest_text(manifest))
+    atomic_write_text(gallery.manifest_path, manifest_text(manifest))
     total = time.perf_counter() - t0
     kind = "cold" if cold else "warm"
     report = BuildReport(results, total, manifest, kind, failed)
@@ -341,7 +342,7 @@ def _write_timings(gallery: Gallery, results: list[EntryResult]) -> None:
             timings[r.name] = {"ms": round(r.ms, 1), "nodes_ms": r.node_ms, "nodes": r.node_status}
     known = {e.name for e in gallery.entries}
     timings = {k: v for k, v in sorted(timings.items()) if k in known}
-    path.write_text(json.dumps(timings, indent=1, sort_keys=True) + "\n")
+    atomic_write_text(path, json.dumps(timings, indent=1, sort_keys=True) + "\n")
 
 
 def _history(gallery: Gallery, report: BuildReport, partial: bool) -> float | None:
@@ -356,7 +357,7 @@ def _history(gallery: Gallery, report: BuildReport, partial: bool) -> float | No
                     "total_s": round(report.total_s, 3),
                     "entries": {r.name: {"status": r.status, "s": round(r.ms / 1000, 3)} for r in report.results}})
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(history[-50:], indent=1) + "\n")
+    atomic_write_text(path, json.dumps(history[-50:], indent=1) + "\n")
     return colds[-1] if colds else None
 
 

@@ -8,6 +8,7 @@ from typing import Any
 
 import yaml
 
+from ...fsio import atomic_write_text
 from .model import EntryResult, Gallery
 
 
@@ -82,5 +83,5 @@ def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryR
            "figure img { max-height: none; }</style>")
     text = page("sketchgraph gallery", body).replace("</head>", css + "\n</head>")
     path = gallery.root / "index.html"
-    path.write_text(text)
+    atomic_write_text(path, text)
     return path
