@@ -63,12 +63,15 @@ class Session:
         return glmod.get()
 
     def load(self, pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
-             set: Mapping[str, Any] | Iterable[str] | None = None) -> Pipe:  # noqa: A002 - the CLI's --set
+             set: Mapping[str, Any] | Iterable[str] | None = None,  # noqa: A002 - the CLI's --set
+             out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipe:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH')
-        and `set` ({"node.param": value} or ["node.param=value"])."""
+        and `set` ({"node.param": value} or ["node.param=value"]). Files the pipeline's nodes write (`write`,
+        `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
+        unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir)."""
         return Pipe(self, str(pipeline), scene=None if scene is None else str(scene), size=size,
-                    overrides=_overrides(set))
+                    overrides=_overrides(set), out_dir=out_dir, allow_outside=allow_outside)
 
     def executor(self, pipe: Any, requested: list[tuple[str, str]], mode: str, frame: int, like: Any = None) -> Any:
         """A new executor for `requested` that adopts the last one's in-memory values (same GL context)."""
@@ -111,23 +114,28 @@ def default_session() -> Session:
 
 
 def load(pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
-         set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None) -> Pipe:  # noqa: A002
+         set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None,  # noqa: A002
+         out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipe:
     """Load and validate a pipeline (a path, or the name of a shipped one) in the default session."""
-    return (session or default_session()).load(pipeline, scene=scene, size=size, set=set)
+    return (session or default_session()).load(pipeline, scene=scene, size=size, set=set, out_dir=out_dir,
+                                               allow_outside=allow_outside)
 
 
 class Pipe:
     """A loaded, validated pipeline in a session. Everything is checked when it is made, before any GL."""
 
     def __init__(self, session: Session, source: str, *, scene: str | None, size: tuple[int, int] | str | None,
-                 overrides: list[str]) -> None:
+                 overrides: list[str], out_dir: str | Path | None = None, allow_outside: bool = False) -> None:
         self.session = session
+        self.out_dir = Path.cwd() if out_dir is None else Path(out_dir)  # fixed at load: set() keeps it
+        self.allow_outside = allow_outside
         self.source = source
         self.scene_arg = scene
         self.size_arg = size
         self.overrides = list(overrides)
         size_text = size if isinstance(size, str) or size is None else f"{int(size[0])}x{int(size[1])}"
-        self.pipeline = render.open_pipeline(source, tuple(self.overrides), size_text, scene)
+        self.pipeline = render.open_pipeline(source, tuple(self.overrides), size_text, scene, out_dir=self.out_dir,
+                                             allow_outside=allow_outside)
         self.last_run: Any = None  # the last RunResult: .computed() names the nodes that ran
 
     # -- what it is ------------------------------------------------------------------------------
@@ -159,7 +167,7 @@ class Pipe:
         the change reaches is computed again. `pipe.set(edges__width=3)` is the keyword spelling."""
         more = _overrides(values) + _overrides({k.replace("__", "."): v for k, v in kw.items()})
         return Pipe(self.session, self.source, scene=self.scene_arg, size=self.size_arg,
-                    overrides=self.overrides + more)
+                    overrides=self.overrides + more, out_dir=self.out_dir, allow_outside=self.allow_outside)
 
     # -- running ---------------------------------------------------------------------------------
     def _ref(self, output: str | None) -> tuple[str, str]:

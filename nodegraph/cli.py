@@ -50,6 +50,14 @@ def pipeline_options(f: Any) -> Any:
     return f
 
 
+def out_dir_options(f: Any) -> Any:
+    f = click.option("--allow-outside-out-dir", "allow_outside", is_flag=True,
+                     help="Let the pipeline's write/strokes_svg paths leave --out-dir.")(f)
+    f = click.option("--out-dir", type=click.Path(path_type=Path), help="Folder the pipeline's own file paths "
+                     "(write, strokes_svg) resolve against and must stay in (default: the current directory).")(f)
+    return f
+
+
 def cache_options(f: Any) -> Any:
     f = click.option("--no-cache", is_flag=True, help="Neither read nor write the disk cache.")(f)
     f = click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder "
@@ -71,9 +79,10 @@ def cache_options(f: Any) -> Any:
 @click.option("--interval", default=0.5, show_default=True, metavar="SECONDS", help="How often --watch polls.")
 @pipeline_options
 @cache_options
+@out_dir_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
         watch: bool, interval: float, overrides: tuple[str, ...], size: str | None, scene: str | None,
-        no_cache: bool, cache_dir: Path | None) -> None:
+        no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
 
@@ -83,11 +92,12 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         from .tools import watch as watchmod
 
         watcher = watchmod.Watcher(pipeline, out, output_name, overrides, size, scene,
-                                   open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0])
+                                   open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0],
+                                   out_dir=out_dir, allow_outside=allow_outside)
         click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
         watchmod.watch(watcher, interval, echo=click.echo)
         return
-    pipe = open_pipeline(pipeline, overrides, size, scene)
+    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside)
     frame_list = parse_frames(frames)
     name = output_name or next(iter(pipe.outputs))
     if name not in pipe.outputs:
@@ -145,12 +155,14 @@ def _progress(items: list[int], disable: bool, unit: str) -> Any:
               "each, a contact sheet and an HTML page (default DIR: out/<pipeline>.inspect).")
 @pipeline_options
 @cache_options
+@out_dir_options
 def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, overrides: tuple[str, ...],
-            size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None) -> None:
+            size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None, out_dir: Path | None,
+            allow_outside: bool) -> None:
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
-    pipe = open_pipeline(pipeline, overrides, size, scene)
+    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside)
     if all_:
         if port is not None:
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")

@@ -76,6 +76,9 @@ class Node:
     # "auto": persisted for single renders, never inside a frame loop; "never": not worth a disk write.
     persist: ClassVar[str] = "auto"
     side_effect: ClassVar[bool] = False  # always computed when planned (writes files); never cached
+    # params that name files the node writes: resolved at load time against the output directory
+    # (pipeline.build), where they must stay unless the user allows otherwise
+    file_params: ClassVar[tuple[str, ...]] = ()
     doc: ClassVar[str] = ""
 
     class Params(NodeParams):
@@ -84,9 +87,20 @@ class Node:
     def __init__(self, node_id: str, params: NodeParams | None = None):
         self.id = node_id
         self.params = params if params is not None else self.Params()
+        self.paths: dict[str, Path] = {}  # file_params resolved by pipeline.build (absolute)
+
+    def output_path(self, name: str) -> Path:
+        """The file a `file_params` entry names: as resolved at load time, else the param itself (~ expanded)."""
+        return self.paths.get(name) or Path(str(getattr(self.params, name))).expanduser()
 
     def check_connections(self, connected: set[str]) -> str | None:
         """At load time: a message if these connected inputs (with these params) cannot work (override)."""
+        return None
+
+    def check_size(self, size: tuple[int, int], inputs: dict[str, tuple[int, int, int] | None]) -> str | None:
+        """At load time, once the image size is known (after --size): a message if the node cannot work at
+        `size` (override). `inputs` maps each connected input to its source's (width, height, layers) where
+        the source declares it (overrides `output_shape`), else None (it follows the image or an input)."""
         return None
 
     def passthrough(self, connected: set[str]) -> dict[str, str]:

@@ -118,14 +118,16 @@ class Pipeline:
 
 
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
-         scene: str | None = None, registry: Registry | None = None, load_scene: bool = True) -> Pipeline:
+         scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
+         out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipeline:
     """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
-    PipelineError (one line, file:line:col)."""
+    PipelineError (one line, file:line:col). Files that nodes write (`Node.file_params`) resolve against
+    `out_dir` (default: the current directory) and must stay inside it unless `allow_outside`."""
     found = resolve(path)
     file = str(path) if found == Path(path) else str(found)  # messages name the file as the user wrote it
     data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
-                 load_scene=load_scene, base_dir=found.parent)
+                 load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -134,7 +136,7 @@ def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
 
 def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
           scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
-          base_dir: Path | None = None) -> Pipeline:
+          base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipeline:
     reg = registry or default()
     if not isinstance(data, dict):
         raise PipelineError(f"expected a mapping with keys pipeline, nodes, outputs; found {type(data).__name__}",
@@ -172,6 +174,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
             raise PipelineError(err.message, where) from None
         raw_params[nid] = merged
         nodes[nid] = cls(nid, params)
+    _resolve_files(nodes, spec, loc, overrides, out_dir, allow_outside)
 
     connections: dict[str, dict[str, PortRef]] = {nid: {} for nid in nodes}
     for nid, nspec in spec.nodes.items():
@@ -207,6 +210,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
                     scene_spec=scene or spec.scene, nodes=nodes, connections=connections, outputs=outputs,
                     spec=spec, raw_params=raw_params)
     _check_cycles(pipe, loc)
+    _check_sizes(pipe, loc)
     if load_scene:
         from .scene import load_scene as _load_scene
 
@@ -227,6 +231,49 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
                 raise PipelineError(f"scene '{show_path(pipe.scene_spec, 80)}': {exc}", where) from None
             raise
     return pipe
+
+
+def _resolve_files(nodes: dict[str, Node], spec: PipelineSpec, loc: _Locator, overrides: Any,
+                   out_dir: str | Path | None, allow_outside: bool) -> None:
+    """Resolve every file a node writes against the output directory (~ expanded, symlinks followed) into
+    `node.paths`; one that leaves it is a PipelineError unless `allow_outside`. Params (and keys) keep the
+    text as written."""
+    root = Path(out_dir if out_dir is not None else Path.cwd()).expanduser().resolve()
+    for nid, node in nodes.items():
+        for name in node.file_params:
+            text = str(getattr(node.params, name))
+            target = (root / Path(text).expanduser()).resolve()
+            node.paths[name] = target
+            if allow_outside or target == root or target.is_relative_to(root):
+                continue
+            overridden = [o for o in overrides if o.partition("=")[0].strip() == f"{nid}.{name}"]
+            if overridden:
+                where = Location(f"--set {overridden[-1]}")
+            elif name in spec.nodes[nid].params:
+                where = loc.at(["nodes", nid, "params", name])
+            else:
+                where = loc.at(["nodes", nid], key=True)
+            raise PipelineError(f"node '{nid}' ({node.type_name}) {name} '{text}' resolves to {target}, outside the "
+                                f"output directory {root}; give a path inside it, choose another with --out-dir, "
+                                "or pass --allow-outside-out-dir (API: allow_outside=True)", where)
+
+
+def declared_shape(node: Node, port: str, size: tuple[int, int]) -> tuple[int, int, int] | None:
+    """(width, height, layers) of an output where the node's class declares it (overrides `output_shape`);
+    None where the output follows the image size or an input, which load time cannot know."""
+    if type(node).output_shape is Node.output_shape:
+        return None
+    w, h, layers = node.output_shape(port, size)
+    return (int(w), int(h), int(layers))
+
+
+def _check_sizes(pipe: Pipeline, loc: _Locator) -> None:
+    for nid, node in pipe.nodes.items():
+        shapes = {port: declared_shape(pipe.nodes[src], sport, pipe.size)
+                  for port, (src, sport) in pipe.connections[nid].items()}
+        problem = node.check_size(pipe.size, shapes)
+        if problem:
+            raise PipelineError(f"node '{nid}' ({node.type_name}): {problem}", loc.at(["nodes", nid], key=True))
 
 
 def _params(cls: type[Node], params: dict[str, Any], root: Any, file: str, prefix: list[Any], nid: str) -> Any:

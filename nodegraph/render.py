@@ -15,11 +15,12 @@ if TYPE_CHECKING:
 
 
 def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
-                  load_scene: bool = True) -> Pipeline:
+                  load_scene: bool = True, out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipeline:
+    """Load a pipeline; files its nodes write resolve against `out_dir` (default: the current directory)."""
     from . import pipeline as pl
 
     return pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
-                   load_scene=load_scene)
+                   load_scene=load_scene, out_dir=out_dir, allow_outside=allow_outside)
 
 
 def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:

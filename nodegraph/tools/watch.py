@@ -90,7 +90,8 @@ class Watcher:
 
     def __init__(self, pipeline: str | Path, out: str | Path | None = None, output_name: str | None = None,
                  overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
-                 cache: Any = None, frame: int = 0, load: Callable[..., Pipeline] | None = None):
+                 cache: Any = None, frame: int = 0, load: Callable[..., Pipeline] | None = None,
+                 out_dir: str | Path | None = None, allow_outside: bool = False):
         self.pipeline_path = _watched_file(pipeline)
         self.out = Path(out) if out else Path("out") / f"{self.pipeline_path.stem}.png"
         self.output_name = output_name
@@ -100,6 +101,8 @@ class Watcher:
         self.cache = cache
         self.frame = frame
         self._load = load
+        self.out_dir = out_dir
+        self.allow_outside = allow_outside
         self.executor: Executor | None = None
         self._stamps: dict[Path, tuple[int, int] | None] = {}
         self._files: list[Path] = [self.pipeline_path]
@@ -118,7 +121,8 @@ class Watcher:
             return self._load(self.pipeline_path)
         from ..render import open_pipeline
 
-        return open_pipeline(str(self.pipeline_path), self.overrides, self.size, self.scene)
+        return open_pipeline(str(self.pipeline_path), self.overrides, self.size, self.scene, out_dir=self.out_dir,
+                             allow_outside=self.allow_outside)
 
     def step(self, force: bool = False) -> WatchEvent | None:
         """Re-run if any watched file changed since the last step (or on the first step); else None."""

@@ -10,7 +10,7 @@ from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
-Color = tuple[float, float, float]
+from .._shared.params import Color
 
 
 class Composite(Node):
@@ -40,6 +40,15 @@ class Composite(Node):
     def check_connections(cls, connected: set[str]) -> str | None:
         if not connected & {"top", "mask"}:
             return "connect `top` (an RGBA layer), `mask` (an alpha such as particle_sketch.ink), or both"
+        return None
+
+    def check_size(self, size: tuple[int, int], inputs: dict[str, tuple[int, int, int] | None]) -> str | None:
+        base = inputs.get("base")  # sizes that follow the image or an input are checked in compute
+        for name in ("top", "mask"):
+            shape = inputs.get(name)
+            if base is not None and shape is not None and shape[:2] != base[:2]:
+                return (f"input '{name}' is {shape[0]}x{shape[1]}, 'base' is {base[0]}x{base[1]}; composite needs "
+                        "equal sizes")
         return None
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:

@@ -68,6 +68,12 @@ class DepthEdges(Node):
                 raise ValueError(f"range: expected [near, far] with far > near, got {list(self.range)}")
             return self
 
+    def check_size(self, size: tuple[int, int], inputs: dict[str, tuple[int, int, int] | None]) -> str | None:
+        w, h = (inputs.get("depth") or size)[:2]
+        if w < 2 or h < 2:
+            return f"needs a depth image of at least 2x2 pixels (the tent and gradient read neighbours), got {w}x{h}"
+        return None
+
     def depth_range(self, ctx: RunContext) -> tuple[float, float]:
         """The linear depths mapped to 0 and 1."""
         if self.params.range is not None:

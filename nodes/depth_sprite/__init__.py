@@ -9,6 +9,8 @@ from pydantic import Field
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
+from .._shared.params import Color
+
 
 class DepthSprite(Node):
     """Draws the sketch as a depth sprite over `under_color`/`under_depth` (ordinary, non-sketchy
@@ -47,7 +49,7 @@ class DepthSprite(Node):
     }
 
     class Params(NodeParams):
-        paper: tuple[float, float, float] = Field((0.98, 0.97, 0.94), description="Colour where nothing is drawn.")
+        paper: Color = Field((0.98, 0.97, 0.94), description="Colour where nothing is drawn.")
 
     def check_connections(self, connected: set[str]) -> str | None:
         if ("under_color" in connected) != ("under_depth" in connected):

@@ -8,9 +8,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from nodegraph import origin
 from nodegraph.errors import NodeError
 from nodegraph.gl import MeshArrays, bind
-from nodegraph.node import Input, Node, NodeParams, Output, RunContext
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
 from .._shared.curvature import DirectionSource, object_field
@@ -98,6 +99,9 @@ class PencilShade(Node):
     def layer_shifts(self) -> np.ndarray:
         return reference.LAYER_SHIFTS[: self.params.layers].astype(np.float32)
 
+    def hash_extra(self, ctx: HashContext) -> Any:
+        return origin.hash_extra(ctx.scene, ctx.frame)
+
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
@@ -122,7 +126,9 @@ class PencilShade(Node):
         fbo.use()
         gl.ctx.viewport = (0, 0, w, h)
         cam = scene.camera_at(ctx.frame)
+        origin.warn_once(scene, cam)
         view = cam.view_matrix()
+        world = origin.world_origin(scene, cam)
         proj = cam.projection_matrix(w / h)
         textures: dict[str, Any] = {"t_tam": tam}
         if paper is not None:
@@ -131,7 +137,7 @@ class PencilShade(Node):
         light = view_light(scene, cam)
         max_tone = p.max_darkness * (tam.layers - 1)
         bind(prog, textures, {
-            "u_view": view, "u_proj": proj, "u_viewport": (float(w), float(h)),
+            "u_proj": proj, "u_viewport": (float(w), float(h)),
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
@@ -145,9 +151,10 @@ class PencilShade(Node):
         try:
             with gl.depth_test() as state:
                 for index, obj in enumerate(scene.objects):
-                    vao = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
-                    if vao is None:
+                    geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
+                    if geometry is None:
                         continue
+                    vao, local = geometry
                     # closed meshes hide their back faces: culling them halves the shaded fragments
                     face = None
                     if obj.mesh.topology().closed:
@@ -159,7 +166,8 @@ class PencilShade(Node):
                     if p.anchor == "object":
                         anchor = reference.project_to_pixels(0.5 * np.add(*obj.world_bounds()), view, proj, (w, h))
                     normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
-                    bind(prog, {}, {"u_model": model, "u_normal_view": normal_view,
+                    u_view, u_model = origin.relative_matrices(view, model, world, local)
+                    bind(prog, {}, {"u_view": u_view, "u_model": u_model, "u_normal_view": normal_view,
                                     "u_anchor": tuple(float(a) for a in anchor)})
                     vao.render(gl.ctx.TRIANGLES)
         finally:
@@ -194,9 +202,10 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float, node: Node) -> Any:
-    """The program's vertex array over position, split normal, curvature direction and trust, per (mesh,
-    crease angle, curvature)."""
+def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float,
+              node: Node) -> tuple[Any, np.ndarray] | None:
+    """The program's vertex array over position (relative to the mesh's origin, nodegraph/origin.py), split
+    normal, curvature direction and trust, per (mesh, crease angle, curvature), and that origin."""
     if mesh.n_faces == 0:
         return None
     name = object_field(index, "dmin")
@@ -212,11 +221,14 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
         src = ra.source_vertex
+        local = origin.mesh_origin(mesh)
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
-        return MeshArrays({"in_pos": (ra.positions, "3f"), "in_normal": (ra.normals, "3f"),
-                           "in_dir": (dmin[src], "3f"), "in_trust": (trust, "1f")}, ra.indices)
+        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"), "in_normal": (ra.normals, "3f"),
+                           "in_dir": (dmin[src], "3f"), "in_trust": (trust, "1f")}, ra.indices,
+                          meta={"origin": local})
 
-    return gl.mesh_buffers(("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey), build).vao(prog)
+    entry = gl.mesh_buffers(("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey), build)
+    return entry.vao(prog), entry.meta["origin"]
 
 
 NODE = PencilShade

@@ -8,9 +8,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from nodegraph import origin
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
-from nodegraph.node import Input, Node, NodeParams, Output, RunContext
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
 
 # output port -> (clear value, shader define)
@@ -38,7 +39,11 @@ class Rasterize(Node):
     connected component (faces joined across manifold edges) is moved along its own angle-weighted
     normals, all by the same distance. A mesh file that needed either gets one `MeshWarning` per
     process naming the mesh and what was done (built-in scenes, assembled from parts on purpose, do not
-    warn)."""
+    warn).
+
+    Geometry is drawn relative to the camera's eye and each mesh's box centre where the scene lies far
+    from the origin (`nodegraph/origin.py`), so a scene at 1e8 renders like the same scene at 0; a scene
+    that cannot be represented even so gets one `PrecisionWarning`."""
 
     version = "3"
     shaders = ("rasterize.glsl",)
@@ -52,7 +57,9 @@ class Rasterize(Node):
                                "(0 = background): one fetch per neighbour for edge detection."),
         "depth": Output(Texture("R32F"), "Window-space depth in [0, 1]; 1 = background (far plane)."),
         "linear_depth": Output(Texture("R32F"), "Distance along the view axis in scene units; 0 = background."),
-        "position": Output(Texture("RGBA32F"), "Object-space position g(s,t) (paper §4.3), alpha = coverage."),
+        "position": Output(Texture("RGBA32F"), "Object-space position g(s,t) (paper §4.3), alpha = coverage; for "
+                           "a mesh whose box centre lies over 64 box radii from its origin, relative to that "
+                           "centre (nodegraph/origin.py)."),
         "object_id": Output(Texture("R32F"), "Index of the object + 1; 0 = background."),
     }
 
@@ -77,6 +84,9 @@ class Rasterize(Node):
             "draw both sides otherwise (teapot.obj: culling would change 0.5% of its pixels); draw: always both "
             "sides; cull: never draw back faces.")
 
+    def hash_extra(self, ctx: HashContext) -> Any:
+        return origin.hash_extra(ctx.scene, ctx.frame)
+
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
@@ -96,7 +106,9 @@ class Rasterize(Node):
         gl.ctx.viewport = (0, 0, w, h)
         cam = scene.camera_at(ctx.frame)
         _warn_depth_range_once(cam, "depth" in ports)
+        origin.warn_once(scene, cam)
         view = cam.view_matrix()
+        world = origin.world_origin(scene, cam)
         proj = cam.projection_matrix(w / h)
         light = np.asarray(scene.light_direction, dtype=np.float64)
         if scene.light_space == "world":
@@ -112,14 +124,15 @@ class Rasterize(Node):
                     continue
                 if self.params.enlarge > 0:
                     _warn_enlarge_once(obj.mesh)
-                vao, diag = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
+                vao, diag, local = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
                 model = np.asarray(obj.transform, dtype=np.float64)
                 mv = view @ model
                 normal_view = np.linalg.inv(mv[:3, :3]).T
+                u_view, u_model = origin.relative_matrices(view, model, world, local)
                 if self.params.enlarge_unit == "scene":  # a world distance, in this object's units
                     diag = scene_diag / max(abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0), 1e-12)
                 bind(prog, {}, {
-                    "u_model": model, "u_view": view, "u_proj": proj, "u_normal_view": normal_view,
+                    "u_model": u_model, "u_view": u_view, "u_proj": proj, "u_normal_view": normal_view,
                     "u_enlarge": float(self.params.enlarge * diag), "u_color": tuple(float(c) for c in obj.color),
                     "u_light": tuple(float(c) for c in light), "u_object_id": float(index + 1),
                     "u_ambient": float(self.params.ambient)})
@@ -145,19 +158,20 @@ def _cull_face(obj: Any, backfaces: str) -> str | None:
     return "front" if bool(getattr(obj, "mirrored", False)) else "back"
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float]:
-    """The program's vertex array over the mesh's buffers (per mesh content and crease angle), and the
-    mesh's bounding-box diagonal."""
+def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, np.ndarray]:
+    """The program's vertex array over the mesh's buffers (per mesh content and crease angle), the
+    mesh's bounding-box diagonal and the object-space origin its positions are relative to."""
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
         bmin, bmax = mesh.bounds()
-        return MeshArrays({"in_pos": (ra.positions, "3f"), "in_normal": (ra.normals, "3f"),
+        local = origin.mesh_origin(mesh)
+        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"), "in_normal": (ra.normals, "3f"),
                            "in_smooth": (enlarge_normals(mesh, crease_angle), "3f")}, ra.indices,
-                          meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin)))})
+                          meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin))), "origin": local})
 
     entry = gl.mesh_buffers(("rasterize.mesh", mesh.content_hash(), float(crease_angle)), build)
-    return entry.vao(prog), entry.meta["diag"]
+    return entry.vao(prog), entry.meta["diag"], entry.meta["origin"]
 
 
 def enlarge_normals(mesh: Any, crease_angle: float = 40.0) -> np.ndarray:

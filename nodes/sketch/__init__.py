@@ -11,8 +11,8 @@ from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
-Matrix = tuple[tuple[float, float], tuple[float, float]]
-Color = tuple[float, float, float]
+from .._shared.params import Color
+from .._shared.params import Matrix2 as Matrix
 
 
 class EdgeLayer(BaseModel):

@@ -11,7 +11,9 @@ from nodegraph.types import FILE, STROKES
 
 
 class StrokesSvg(Node):
-    """Writes its strokes to `path` (relative to the current directory; `####` becomes the frame number) as
+    """Writes its strokes to `path` (relative to the output directory: `--out-dir`, default the current
+    directory, which it must not leave unless `--allow-outside-out-dir` is given; `~` is expanded, symlinks
+    are followed; `####` becomes the frame number) as
     an SVG document, one `<path>` per stroke in the strokes' colour and width, y flipped so it looks like
     the image: a drawing to edit in a vector program. Outputs the path written. Like `write`, it always
     runs when its output is requested, even when the strokes come from the cache."""
@@ -20,6 +22,7 @@ class StrokesSvg(Node):
     context_keys = frozenset({"size", "frame"})
     persist = "never"
     side_effect = True
+    file_params = ("path",)
     inputs = {"strokes": Input(STROKES, "Polylines in pixels, y up (particle_sketch.strokes).")}
     outputs = {"file": Output(FILE, "The path written.")}
 
@@ -36,7 +39,7 @@ class StrokesSvg(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         from nodegraph.render import frame_path, write_value
 
-        path = frame_path(self.params.path, ctx.frame, False)
+        path = frame_path(str(self.output_path("path")), ctx.frame, False)
         return {"file": write_value(inputs["strokes"], path)}
 
 

@@ -11,7 +11,9 @@ from nodegraph.types import FILE, Texture
 
 
 class Write(Node):
-    """Writes its input to `path` (relative to the current directory; `####` becomes the frame number)
+    """Writes its input to `path` (relative to the output directory: `--out-dir`, default the current
+    directory, which it must not leave unless `--allow-outside-out-dir` is given; `~` is expanded, symlinks
+    are followed; `####` becomes the frame number)
     and outputs the path written. EXR keeps the values (32-bit float); PNG/JPEG/TIFF are 8-bit,
     clipped to [0, 1], alpha dropped. A write always runs when its output is requested, even when the
     image itself comes from the cache."""
@@ -20,6 +22,7 @@ class Write(Node):
     context_keys = frozenset({"size", "frame"})
     persist = "never"
     side_effect = True
+    file_params = ("path",)
     inputs = {"image": Input(Texture(None), "Any texture.")}
     outputs = {"file": Output(FILE, "The path written.")}
 
@@ -29,7 +32,7 @@ class Write(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         from nodegraph.render import frame_path, write_value
 
-        return {"file": write_value(inputs["image"], frame_path(self.params.path, ctx.frame, False))}
+        return {"file": write_value(inputs["image"], frame_path(str(self.output_path("path")), ctx.frame, False))}
 
 
 NODE = Write

@@ -48,3 +48,49 @@ def test_errors(gl):
         Composite.Params(opacity=2.0)
     with pytest.raises(ValidationError):
         Composite.Params(mode="screen")
+
+
+_PIPE = """pipeline: t
+size: [64, 48]
+scene: builtin:sphere
+nodes:
+  g: {{type: rasterize}}
+  p: {{type: paper, params: {{size: 32}}}}
+  q: {{type: paper, params: {{size: {q}}}}}
+  c: {{type: composite, in: {{{ins}}}, params: {{{params}}}}}
+outputs: {{image: c.color}}
+"""
+
+
+@pytest.mark.parametrize(("params", "expected"), [
+    ("color: [.nan, 0, 0]", "field 'color.0': expected a finite number, found nan"),
+    ("color: [0, -.inf, 0]", "field 'color.1': expected a finite number, found -inf"),
+    ("color: [0, 0, 1.5]", "field 'color.2': expected less than or equal to 1, found 1.5"),
+    ("opacity: .nan", "field 'opacity'"),
+])
+def test_bad_params_are_located_load_errors(params, expected):
+    from nodegraph import pipeline as pl
+    from nodegraph.errors import PipelineError
+
+    with pytest.raises(PipelineError) as info:
+        pl.loads(_PIPE.format(q=32, ins="base: g.color, top: g.color", params=params), "t.yaml", load_scene=False)
+    assert str(info.value).startswith("t.yaml:8:") and expected in str(info.value)
+
+
+@pytest.mark.parametrize(("ins", "q", "bad"), [
+    ("base: p.out, top: q.out", 64, True),     # both sizes declared (paper tiles): a load error
+    ("base: p.out, top: q.out", 16, True),
+    ("base: p.out, top: q.out", 32, False),    # equal
+    ("base: g.color, top: q.out", 64, False),  # base follows the image: checked in compute
+])
+def test_declared_sizes_that_differ_are_load_errors(ins, q, bad):
+    from nodegraph import pipeline as pl
+    from nodegraph.errors import PipelineError
+
+    text = _PIPE.format(q=q, ins=ins, params="")
+    if not bad:
+        pl.loads(text, "t.yaml", load_scene=False)
+        return
+    with pytest.raises(PipelineError, match=rf"t.yaml:8:3: node 'c' \(composite\): input '(top|mask)' is {q}x{q}, "
+                                            r"'base' is 32x32; composite needs equal sizes"):
+        pl.loads(text, "t.yaml", load_scene=False)

@@ -125,3 +125,34 @@ def test_params_are_validated():
         DepthEdges.Params(threshold=0.0)
     with pytest.raises(ValidationError):
         DepthEdges.Params(mode="log")
+
+
+_PIPE = """pipeline: t
+size: [{w}, {h}]
+scene: builtin:sphere
+nodes:
+  g: {{type: rasterize}}
+  d: {{type: depth_edges, in: {{depth: g.linear_depth}}}}
+outputs: {{image: d.edges}}
+"""
+
+
+@pytest.mark.parametrize(("w", "h", "bad"), [(1, 1, True), (1, 8, True), (8, 1, True), (2, 2, False)])
+def test_images_below_2x2_are_load_errors(w, h, bad):
+    from nodegraph import pipeline as pl
+    from nodegraph.errors import PipelineError
+
+    if not bad:
+        pl.loads(_PIPE.format(w=w, h=h), "t.yaml", load_scene=False)
+        return
+    with pytest.raises(PipelineError, match=rf"t.yaml:6:3: node 'd' \(depth_edges\): needs a depth image of at "
+                                            rf"least 2x2 pixels .*got {w}x{h}"):
+        pl.loads(_PIPE.format(w=w, h=h), "t.yaml", load_scene=False)
+
+
+def test_size_override_below_2x2_is_a_load_error():
+    from nodegraph import pipeline as pl
+    from nodegraph.errors import PipelineError
+
+    with pytest.raises(PipelineError, match=r"got 1x5"):
+        pl.loads(_PIPE.format(w=64, h=64), "t.yaml", load_scene=False, size=(1, 5))
