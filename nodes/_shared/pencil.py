@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-Color = tuple[float, float, float]
+from .params import Color  # RGB in [0, 1], finite: checked when the pipeline loads
+
 PAPER_COLOR: Color = (0.97, 0.96, 0.93)
 GRAPHITE_COLOR: Color = (0.17, 0.17, 0.19)
 
