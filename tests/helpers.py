@@ -39,3 +39,25 @@ SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
 def seed_weights(k: np.ndarray) -> np.ndarray:
     """The seed's k[x][y] (y down the image) as a weight array over our [row (y up), col (x)]."""
     return np.flipud(k.T)
+
+
+# A one-rasterize pipeline around extra nodes: `extra` adds node lines, `g_in` connects the rasterizer's inputs.
+RASTER = """\
+pipeline: t
+size: [96, 80]
+scene: {scene}
+nodes:
+{extra}
+  g: {{type: rasterize{g_in}}}
+outputs:
+  image: g.normal_depth
+"""
+
+
+def render_normal_depth(gl, text: str) -> np.ndarray:
+    """Run a pipeline given as YAML text (named t.yaml) without a cache; rasterize `g`'s normal_depth."""
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+
+    pipe = pl.loads(text, "t.yaml")
+    return Executor(pipe, None, gl=gl).run().values[("g", "normal_depth")].read()

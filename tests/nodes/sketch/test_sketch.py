@@ -1,23 +1,44 @@
-"""Variations in style (Nienhaus & Döllner §3.4): repeated edges and roughened (chalk) profiles."""
+"""sketch against float64 NumPy: perturbed edges times perturbed shade, repeated edges (§3.4), depth over layers."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
 from nodegraph_nodes.depth_sprite import DepthSprite
-from nodegraph_nodes.perlin_noise import PerlinNoise
 from nodegraph_nodes.sketch import Sketch
 from nodegraph_nodes.sketch.reference import sketch as sketch_ref
 
-from nodegraph import pipeline as pl
 from nodegraph.errors import NodeError
-from nodegraph.executor import Executor
-from nodegraph.node import derive_seed
 from tests.helpers import run_node
 
-ROOT = Path(__file__).resolve().parents[2]
+
+# -- against float64 NumPy on small images ----------------------------------------------------
+def _smooth(rng, shape, scale=6):
+    base = rng.random((shape[0] // scale + 2, shape[1] // scale + 2) + shape[2:])
+    return np.kron(base, np.ones((scale, scale) + (1,) * (len(shape) - 2)))[: shape[0], : shape[1]]
+
+
+def test_sketch_matches_float64_reference(gl, rng):
+    h, w = 64, 96
+    edges = gl.upload(_smooth(rng, (h, w)).astype(np.float32)[..., None], "R16F")
+    shade_arr = _smooth(rng, (h, w, 4)).astype(np.float32)
+    shade_arr[..., 3] = (shade_arr[..., 3] > 0.4).astype(np.float32)
+    shade = gl.upload(shade_arr, "RGBA8")
+    offset = gl.upload(rng.random((h, w, 2)).astype(np.float32), "RG16F")
+    layers = ({"matrix": ((0.05, 0.01), (-0.02, 0.04)), "color": (0.1, 0.2, 0.3)},
+              {"matrix": ((-0.03, 0.0), (0.0, 0.06)), "color": (0.6, 0.1, 0.1)})
+    params = Sketch.Params(shade_matrix=((-0.04, 0.02), (0.01, -0.05)), edge_layers=layers, edge_strength=1.3)
+    node = Sketch("s", params)
+    got = run_node(gl, node, {"edges": edges, "shade": shade, "offset": offset}, (w, h),
+                   needed=frozenset({"color", "offsets"}))
+    # the reference reads exactly what the GPU holds (after 8-bit / half quantisation)
+    ref = sketch_ref(edges.read()[..., 0], shade.read(), offset.read(), np.asarray(params.shade_matrix),
+                     [(np.asarray(lay.matrix), lay.color) for lay in node.layers()], params.edge_strength,
+                     params.use_shade, params.paper)
+    for port in ("color", "offsets"):
+        err = np.abs(got[port].read() - ref[port])
+        # bilinear weights are quantised to 8 bits in llvmpipe's sampler; outputs are half floats
+        assert np.percentile(err, 99) < 1e-2 and err.max() < 5e-2, (port, err.max())
 
 
 def _synthetic_edges(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
@@ -115,69 +136,3 @@ def test_sketch_depth_output_needs_depth_input(gl):
               "offset": gl.upload(np.zeros((h, w, 2), np.float32), "RG16F")}
     with pytest.raises(NodeError, match="needs input 'depth'"):
         run_node(gl, Sketch("s"), inputs, (w, h), needed=frozenset({"depth"}))
-
-
-# -- chalk: white vs Perlin noise ----------------------------------------------------------------
-def _lag1(a: np.ndarray, axis: int) -> float:
-    a = a - a.mean()
-    x = np.moveaxis(a, axis, 0)
-    return float((x[1:] * x[:-1]).mean() / (a * a).mean())
-
-
-def test_white_noise_is_uncorrelated_and_perlin_correlated(gl):
-    size = (256, 256)
-    perlin = run_node(gl, PerlinNoise("n", PerlinNoise.Params(kind="perlin", scale=0.01)), {}, size, seed=3)
-    white = run_node(gl, PerlinNoise("n", PerlinNoise.Params(kind="white")), {}, size, seed=3)
-    p, wn = perlin["out"].read(), white["out"].read()
-    for c in range(2):
-        for axis in (0, 1):
-            assert _lag1(p[..., c], axis) > 0.9
-            # 65k samples: the estimate's standard deviation is ~0.004
-            assert abs(_lag1(wn[..., c], axis)) < 0.02
-    # the two channels of the white noise are independent too, and uniform on [0, 1)
-    assert abs(np.corrcoef(wn[..., 0].ravel(), wn[..., 1].ravel())[0, 1]) < 0.02
-    assert wn.min() >= 0.0 and wn.max() < 1.0 and abs(wn.mean() - 0.5) < 0.01
-
-
-def test_white_noise_pattern_follows_the_seed(gl):
-    size = (64, 64)
-    node = PerlinNoise("n", PerlinNoise.Params(kind="white"))
-    a = run_node(gl, node, {}, size, seed=1)["out"].read()
-    b = run_node(gl, node, {}, size, seed=1)["out"].read()
-    c = run_node(gl, node, {}, size, seed=2)["out"].read()
-    assert np.array_equal(a, b)
-    assert np.mean(a == c) < 0.01
-    assert np.array_equal(a, node.reference(64, 64, derive_seed(1, "n", 0)).astype(np.float32))
-
-
-def _roughness(img: np.ndarray) -> tuple[float, int]:
-    """(changes of the dark-ink mask along rows and columns per dark pixel, colour changes > 0.05 between
-    neighbours): both grow when edges and colour borders fray."""
-    rgb = img[..., :3]
-    dark = rgb.mean(axis=-1) < 0.4
-    changes = np.count_nonzero(dark[:, 1:] != dark[:, :-1]) + np.count_nonzero(dark[1:] != dark[:-1])
-    borders = (np.count_nonzero(np.abs(np.diff(rgb, axis=1)).max(axis=-1) > 0.05)
-               + np.count_nonzero(np.abs(np.diff(rgb, axis=0)).max(axis=-1) > 0.05))
-    return changes / max(int(dark.sum()), 1), borders
-
-
-def test_chalk_roughens_profiles_and_colour_borders(gl):
-    """Same scene and matrices (a few pixels of spread at the pipeline's own size): white noise frays the
-    edges and colour borders that Perlin noise keeps smooth."""
-    path = ROOT / "pipelines" / "chalk.yaml"
-    chalk = Executor(pl.load(path), None, gl=gl).run().values[("sprite", "color")].read()
-    smooth = Executor(pl.load(path, overrides=["noise.kind=perlin"]), None, gl=gl).run()
-    rough_edges, rough_borders = _roughness(chalk)
-    smooth_edges, smooth_borders = _roughness(smooth.values[("sprite", "color")].read())
-    assert rough_edges > 1.8 * smooth_edges  # measured 1.36 vs 0.63 transitions per dark pixel
-    assert rough_borders > 1.4 * smooth_borders  # measured 116k vs 65k
-
-
-@pytest.mark.parametrize("name", ["repeated_edges", "chalk", "object_space_uncertainty"])
-def test_variation_pipelines_render(gl, name):
-    pipe = pl.load(ROOT / "pipelines" / f"{name}.yaml", size=(96, 96))
-    img = Executor(pipe, None, gl=gl).run().values[pipe.outputs["image"]].read()
-    assert img.shape == (96, 96, 4) and np.isfinite(img).all()
-    paper = np.asarray((0.98, 0.97, 0.94), np.float32)
-    drawn = np.abs(img[..., :3] - paper).max(axis=-1) > 0.05
-    assert 0.02 < drawn.mean() < 0.98
