@@ -8,7 +8,7 @@ from nodegraph_nodes.composite import Composite
 from pydantic import ValidationError
 
 from nodegraph.errors import NodeError
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 W, H = 37, 23
 
@@ -48,3 +48,13 @@ def test_errors(gl):
         Composite.Params(opacity=2.0)
     with pytest.raises(ValidationError):
         Composite.Params(mode="screen")
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  c: {type: composite, in: {base: g.color, top: g.color}}
+"""
+    ex, res = run_minimal(gl, nodes, {"image": "c.color"})
+    assert assert_outputs_as_planned(ex, res, "c") == ["color"]

@@ -10,7 +10,7 @@ from nodegraph_nodes.depth_sprite.reference import depth_sprite as depth_sprite_
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.sampling import nearest
-from tests.helpers import ROOT, run_node
+from tests.helpers import ROOT, assert_outputs_as_planned, run_minimal, run_node
 
 
 @pytest.mark.parametrize("with_under", [False, True])
@@ -72,3 +72,16 @@ def test_composite_occlusion_both_ways(gl):
     sketch = v[("sketch", "color")][..., :3]
     assert np.abs(color[plain_in_front] - plain[plain_in_front]).max() < 1e-2
     assert np.abs(color[sketch_in_front] - sketch[sketch_in_front]).max() < 2e-3
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: edge_detect, in: {normal_depth: g.normal_depth}}
+  n: {type: perlin_noise}
+  s: {type: sketch, in: {edges: e.out, shade: g.color, offset: n.out}}
+  d: {type: depth_sprite, in: {color: s.color, offsets: s.offsets, depth: g.depth}}
+"""
+    ex, res = run_minimal(gl, nodes, {"image": "d.color", "depth": "d.depth"})
+    assert assert_outputs_as_planned(ex, res, "d") == ["color", "depth"]

@@ -9,7 +9,7 @@ from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 from nodegraph_nodes.rasterize import Rasterize
 
 from nodegraph.scene import load_scene
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 
 # -- edge detection on a box: edges where faces meet, none inside faces ------------------------
@@ -91,3 +91,13 @@ def test_edge_detect_matches_float64_reference(gl, rng):
                 # R16F output; smoothstep ramps make a few pixels sensitive to float32 vs float64 rounding
                 bad = np.abs(got - ref[port]) > 2e-3
                 assert bad.mean() < 0.002, (operator, mode, port, bad.sum())
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: edge_detect, in: {normal_depth: g.normal_depth}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "e.out", "profile": "e.profile", "inner": "e.inner"})
+    assert assert_outputs_as_planned(ex, res, "e") == ["inner", "out", "profile"]

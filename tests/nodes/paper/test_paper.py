@@ -10,6 +10,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 TEXT = """\
 pipeline: t
@@ -67,3 +68,12 @@ def test_key_reads_the_seed_not_the_size():
 def test_bad_params():
     with pytest.raises(PipelineError, match="fibres"):
         load(["paper.fibres=2"])
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  p: {type: paper, params: {size: 32}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "p.out"})
+    assert assert_outputs_as_planned(ex, res, "p") == ["out"]

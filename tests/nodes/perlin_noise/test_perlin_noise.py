@@ -7,7 +7,7 @@ import pytest
 from nodegraph_nodes.perlin_noise import PerlinNoise
 
 from nodegraph.node import derive_seed
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 
 # -- noise ----------------------------------------------------------------------------------
@@ -53,3 +53,12 @@ def test_white_noise_pattern_follows_the_seed(gl):
     assert np.array_equal(a, b)
     assert np.mean(a == c) < 0.01
     assert np.array_equal(a, node.reference(64, 64, derive_seed(1, "n", 0)).astype(np.float32))
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  n: {type: perlin_noise}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "n.out"})
+    assert assert_outputs_as_planned(ex, res, "n") == ["out"]

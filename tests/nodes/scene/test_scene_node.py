@@ -7,7 +7,7 @@ import pytest
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
-from tests.helpers import RASTER, render_normal_depth
+from tests.helpers import RASTER, assert_outputs_as_planned, render_normal_depth, run_minimal
 
 
 def test_scene_node_draws_what_the_pipeline_scene_draws(gl):
@@ -22,3 +22,13 @@ def test_scene_node_needs_exactly_one_source():
     text = RASTER.format(scene="builtin:box", extra="  s: {type: scene}", g_in=", in: {scene: s.out}")
     with pytest.raises(PipelineError, match=r"t.yaml:5:3: node 's' \(scene\): give either params.path"):
         pl.loads(text, "t.yaml")
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  s: {type: scene, params: {path: builtin:torus}}
+  g: {type: rasterize, in: {scene: s.out}}
+"""
+    ex, res = run_minimal(gl, nodes, {"scene": "s.out", "image": "g.color"})
+    assert assert_outputs_as_planned(ex, res, "s") == ["out"]

@@ -9,7 +9,7 @@ from nodegraph_nodes.sketch import Sketch
 from nodegraph_nodes.sketch.reference import sketch as sketch_ref
 
 from nodegraph.errors import NodeError
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 
 # -- against float64 NumPy on small images ----------------------------------------------------
@@ -136,3 +136,15 @@ def test_sketch_depth_output_needs_depth_input(gl):
               "offset": gl.upload(np.zeros((h, w, 2), np.float32), "RG16F")}
     with pytest.raises(NodeError, match="needs input 'depth'"):
         run_node(gl, Sketch("s"), inputs, (w, h), needed=frozenset({"depth"}))
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: edge_detect, in: {normal_depth: g.normal_depth}}
+  n: {type: perlin_noise}
+  s: {type: sketch, in: {edges: e.out, shade: g.color, offset: n.out, depth: g.depth}}
+"""
+    ex, res = run_minimal(gl, nodes, {"image": "s.color", "offsets": "s.offsets", "depth": "s.depth"})
+    assert assert_outputs_as_planned(ex, res, "s") == ["color", "depth", "offsets"]
