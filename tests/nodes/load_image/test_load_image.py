@@ -11,7 +11,7 @@ from nodegraph import imageio
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
-from tests.helpers import RASTER
+from tests.helpers import RASTER, assert_outputs_as_planned, run_minimal
 
 
 def test_load_image_round_trips_and_follows_the_file(gl, tmp_path: Path, rng):
@@ -34,3 +34,40 @@ def test_missing_files_are_load_errors(tmp_path: Path):
                          g_in="")
     with pytest.raises(PipelineError, match="image file not found"):
         pl.loads(text, "t.yaml")
+
+
+# -- roster -----------------------------------------------------------------------------------------
+def _png(tmp_path: Path, rng) -> tuple[Path, np.ndarray]:
+    """A 30 x 20 RGB PNG written with OIIO directly (row 0 = top); the 8-bit values it holds."""
+    import OpenImageIO as oiio
+
+    data = rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)
+    f = tmp_path / "in.png"
+    out = oiio.ImageOutput.create(str(f))
+    assert out.open(str(f), oiio.ImageSpec(30, 20, 3, oiio.UINT8))
+    out.write_image(data)
+    out.close()
+    return f, data
+
+
+def test_smoke_in_a_minimal_pipeline_png_scaled_and_flipped(gl, tmp_path: Path, rng):
+    f, data = _png(tmp_path, rng)
+    ex, res = run_minimal(gl, f"  i: {{type: load_image, params: {{path: '{f}'}}}}\n", {"image": "i.out"},
+                          size=(48, 40), load_scene=False)
+    tex = res.values[("i", "out")]
+    assert tex.fmt == ex.plan.formats[("i", "out")] == "RGBA32F"
+    assert tex.size == (30, 20)  # the image's own size, not the pipeline's
+    got = tex.read()
+    assert got.dtype == np.float32 and got.shape == (20, 30, 4)
+    np.testing.assert_allclose(got[::-1, :, :3], data / 255.0, atol=1e-7)  # rows bottom-up in OpenGL
+    assert np.all(got[..., 3] == 1.0)
+
+
+@pytest.mark.xfail(strict=True, reason="LoadImage does not override output_shape: it declares the pipeline size "
+                   "(48, 40) for a 30 x 20 image, so memory estimates (run --explain) use the wrong size",
+                   raises=AssertionError)
+def test_declared_output_shape_is_the_images_size(gl, tmp_path: Path, rng):
+    f, _ = _png(tmp_path, rng)
+    ex, res = run_minimal(gl, f"  i: {{type: load_image, params: {{path: '{f}'}}}}\n", {"image": "i.out"},
+                          size=(48, 40), load_scene=False)
+    assert_outputs_as_planned(ex, res, "i")
