@@ -8,9 +8,10 @@ from nodegraph_nodes.depth_sprite import DepthSprite
 from nodegraph_nodes.depth_sprite.reference import depth_sprite as depth_sprite_ref
 
 from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.sampling import nearest
-from tests.helpers import ROOT, assert_outputs_as_planned, run_minimal, run_node
+from tests.helpers import ROOT, assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
 
 
 @pytest.mark.parametrize("with_under", [False, True])
@@ -85,3 +86,17 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"image": "d.color", "depth": "d.depth"})
     assert assert_outputs_as_planned(ex, res, "d") == ["color", "depth"]
+
+
+def test_connections_are_checked_at_load_time():
+    text = ("pipeline: t\nscene: builtin:box\nnodes:\n  g: {type: rasterize}\n"
+            "  d: {type: depth_sprite, in: {color: g.color, sketch_depth: g.depth, under_color: g.color}}\n"
+            "outputs: {a: d.color}\n")
+    with pytest.raises(PipelineError) as e:
+        pl.loads(text, "t.yaml")
+    assert_one_line_located(e.value, "t.yaml:5:")
+    assert "under_depth" in str(e.value)
+    with pytest.raises(PipelineError) as e:  # no depth at all
+        pl.loads(text.replace(", sketch_depth: g.depth, under_color: g.color", ""), "t.yaml")
+    assert_one_line_located(e.value, "t.yaml:5:")
+    assert "sketch_depth" in str(e.value)

@@ -8,8 +8,10 @@ from nodegraph_nodes.edge_detect import EdgeDetect
 from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 from nodegraph_nodes.rasterize import Rasterize
 
+from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError, PortTypeError
 from nodegraph.scene import load_scene
-from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
+from tests.helpers import assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
 
 
 # -- edge detection on a box: edges where faces meet, none inside faces ------------------------
@@ -101,3 +103,17 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"out": "e.out", "profile": "e.profile", "inner": "e.inner"})
     assert assert_outputs_as_planned(ex, res, "e") == ["inner", "out", "profile"]
+
+
+def test_errors_are_located_at_load_time():
+    text = ("pipeline: t\nscene: builtin:box\nnodes:\n  g: {type: rasterize}\n"
+            "  e: {type: edge_detect, in: {normal_depth: g.normal_depth}, params: {normal_threshold: 0}}\n"
+            "outputs: {a: e.out}\n")
+    with pytest.raises(PipelineError) as e:
+        pl.loads(text, "t.yaml")
+    assert_one_line_located(e.value, "t.yaml:5:")
+    assert "normal_threshold" in str(e.value)
+    with pytest.raises(PortTypeError) as e:
+        pl.loads(text.replace("g.normal_depth}, params: {normal_threshold: 0}", "g.color}"), "t.yaml")
+    assert_one_line_located(e.value, "t.yaml:5:")
+    assert "Texture[RGBA32F]" in str(e.value) and "Texture[RGBA8]" in str(e.value)

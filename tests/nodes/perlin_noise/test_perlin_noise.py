@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 from nodegraph_nodes.perlin_noise import PerlinNoise
 
+from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError
 from nodegraph.node import derive_seed
-from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
+from tests.helpers import assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
 
 
 # -- noise ----------------------------------------------------------------------------------
@@ -62,3 +64,13 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"out": "n.out"})
     assert assert_outputs_as_planned(ex, res, "n") == ["out"]
+
+
+def test_bad_params_are_located_load_errors():
+    for bad, field in (("octaves: 0", "octaves"), ("kind: pink", "kind"), ("scale: 2", "scale")):
+        text = (f"pipeline: t\nscene: builtin:box\nnodes:\n  n: {{type: perlin_noise, params: {{{bad}}}}}\n"
+                "outputs: {a: n.out}\n")
+        with pytest.raises(PipelineError) as e:
+            pl.loads(text, "t.yaml")
+        assert_one_line_located(e.value, "t.yaml:4:")
+        assert field in str(e.value)
