@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -32,3 +34,23 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"scene": "s.out", "image": "g.color"})
     assert assert_outputs_as_planned(ex, res, "s") == ["out"]
+
+
+def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
+    """Against the file written here: one object, its vertices and faces as written, identity transform,
+    and every vertex inside the camera's view (projected with the camera matrices in float64)."""
+    verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    f = tmp_path / "m.obj"
+    f.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in verts)
+                 + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    ex, res = run_minimal(gl, f"  s: {{type: scene, params: {{path: '{f}'}}}}\n", {"scene": "s.out"},
+                          size=(48, 40), load_scene=False)
+    scene = res.values[("s", "out")]
+    (obj,) = scene.objects
+    assert np.array_equal(obj.mesh.vertices, verts) and np.array_equal(obj.mesh.faces, faces)
+    assert np.array_equal(np.asarray(obj.transform), np.eye(4))
+    cam = scene.camera_at(0)
+    clip = np.c_[verts, np.ones(len(verts))] @ (cam.projection_matrix(48 / 40) @ cam.view_matrix()).T
+    ndc = clip[:, :3] / clip[:, 3:]
+    assert np.all(clip[:, 3] > 0) and np.all(np.abs(ndc) < 1.0)
