@@ -39,3 +39,81 @@ SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
 def seed_weights(k: np.ndarray) -> np.ndarray:
     """The seed's k[x][y] (y down the image) as a weight array over our [row (y up), col (x)]."""
     return np.flipud(k.T)
+
+
+# A one-rasterize pipeline around extra nodes: `extra` adds node lines, `g_in` connects the rasterizer's inputs.
+RASTER = """\
+pipeline: t
+size: [96, 80]
+scene: {scene}
+nodes:
+{extra}
+  g: {{type: rasterize{g_in}}}
+outputs:
+  image: g.normal_depth
+"""
+
+
+def render_normal_depth(gl, text: str) -> np.ndarray:
+    """Run a pipeline given as YAML text (named t.yaml) without a cache; rasterize `g`'s normal_depth."""
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+
+    pipe = pl.loads(text, "t.yaml")
+    return Executor(pipe, None, gl=gl).run().values[("g", "normal_depth")].read()
+
+
+# -- the per-node roster: a minimal pipeline, outputs as declared and planned, located errors ----------
+def run_minimal(gl, nodes: str, outputs: dict[str, str], size: tuple[int, int] = (48, 40),
+                scene: str = "builtin:box", seed: int = 5, requested: list | None = None, **load_kw):
+    """Load and run (no cache) a pipeline of `nodes` (YAML lines, indented two spaces) named t.yaml;
+    returns (executor, result)."""
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+
+    outs = "".join(f"  {name}: {ref}\n" for name, ref in outputs.items())
+    text = f"pipeline: t\nsize: [{size[0]}, {size[1]}]\nscene: {scene}\nseed: {seed}\nnodes:\n{nodes}\noutputs:\n{outs}"
+    ex = Executor(pl.loads(text, "t.yaml", **load_kw), None, requested=requested, gl=gl)
+    return ex, ex.run()
+
+
+def assert_outputs_as_planned(ex, res, nid: str) -> list[str]:
+    """Every output of node `nid` that the run returned is a value of the declared port type; textures
+    are in the planned format (never more precise than declared), at the size and layer count the node
+    declares (`output_shape`), and read back as finite float32 (H, W, C). Returns the ports checked."""
+    from nodegraph import types
+    from nodegraph.values import Tex, TexArray
+
+    node = ex.plan.pipeline.nodes[nid]
+    size = tuple(ex.plan.pipeline.size)
+    checked = []
+    for (vid, port), value in res.values.items():
+        if vid != nid:
+            continue
+        declared = node.outputs[port].type
+        checked.append(port)
+        if not declared.is_texture:
+            assert type(value).__name__ == {"File": "PosixPath"}.get(declared.kind, declared.kind), (port, value)
+            continue
+        fmt = ex.plan.formats[(nid, port)]
+        assert declared.fmt is None or types.precision(fmt) <= types.precision(declared.fmt), (port, fmt)
+        assert value.fmt == fmt, (port, value.fmt, fmt)
+        w, h, layers = node.output_shape(port, size)
+        assert value.size == (w, h), (port, value.size, (w, h))
+        arr = value.read()
+        if declared.kind == "TextureArray":
+            assert isinstance(value, TexArray) and value.layers == layers
+            assert arr.shape == (layers, h, w, types.components(fmt)), (port, arr.shape)
+        else:
+            assert isinstance(value, Tex)
+            assert arr.shape == (h, w, types.components(fmt)), (port, arr.shape)
+        assert arr.dtype == np.float32 and np.isfinite(arr).all(), port
+    assert checked, f"the run returned no output of {nid!r}"
+    return sorted(checked)
+
+
+def assert_one_line_located(exc: BaseException, where: str) -> None:
+    """A load-time error is one line and starts with its location (`t.yaml:LINE:COL`)."""
+    text = str(exc)
+    assert "\n" not in text.strip(), text
+    assert text.startswith(where), text

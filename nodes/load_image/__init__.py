@@ -41,6 +41,17 @@ class LoadImage(Node):
                 raise ValueError(f"image file not found: {Path(v).absolute()}")
             return v
 
+    def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
+        """The image's own size, from its header (no pixels are read)."""
+        import OpenImageIO as oiio
+
+        inp = oiio.ImageInput.open(str(self.params.path))
+        if inp is None:
+            return (size[0], size[1], 1)
+        spec = inp.spec()
+        inp.close()
+        return (spec.width, spec.height, 1)
+
     def hash_extra(self, ctx: HashContext) -> Any:
         p = Path(self.params.path).resolve()
         st = p.stat()

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
+from nodegraph.imageio import WRITABLE
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import FILE, Texture
 
@@ -28,6 +30,15 @@ class Write(Node):
 
     class Params(NodeParams):
         path: str = Field(description="File to write; the extension picks the format; #### = frame number.")
+
+        @field_validator("path")
+        @classmethod
+        def _writable(cls, v: str) -> str:
+            ext = Path(v).suffix.lower()
+            if ext not in WRITABLE:
+                raise ValueError(f"expected a path ending in one of {', '.join(WRITABLE)}, found "
+                                 f"'{ext or 'no extension'}'")
+            return v
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         from nodegraph.render import frame_path, write_value

@@ -8,7 +8,7 @@ from nodegraph_nodes.composite import Composite
 from pydantic import ValidationError
 
 from nodegraph.errors import NodeError
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 W, H = 37, 23
 
@@ -94,3 +94,13 @@ def test_declared_sizes_that_differ_are_load_errors(ins, q, bad):
     with pytest.raises(PipelineError, match=rf"t.yaml:8:3: node 'c' \(composite\): input '(top|mask)' is {q}x{q}, "
                                             r"'base' is 32x32; composite needs equal sizes"):
         pl.loads(text, "t.yaml", load_scene=False)
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  c: {type: composite, in: {base: g.color, top: g.color}}
+"""
+    ex, res = run_minimal(gl, nodes, {"image": "c.color"})
+    assert assert_outputs_as_planned(ex, res, "c") == ["color"]

@@ -12,6 +12,7 @@ from nodegraph_nodes.contour import Contour, reference, screen_bounds
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.node import RunContext, derive_seed
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 TEXT = """\
 pipeline: t
@@ -125,3 +126,15 @@ def test_wrong_connection_is_a_load_error():
     bad = TEXT.replace("distortion: dist.out", "distortion: edges.out")
     with pytest.raises(PortTypeError, match=r"input 'distortion': expected TextureArray\[RG16F\]"):
         pl.loads(bad, "t.yaml")
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: edge_detect, in: {normal_depth: g.normal_depth}}
+  d: {type: distortion_map}
+  c: {type: contour, in: {edges: e.out, distortion: d.out, normal_depth: g.normal_depth}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "c.out", "image": "c.color"})
+    assert assert_outputs_as_planned(ex, res, "c") == ["color", "out"]

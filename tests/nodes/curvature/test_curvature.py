@@ -18,6 +18,7 @@ from nodegraph.meshes import Mesh
 from nodegraph.node import HashContext
 from nodegraph.primitives import sphere
 from nodegraph.scene import Scene, SceneObject, compose, frame_camera
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 R_MAJOR, R_MINOR = 2.0, 0.5
 
@@ -198,3 +199,12 @@ def test_no_scene_is_a_clear_error():
     pipe = pl.loads(TEXT, "t.yaml", load_scene=False)
     with pytest.raises(NodeError, match=r"node '\w+' \(curvature\): needs a scene"):
         Executor(pipe, None).run()
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  c: {type: curvature}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "c.out"})
+    assert assert_outputs_as_planned(ex, res, "c") == ["out"]

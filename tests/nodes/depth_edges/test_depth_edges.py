@@ -11,7 +11,7 @@ from pydantic import ValidationError
 from scipy import ndimage
 
 from nodegraph.errors import NodeError
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 # The seed's kernels exactly as printed; k[x][y] with y down the image (see nodes/particle_sketch/core.py).
 SEED_TENT = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], float)
@@ -156,3 +156,13 @@ def test_size_override_below_2x2_is_a_load_error():
 
     with pytest.raises(PipelineError, match=r"got 1x5"):
         pl.loads(_PIPE.format(w=64, h=64), "t.yaml", load_scene=False, size=(1, 5))
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: depth_edges, in: {depth: g.linear_depth}}
+"""
+    ex, res = run_minimal(gl, nodes, {"edges": "e.edges", "gradient": "e.gradient", "magnitude": "e.magnitude"})
+    assert assert_outputs_as_planned(ex, res, "e") == ["edges", "gradient", "magnitude"]

@@ -11,6 +11,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext, derive_seed
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 TEXT = """\
 pipeline: t
@@ -98,3 +99,12 @@ def test_key_reads_size_and_seed_not_frame():
 def test_bad_params(override: str, match: str):
     with pytest.raises(PipelineError, match=match):
         load([override])
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  d: {type: distortion_map, params: {layers: 3}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "d.out"})
+    assert assert_outputs_as_planned(ex, res, "d") == ["out"]

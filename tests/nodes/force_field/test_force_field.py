@@ -11,7 +11,7 @@ from nodegraph_nodes.particle_sketch import core, synthetic
 from pydantic import ValidationError
 from scipy import ndimage
 
-from tests.helpers import run_node
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node
 
 SEED_GX = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], float)
 SEED_GY = np.array([[1, 0, -1], [2, 0, -2], [1, 0, -1]], float)
@@ -99,3 +99,14 @@ def test_params_are_validated():
         ForceField.Params(saturate=-1.0)
     with pytest.raises(ValidationError):
         ForceField.Params(restoring="normal")
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: depth_edges, in: {depth: g.linear_depth}}
+  f: {type: force_field, in: {gradient: e.gradient}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "f.out"})
+    assert assert_outputs_as_planned(ex, res, "f") == ["out"]

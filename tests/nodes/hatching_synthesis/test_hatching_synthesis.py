@@ -13,6 +13,7 @@ from nodegraph.cache import Cache
 from nodegraph.errors import NodeError, PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 TEXT = """\
 pipeline: t
@@ -104,3 +105,12 @@ def test_unreachable_darkness_is_a_one_line_error(gl):
 def test_bad_params_fail_at_load(override: str, match: str):
     with pytest.raises(PipelineError, match=match):
         load([override])
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  t: {type: hatching_synthesis, params: {size: 64, tones: 8, max_darkness: 0.6}}
+"""
+    ex, res = run_minimal(gl, nodes, {"tones": "t.tones"})
+    assert assert_outputs_as_planned(ex, res, "t") == ["tones"]

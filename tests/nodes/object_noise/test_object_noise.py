@@ -20,7 +20,7 @@ from nodegraph.executor import Executor
 from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
 from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
-from tests.helpers import run_node, shared_mesh
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -248,3 +248,13 @@ def test_a_huge_depth_range_warns_once(gl):
         w.simplefilter("error")
         rmod._warn_depth_range_once(wide, True)  # once only
         rmod._warn_depth_range_once(cam, True)  # an ordinary range is silent
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  o: {type: object_noise, in: {position: g.position}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "o.out"})
+    assert assert_outputs_as_planned(ex, res, "o") == ["out"]

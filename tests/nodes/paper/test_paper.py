@@ -10,6 +10,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 TEXT = """\
 pipeline: t
@@ -67,3 +68,31 @@ def test_key_reads_the_seed_not_the_size():
 def test_bad_params():
     with pytest.raises(PipelineError, match="fibres"):
         load(["paper.fibres=2"])
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  p: {type: paper, params: {size: 32}}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "p.out"})
+    assert assert_outputs_as_planned(ex, res, "p") == ["out"]
+
+
+def test_gpu_tile_range_and_seam(gl):
+    """The node's texture: heights span [0, 1]; across the wrap-around seam (last column to first, last row
+    to first) the height steps no more than between interior neighbours; the normals are the unit normals
+    of the stored heights by periodic central differences (float64, from the GPU's own heights)."""
+    out = Executor(load(), None, gl=gl).run().values[("paper", "out")].read().astype(np.float64)
+    h = out[..., 3]
+    assert abs(h.min()) < 1e-3 and abs(h.max() - 1.0) < 1e-3  # half floats
+    inner_x = np.abs(np.diff(h, axis=1)).mean()
+    inner_y = np.abs(np.diff(h, axis=0)).mean()
+    assert np.abs(h[:, 0] - h[:, -1]).mean() < 1.5 * inner_x
+    assert np.abs(h[0] - h[-1]).mean() < 1.5 * inner_y
+    relief = load().nodes["paper"].params.relief
+    gx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) / 2 * relief
+    gy = (np.roll(h, -1, axis=0) - np.roll(h, 1, axis=0)) / 2 * relief
+    n = np.stack([-gx, -gy, np.ones_like(h)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    np.testing.assert_allclose(out[..., :3], n, atol=1.5e-2)  # heights and normals both in half floats

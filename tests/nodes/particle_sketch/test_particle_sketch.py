@@ -22,7 +22,7 @@ from nodegraph.errors import NodeError, PipelineError
 from nodegraph.executor import Executor
 from nodegraph.node import HashContext, RunContext
 from nodegraph.values import Strokes
-from tests.helpers import run_node, shared_mesh
+from tests.helpers import assert_outputs_as_planned, run_minimal, run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[3]
 SIZE = (160, 160)
@@ -198,3 +198,16 @@ def test_bench_particles_reports_the_figures(gl, tmp_path):
     assert r["equals_python"]  # batch 1 (the default) draws exactly what the pure-Python reference draws
     assert r["lockstep_batch"] == 256 and r["lockstep_strokes"] > 0
     assert (tmp_path / "particles.png").exists() and (tmp_path / "particles.svg").exists()
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  g: {type: rasterize}
+  e: {type: depth_edges, in: {depth: g.linear_depth}}
+  f: {type: force_field, in: {gradient: e.gradient}}
+  p: {type: particle_sketch, in: {edges: e.edges, force: f.out}, params: {strokes: 40}}
+"""
+    outputs = {"image": "p.image", "ink": "p.ink", "strokes": "p.strokes", "remaining": "p.remaining"}
+    ex, res = run_minimal(gl, nodes, outputs)
+    assert assert_outputs_as_planned(ex, res, "p") == ["image", "ink", "remaining", "strokes"]

@@ -22,6 +22,7 @@ from nodegraph.node import RunContext
 from nodegraph.primitives import plane
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
+from tests.helpers import assert_outputs_as_planned, run_minimal
 
 ROOT = Path(__file__).resolve().parents[3]
 W, H = 96, 80
@@ -258,3 +259,14 @@ def test_golden_pencil_torus(gl, request):
         imageio.write(FAILURES / "pencil_torus.exr", img)
         imageio.write(FAILURES / "pencil_torus_diff.exr", diff)
     assert ok, f"mean {diff.mean():.4f}, p99 {np.percentile(diff, 99):.4f}; see {FAILURES}"
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  t: {type: hatching_synthesis, params: {size: 64, tones: 8, max_darkness: 0.6}}
+  c: {type: curvature}
+  s: {type: pencil_shade, in: {tam: t.tones, curvature: c.out}}
+"""
+    ex, res = run_minimal(gl, nodes, {"image": "s.color", "shade": "s.shade", "blend": "s.blend"})
+    assert assert_outputs_as_planned(ex, res, "s") == ["blend", "color", "shade"]

@@ -1,4 +1,4 @@
-"""scene, load_mesh and load_image: values from files, keyed by content, errors at load time."""
+"""scene: a scene from a path or a connected mesh, errors at load time."""
 
 from __future__ import annotations
 
@@ -7,43 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import imageio
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
-from nodegraph.executor import Executor
-from tests.helpers import shared_mesh
-
-RASTER = """\
-pipeline: t
-size: [96, 80]
-scene: {scene}
-nodes:
-{extra}
-  g: {{type: rasterize{g_in}}}
-outputs:
-  image: g.normal_depth
-"""
-
-
-def _render(gl, text: str) -> np.ndarray:
-    pipe = pl.loads(text, "t.yaml")
-    return Executor(pipe, None, gl=gl).run().values[("g", "normal_depth")].read()
+from tests.helpers import RASTER, assert_outputs_as_planned, render_normal_depth, run_minimal
 
 
 def test_scene_node_draws_what_the_pipeline_scene_draws(gl):
-    direct = _render(gl, RASTER.format(scene="builtin:box", extra="", g_in=""))
-    via_node = _render(gl, RASTER.format(scene="builtin:torus", extra="  s: {type: scene, params: {path: builtin:box}}",
-                                         g_in=", in: {scene: s.out}"))
+    direct = render_normal_depth(gl, RASTER.format(scene="builtin:box", extra="", g_in=""))
+    extra = "  s: {type: scene, params: {path: builtin:box}}"
+    via_node = render_normal_depth(gl, RASTER.format(scene="builtin:torus", extra=extra, g_in=", in: {scene: s.out}"))
     assert np.array_equal(direct, via_node)
     assert (direct[..., 3] > 0).sum() > 500
-
-
-def test_a_loaded_mesh_is_framed_like_a_mesh_scene(gl):
-    mesh = shared_mesh("spot.obj")
-    direct = _render(gl, RASTER.format(scene=str(mesh), extra="", g_in=""))
-    extra = f"  m: {{type: load_mesh, params: {{path: '{mesh}'}}}}\n  s: {{type: scene, in: {{mesh: m.out}}}}"
-    via_nodes = _render(gl, RASTER.format(scene="builtin:box", extra=extra, g_in=", in: {scene: s.out}"))
-    assert np.array_equal(direct, via_nodes)
 
 
 def test_scene_node_needs_exactly_one_source():
@@ -52,27 +26,31 @@ def test_scene_node_needs_exactly_one_source():
         pl.loads(text, "t.yaml")
 
 
-def test_missing_files_are_load_errors(tmp_path: Path):
-    text = RASTER.format(scene="builtin:box", extra=f"  m: {{type: load_mesh, params: {{path: {tmp_path}/no.obj}}}}",
-                         g_in="")
-    with pytest.raises(PipelineError, match=r"t.yaml:5:39: node 'm' \(load_mesh\) field 'path': .*no.obj"):
-        pl.loads(text, "t.yaml")
-    text = RASTER.format(scene="builtin:box", extra=f"  i: {{type: load_image, params: {{path: {tmp_path}/no.exr}}}}",
-                         g_in="")
-    with pytest.raises(PipelineError, match="image file not found"):
-        pl.loads(text, "t.yaml")
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  s: {type: scene, params: {path: builtin:torus}}
+  g: {type: rasterize, in: {scene: s.out}}
+"""
+    ex, res = run_minimal(gl, nodes, {"scene": "s.out", "image": "g.color"})
+    assert assert_outputs_as_planned(ex, res, "s") == ["out"]
 
 
-def test_load_image_round_trips_and_follows_the_file(gl, tmp_path: Path, rng):
-    f = tmp_path / "in.exr"
-    arr = rng.random((30, 40, 3)).astype(np.float32) * 4 - 1  # values outside [0, 1] survive an EXR
-    imageio.write(f, arr, half=False)
-    text = f"pipeline: t\nnodes:\n  i: {{type: load_image, params: {{path: '{f}'}}}}\noutputs: {{image: i.out}}\n"
-    pipe = pl.loads(text, "t.yaml", load_scene=False)
-    ex = Executor(pipe, None, gl=gl)
-    got = ex.run().values[("i", "out")].read()
-    assert got.shape == (30, 40, 4)
-    assert np.array_equal(got[..., :3], arr) and np.all(got[..., 3] == 1)
-    key = ex.keys()["i"]
-    imageio.write(f, arr * 0.5, half=False)
-    assert Executor(pl.loads(text, "t.yaml", load_scene=False), None, gl=gl).keys()["i"] != key
+def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
+    """Against the file written here: one object, its vertices and faces as written, identity transform,
+    and every vertex inside the camera's view (projected with the camera matrices in float64)."""
+    verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    f = tmp_path / "m.obj"
+    f.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in verts)
+                 + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
+    ex, res = run_minimal(gl, f"  s: {{type: scene, params: {{path: '{f}'}}}}\n", {"scene": "s.out"},
+                          size=(48, 40), load_scene=False)
+    scene = res.values[("s", "out")]
+    (obj,) = scene.objects
+    assert np.array_equal(obj.mesh.vertices, verts) and np.array_equal(obj.mesh.faces, faces)
+    assert np.array_equal(np.asarray(obj.transform), np.eye(4))
+    cam = scene.camera_at(0)
+    clip = np.c_[verts, np.ones(len(verts))] @ (cam.projection_matrix(48 / 40) @ cam.view_matrix()).T
+    ndc = clip[:, :3] / clip[:, 3:]
+    assert np.all(clip[:, 3] > 0) and np.all(np.abs(ndc) < 1.0)

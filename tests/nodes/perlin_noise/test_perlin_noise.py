@@ -1,0 +1,76 @@
+"""perlin_noise against its float64 CPU twin; white noise uncorrelated, Perlin noise correlated, seeds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from nodegraph_nodes.perlin_noise import PerlinNoise
+
+from nodegraph import pipeline as pl
+from nodegraph.errors import PipelineError
+from nodegraph.node import derive_seed
+from tests.helpers import assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
+
+
+# -- noise ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind", ["perlin", "white"])
+def test_noise_node_matches_float64_cpu(gl, kind):
+    size = (120, 72)
+    node = PerlinNoise("noise", PerlinNoise.Params(kind=kind, scale=0.013, octaves=4))
+    got = run_node(gl, node, {}, size, seed=99)["out"].read()
+    from nodegraph.node import derive_seed
+
+    ref = node.reference(size[0], size[1], derive_seed(99, "noise", 0))
+    assert np.abs(got - ref).max() < (1e-5 if kind == "perlin" else 1e-6)
+
+
+# -- chalk: white vs Perlin noise ----------------------------------------------------------------
+def _lag1(a: np.ndarray, axis: int) -> float:
+    a = a - a.mean()
+    x = np.moveaxis(a, axis, 0)
+    return float((x[1:] * x[:-1]).mean() / (a * a).mean())
+
+
+def test_white_noise_is_uncorrelated_and_perlin_correlated(gl):
+    size = (256, 256)
+    perlin = run_node(gl, PerlinNoise("n", PerlinNoise.Params(kind="perlin", scale=0.01)), {}, size, seed=3)
+    white = run_node(gl, PerlinNoise("n", PerlinNoise.Params(kind="white")), {}, size, seed=3)
+    p, wn = perlin["out"].read(), white["out"].read()
+    for c in range(2):
+        for axis in (0, 1):
+            assert _lag1(p[..., c], axis) > 0.9
+            # 65k samples: the estimate's standard deviation is ~0.004
+            assert abs(_lag1(wn[..., c], axis)) < 0.02
+    # the two channels of the white noise are independent too, and uniform on [0, 1)
+    assert abs(np.corrcoef(wn[..., 0].ravel(), wn[..., 1].ravel())[0, 1]) < 0.02
+    assert wn.min() >= 0.0 and wn.max() < 1.0 and abs(wn.mean() - 0.5) < 0.01
+
+
+def test_white_noise_pattern_follows_the_seed(gl):
+    size = (64, 64)
+    node = PerlinNoise("n", PerlinNoise.Params(kind="white"))
+    a = run_node(gl, node, {}, size, seed=1)["out"].read()
+    b = run_node(gl, node, {}, size, seed=1)["out"].read()
+    c = run_node(gl, node, {}, size, seed=2)["out"].read()
+    assert np.array_equal(a, b)
+    assert np.mean(a == c) < 0.01
+    assert np.array_equal(a, node.reference(64, 64, derive_seed(1, "n", 0)).astype(np.float32))
+
+
+# -- roster: smoke and shapes -----------------------------------------------------------------------
+def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
+    nodes = """\
+  n: {type: perlin_noise}
+"""
+    ex, res = run_minimal(gl, nodes, {"out": "n.out"})
+    assert assert_outputs_as_planned(ex, res, "n") == ["out"]
+
+
+def test_bad_params_are_located_load_errors():
+    for bad, field in (("octaves: 0", "octaves"), ("kind: pink", "kind"), ("scale: 2", "scale")):
+        text = (f"pipeline: t\nscene: builtin:box\nnodes:\n  n: {{type: perlin_noise, params: {{{bad}}}}}\n"
+                "outputs: {a: n.out}\n")
+        with pytest.raises(PipelineError) as e:
+            pl.loads(text, "t.yaml")
+        assert_one_line_located(e.value, "t.yaml:4:")
+        assert field in str(e.value)
