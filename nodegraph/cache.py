@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import errno
 import json
 import os
 import re
@@ -51,6 +52,7 @@ FORMAT_VERSION = "1"
 TEMP_PREFIX = ".tmp-"
 STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftover, whoever wrote it
 PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
+LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
 
 
 class CacheWarning(UserWarning):
@@ -518,6 +520,29 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
         raise OSError(err or "EXR write failed")
     if not out.close():
         raise OSError(out.geterror() or "EXR close failed")
+    _check_complete(path, key, port)
+
+
+def _check_complete(path: str, key: str, port: str) -> None:
+    """OpenEXR can lose the error of its last write (seen with a file-size limit and with a full disk): the
+    file is cut short but the writer reports success. So refuse a file that reached the process's file-size
+    limit, and where the disk is nearly full, read the file back before keeping it."""
+    size = os.stat(path).st_size
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        soft = -1
+    if soft not in (-1, getattr(resource, "RLIM_INFINITY", -1)) and size >= soft:
+        raise OSError(errno.EFBIG, f"File too large (the file-size limit of {soft} bytes)")
+    st = os.statvfs(path)
+    if st.f_bavail * st.f_frsize < LOW_SPACE:
+        try:
+            _read_exr(Path(path), key, port)
+        except Exception as exc:  # noqa: BLE001 - whatever the reader says, the file is incomplete
+            raise OSError(errno.ENOSPC, f"No space left on device (the entry was cut short: {_reason(exc)})") \
+                from exc
 
 
 def _read_exr(path: Path, key: str, port: str = "", expect: Expect | None = None) -> Loaded:
