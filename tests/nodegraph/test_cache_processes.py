@@ -266,14 +266,14 @@ def test_sigkill_during_renders_and_cache_writes_leaves_a_cache_that_serves_only
 def test_processes_sharing_one_pruned_cache_give_identical_images(tmp_path: Path, reference):
     cache, out = tmp_path / "cache", tmp_path / "out"
     out.mkdir()
-    assert _run(PENCIL, out / "first.png", tmp_path / "sizer").returncode == 0
+    assert _run(CONTOURS, out / "first.png", tmp_path / "sizer").returncode == 0
     full = Cache(tmp_path / "sizer").info()["bytes"]
     env = _env()
     env["SKETCHGRAPH_CACHE_LIMIT"] = str(full // 2)  # every run prunes what others may be about to read
     rounds = []
     t0 = time.perf_counter()
     for rnd in range(3):
-        procs = [subprocess.Popen(_args(PENCIL, out / f"r{rnd}_p{i}.png", cache), env=env, stdout=subprocess.PIPE,
+        procs = [subprocess.Popen(_args(CONTOURS, out / f"r{rnd}_p{i}.png", cache), env=env, stdout=subprocess.PIPE,
                                   stderr=subprocess.PIPE, text=True) for i in range(4)]
         results = [(p.wait(timeout=120), *p.communicate()) for p in procs]
         for rc, _, err in results:
@@ -281,8 +281,8 @@ def test_processes_sharing_one_pruned_cache_give_identical_images(tmp_path: Path
         rounds.append(Cache(cache).info()["bytes"])
     wall = time.perf_counter() - t0
     images = sorted(out.glob("r*_p*.png"))
-    assert len(images) == 12 and all(p.read_bytes() == reference[PENCIL.stem] for p in images)
-    problems, checked = _bad_entries(cache, PENCIL, [SIZE])
+    assert len(images) == 12 and all(p.read_bytes() == reference[CONTOURS.stem] for p in images)
+    problems, checked = _bad_entries(cache, CONTOURS, [SIZE])
     assert problems == [] and Cache(cache).temp_files() == []
     assert max(rounds) <= full // 2
     _report("concurrency", {"processes": 4, "runs_each": 3, "limit_bytes": full // 2, "full_cache_bytes": full,
