@@ -1,20 +1,42 @@
 """Content-addressed disk cache: textures as EXR (OpenImageIO), arrays and strokes as .npz.
 
-Every entry is `ROOT/<key[:2]>/<key>.<port>.<ext>`; an EXR's header carries the key, the node type,
-its params and the versions, so a cached file explains itself. Writes are atomic (temporary file,
-then rename). A file that fails to read, or whose header does not match its key, is deleted and
-recomputed with a warning. The cache is bounded: least-recently-used entries (by mtime, refreshed on
-every hit) are evicted past the size limit.
+Every entry is `ROOT/<key[:2]>/<key>.<port>.<ext>`; an EXR's header (an npz's `__meta__`) carries the key,
+the port, the kind, the format, the size, the node type, its params and the versions, so a cached file
+explains itself.
+
+Promises (docs/reliability-cache.md, tests/nodegraph/test_cache_faults.py):
+
+- Never serve a wrong entry: `load` checks an entry against what the plan expects of it (`Expect`: port,
+  kind, format, width, height, layers, channels, pixel type). A file that fails to read, or that differs
+  in any of these, is deleted and recomputed with one `CacheWarning` naming the node, the port and what
+  differed. Entries written before the size fields existed are checked against their pixels.
+- A failed write never fails the render: any error while writing (disk full, read-only folder, a file
+  where the folder should be, a file-size limit, permission denied) loses only that entry, with one
+  warning per run. Background writes report the same way, from the main thread (at `flush`, at the next
+  `store`, at `close`, or at interpreter exit).
+- Bounded: least-recently-used entries (by mtime, refreshed on every hit) are evicted past the size
+  limit, and temporary files count toward it. Writes are atomic: a temporary file
+  `.tmp-<pid>@<host>-<random>.<ext>` in the entry's folder, then a rename. `prune` removes a temporary
+  file when it has not been modified for `STALE_TEMP_SECONDS` (an hour), or when it names this host
+  and a process id that no longer runs (a killed writer); never a live process's own. Only the client
+  process prunes, and only through `prune` / `maybe_prune` (the executor calls them: at the end of a
+  run, and every `PRUNE_FRACTION` of the limit written during a frame loop); writers never do.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import errno
 import json
 import os
+import re
+import socket
 import tempfile
 import threading
+import time
 import warnings
+import weakref
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +49,10 @@ from .values import Arrays, Strokes, Tex, TexArray
 
 DEFAULT_LIMIT = 2 * 1024**3
 FORMAT_VERSION = "1"
+TEMP_PREFIX = ".tmp-"
+STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftover, whoever wrote it
+PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
+LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
 
 
 class CacheWarning(UserWarning):
@@ -79,6 +105,22 @@ class Loaded:
     fmt: str | None = None
 
 
+@dataclass(frozen=True)
+class Expect:
+    """What the plan expects of one entry; a field left None is not checked. `width`, `height` and `layers`
+    apply to textures and texture arrays (strokes and arrays carry their own sizes as data)."""
+
+    kind: str
+    fmt: str | None = None
+    width: int | None = None
+    height: int | None = None
+    layers: int | None = None
+
+
+class EntryMismatch(ValueError):
+    """An entry that reads but is not what the plan expects (wrong port, kind, format or shape)."""
+
+
 def kind_of(value: Any) -> str | None:
     """How a value is stored: "texture" (EXR), "texture_array", "strokes" or "arrays" (.npz); None for values
     that are never cached (scenes and meshes are sources). The one switch on value type for storage."""
@@ -93,6 +135,61 @@ def kind_of(value: Any) -> str | None:
     return None
 
 
+_PORT_KINDS = {"Texture": "texture", "TextureArray": "texture_array", "Strokes": "strokes", "Arrays": "arrays"}
+
+
+def kind_of_port(port_type: types.PortType) -> str | None:
+    """The storage kind a port of this type produces (None: never cached)."""
+    return _PORT_KINDS.get(port_type.kind)
+
+
+def value_mismatch(value: Any, expect: Expect) -> str | None:
+    """What differs between a value about to be stored and what the plan expects of it (None: it matches).
+    A value that does not match is not written: it would be discarded by every later `load`."""
+    kind = kind_of(value)
+    fmt = getattr(value, "fmt", None)
+    w = h = layers = None
+    if isinstance(value, (Tex, TexArray)):
+        w, h = value.size
+        layers = value.layers if isinstance(value, TexArray) else 1
+    return _differences(expect, kind=kind, fmt=fmt, width=w, height=h, layers=layers)
+
+
+def _differences(expect: Expect, *, kind: str | None = None,
+                 fmt: str | None = None, width: int | None = None, height: int | None = None,
+                 layers: int | None = None, channels: int | None = None, pixel: str | None = None) -> str | None:
+    """A short list of what differs from `expect` ("kind texture_array, expected texture; width 32, expected
+    64"); None when nothing does. Arguments left None are not known and not checked."""
+    diffs = []
+    if kind is not None and kind != expect.kind:
+        diffs.append(f"kind {kind}, expected {expect.kind}")
+        return "; ".join(diffs)  # the rest means nothing across kinds
+    if expect.fmt is not None:
+        if fmt is not None and fmt != expect.fmt:
+            diffs.append(f"format {fmt}, expected {expect.fmt}")
+        if channels is not None and channels != types.components(expect.fmt):
+            diffs.append(f"{channels} channels, expected {types.components(expect.fmt)} ({expect.fmt})")
+        want_pixel = _stored_pixel(expect.kind, expect.fmt)
+        if pixel is not None and pixel != want_pixel:
+            diffs.append(f"{pixel} pixels, expected {want_pixel} ({expect.fmt})")
+    if expect.kind in ("texture", "texture_array"):
+        for name, got, want in (("width", width, expect.width), ("height", height, expect.height)):
+            if got is not None and want is not None and got != want:
+                diffs.append(f"{name} {got}, expected {want}")
+        if expect.kind == "texture_array" and layers is not None and expect.layers is not None \
+                and layers != expect.layers:
+            diffs.append(f"{layers} layers, expected {expect.layers}")
+    return "; ".join(diffs) or None
+
+
+def _stored_pixel(kind: str, fmt: str) -> str:
+    """The pixel type an entry of this kind and format is stored in: EXR holds half or float (8-bit formats as
+    half); a texture array's npz holds the texture's own dtype."""
+    if kind == "texture":
+        return "float" if types.precision(fmt) >= 2 else "half"
+    return str(types.numpy_dtype(fmt))
+
+
 class Cache:
     def __init__(self, root: Path | None = None, limit: int | None = None):
         self.root = Path(root) if root else default_root()
@@ -103,7 +200,13 @@ class Cache:
         self.hits = 0
         self.misses = 0
         self.writes = 0
-        self.recovered = 0
+        self.recovered = 0  # entries discarded (unreadable or not what the plan expects)
+        self.write_errors = 0  # writes that failed (each lost one entry, never the render)
+        self.pruned = 0  # times `prune` ran
+        self._written_since_prune = 0
+        self._write_error: str | None = None  # first failure not yet reported (set on the writer thread too)
+        self._write_warned = False
+        atexit.register(_report_at_exit, weakref.ref(self))
 
     # -- paths -----------------------------------------------------------------------------
     def _base(self, key: str, port: str) -> Path:
@@ -118,19 +221,27 @@ class Cache:
         return None
 
     # -- read ------------------------------------------------------------------------------
-    def load(self, key: str, port: str, node_label: str = "") -> Loaded | None:
+    def load(self, key: str, port: str, node_label: str = "", expect: Expect | None = None) -> Loaded | None:
+        """The entry `port` (the entry's name within its key) of `key`, or None. An entry that does not read,
+        names another key or port, or differs from `expect`, is deleted with one `CacheWarning`."""
         path = self.find(key, port)
         if path is None:
             self.misses += 1
             return None
         try:
-            loaded = _read_exr(path, key) if path.suffix == ".exr" else _read_npz(path, key)
+            ino = os.stat(path).st_ino
+            loaded = _read_exr(path, key, port, expect) if path.suffix == ".exr" else _read_npz(path, key, port, expect)
+        except FileNotFoundError:  # evicted by another process between find and open: a plain miss
+            self.misses += 1
+            return None
         except Exception as exc:  # noqa: BLE001 - any failure: discard and recompute
             self.recovered += 1
-            warnings.warn(f"cache entry {path} for {node_label or 'a node'} is unusable ({exc}); "
+            reason = str(exc) if isinstance(exc, EntryMismatch) else _reason(exc)
+            warnings.warn(f"cache entry {path} for {node_label or 'a node'} is unusable ({reason}); "
                           "recomputing it", CacheWarning, stacklevel=2)
             with contextlib.suppress(OSError):
-                path.unlink()
+                if os.stat(path).st_ino == ino:  # not an entry another process has just put in its place
+                    path.unlink()
             self.misses += 1
             return None
         with contextlib.suppress(OSError):
@@ -153,14 +264,26 @@ class Cache:
 
     def store(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None = None,
               background: bool = False) -> None:
-        """Write one output. With `background`, the encode and the write happen on a worker thread."""
+        """Write one output. With `background`, the encode and the write happen on a worker thread. A failure
+        never raises: it loses this entry and is reported once (`CacheWarning`)."""
+        self.report_write_errors()
         if background:
             with self._lock:
                 if self._writer is None:
                     self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sketchgraph-cache")
-                self._pending.append(self._writer.submit(self._store, key, port, kind, data, meta, fmt))
+                self._pending.append(self._writer.submit(self._store_safe, key, port, kind, data, meta, fmt))
         else:
+            self._store_safe(key, port, kind, data, meta, fmt)
+            self.report_write_errors()
+
+    def _store_safe(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None) -> None:
+        try:
             self._store(key, port, kind, data, meta, fmt)
+        except Exception as exc:  # noqa: BLE001 - a failed write loses only a cache entry, never the render
+            with self._lock:
+                self.write_errors += 1
+                if self._write_error is None and not self._write_warned:
+                    self._write_error = _reason(exc)
 
     def _store(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None) -> None:
         base = self._base(key, port)
@@ -171,69 +294,181 @@ class Cache:
         else:
             final = base.with_name(base.name + ".npz")
             _atomic(final, lambda tmp: _write_npz(tmp, kind, data, key, port, meta, fmt))
-        self.writes += 1
+        size = 0
+        with contextlib.suppress(OSError):
+            size = final.stat().st_size
+        with self._lock:
+            self.writes += 1
+            self._written_since_prune += size
+
+    def report_write_errors(self) -> None:
+        """Warn (once per run) about a write that failed, here or on the writer thread; call it from the
+        thread that owns the cache."""
+        with self._lock:
+            reason, self._write_error = self._write_error, None
+            if reason is None or self._write_warned:
+                return
+            self._write_warned = True
+        warnings.warn(f"cannot write to the disk cache {self.root} ({reason}); the result is still produced, "
+                      "without caching it (later cache write failures in this run are not reported)",
+                      CacheWarning, stacklevel=3)
+
+    def new_run(self) -> None:
+        """A new run begins: a write failure is reported again (once)."""
+        with self._lock:
+            self._write_warned = False
 
     def flush(self) -> None:
         with self._lock:
             pending, self._pending = self._pending, []
         for fut in pending:
-            try:
-                fut.result()
-            except Exception as exc:  # noqa: BLE001 - a failed write loses only a cache entry
-                warnings.warn(f"cache write failed: {exc}", CacheWarning, stacklevel=2)
+            fut.result()  # `_store_safe` never raises
+        self.report_write_errors()
 
     def close(self) -> None:
         self.flush()
         if self._writer is not None:
             self._writer.shutdown(wait=True)
             self._writer = None
+        self.report_write_errors()
 
     # -- maintenance -----------------------------------------------------------------------
+    def _scan(self) -> tuple[list[Entry], list[Entry]]:
+        """(entries, temporary files) under the root; unreadable folders count as empty."""
+        ents: list[Entry] = []
+        temps: list[Entry] = []
+        try:
+            if not self.root.is_dir():
+                return ents, temps
+            paths = list(self.root.glob("*/*"))
+        except OSError:
+            return ents, temps
+        for p in paths:
+            is_temp = p.name.startswith(TEMP_PREFIX)
+            if not is_temp and p.suffix not in (".exr", ".npz"):
+                continue
+            try:
+                st = p.stat()
+            except OSError:
+                continue
+            (temps if is_temp else ents).append(Entry(p, st.st_size, st.st_mtime))
+        return ents, temps
+
     def entries(self) -> list[Entry]:
-        out = []
-        if not self.root.exists():
-            return out
-        for p in self.root.glob("*/*"):
-            if p.suffix in (".exr", ".npz") and not p.name.startswith(".tmp"):
-                try:
-                    st = p.stat()
-                except OSError:
-                    continue
-                out.append(Entry(p, st.st_size, st.st_mtime))
-        return out
+        return self._scan()[0]
+
+    def temp_files(self) -> list[Entry]:
+        """Temporary files: writes in progress, or left by a writer that was killed."""
+        return self._scan()[1]
 
     def info(self) -> dict[str, Any]:
-        ents = self.entries()
+        ents, temps = self._scan()
         return {
             "root": str(self.root),
             "entries": len(ents),
-            "bytes": sum(e.size for e in ents),
+            "bytes": sum(e.size for e in ents) + sum(t.size for t in temps),
             "limit": self.limit,
             "by_kind": {"exr": sum(1 for e in ents if e.path.suffix == ".exr"),
                         "npz": sum(1 for e in ents if e.path.suffix == ".npz")},
+            "temp_files": len(temps),
+            "temp_bytes": sum(t.size for t in temps),
         }
 
     def prune(self, limit: int | None = None) -> tuple[int, int]:
-        """Evict least-recently-used entries until the total is within `limit`. Returns (files, bytes) freed."""
+        """Remove stale temporary files, then evict least-recently-used entries until the total (temporary
+        files included) is within `limit`. Returns (files, bytes) freed. Never raises for a file it cannot
+        remove. Only the client process calls this (the executor, the `cache prune` command)."""
         limit = self.limit if limit is None else limit
-        ents = sorted(self.entries(), key=lambda e: e.mtime)
-        total = sum(e.size for e in ents)
+        ents, temps = self._scan()
         files = freed = 0
+        now = time.time()
+        live = []
+        for t in temps:
+            if _stale_temp(t, now) and _unlink(t.path):
+                files += 1
+                freed += t.size
+            else:
+                live.append(t)
+        ents.sort(key=lambda e: e.mtime)
+        total = sum(e.size for e in ents) + sum(t.size for t in live)
         for e in ents:
             if total <= limit:
                 break
-            try:
-                e.path.unlink()
-            except OSError:
+            if not _unlink(e.path):
                 continue
             total -= e.size
             freed += e.size
             files += 1
+        with self._lock:
+            self._written_since_prune = 0
+            self.pruned += 1
         return files, freed
+
+    def maybe_prune(self) -> bool:
+        """Prune when the writes since the last prune exceed `PRUNE_FRACTION` of the limit (frame loops)."""
+        with self._lock:
+            due = self._written_since_prune > self.limit * PRUNE_FRACTION
+        if due:
+            self.prune()
+        return due
+
+
+def _report_at_exit(ref: weakref.ref[Cache]) -> None:
+    """A cache never closed still reports a failed background write (the writer threads have finished by now)."""
+    cache = ref()
+    if cache is not None:
+        with contextlib.suppress(Exception):
+            cache.report_write_errors()
+
+
+def _reason(exc: BaseException) -> str:
+    """An error as a short phrase: 'No space left on device' for an OSError, else its type and first line."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0][:200]}" if text else type(exc).__name__
+
+
+def _unlink(path: Path) -> bool:
+    try:
+        path.unlink()
+    except FileNotFoundError:
+        return True  # someone else removed it: freed all the same
+    except OSError:
+        return False
+    return True
+
+
+_HOST = re.sub(r"[^A-Za-z0-9.]", "_", socket.gethostname())[:64] or "host"
+_TEMP_NAME = re.compile(re.escape(TEMP_PREFIX) + r"(\d+)@([A-Za-z0-9._]+)-")
+
+
+def _temp_prefix() -> str:
+    return f"{TEMP_PREFIX}{os.getpid()}@{_HOST}-"
+
+
+def _stale_temp(t: Entry, now: float) -> bool:
+    """A leftover temporary file: untouched for `STALE_TEMP_SECONDS`, or written on this host by a process
+    that no longer runs. A name that says nothing about its writer (older versions) is judged by age only."""
+    if now - t.mtime > STALE_TEMP_SECONDS:
+        return True
+    m = _TEMP_NAME.match(t.path.name)
+    if m is None or m.group(2) != _HOST:
+        return False
+    pid = int(m.group(1))
+    if pid == os.getpid():
+        return False  # our own writer thread may be writing it right now
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:
+        return False  # exists (another user's process)
+    return False
 
 
 def _atomic(final: Path, write: Any) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=final.suffix, dir=final.parent)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(), suffix=final.suffix, dir=final.parent)
     os.close(fd)
     try:
         write(tmp)
@@ -257,6 +492,20 @@ def _meta_attrs(key: str, port: str, meta: dict[str, Any]) -> dict[str, str]:
     }
 
 
+def _check_header(got_key: str | None, got_port: str | None, key: str, port: str) -> None:
+    if got_key != key:
+        raise ValueError(f"header key {(got_key or '')[:12] or 'missing'} does not match {key[:12]}")
+    if got_port and got_port != port:  # every entry has carried its port; an empty one is not refused
+        raise EntryMismatch(f"port {got_port}, expected {port}")
+
+
+def _int_or_none(value: Any) -> int | None:
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        return None
+
+
 def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: dict[str, Any]) -> None:
     import OpenImageIO as oiio
 
@@ -269,6 +518,7 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
     for k, v in _meta_attrs(key, port, meta).items():
         spec.attribute(k, v)
     spec.attribute("sketchgraph:fmt", fmt)
+    spec.attribute("sketchgraph:kind", "texture")
     out = oiio.ImageOutput.create(path if path.endswith(".exr") else path + ".exr")
     if out is None:
         raise OSError(oiio.geterror())
@@ -276,22 +526,59 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
     if not out.open(path, spec):
         raise OSError(out.geterror())
     if not out.write_image(arr):
-        raise OSError(out.geterror())
-    out.close()
+        err = out.geterror()
+        out.close()
+        raise OSError(err or "EXR write failed")
+    if not out.close():
+        raise OSError(out.geterror() or "EXR close failed")
+    _check_complete(path, key, port)
 
 
-def _read_exr(path: Path, key: str) -> Loaded:
+def _check_complete(path: str, key: str, port: str) -> None:
+    """OpenEXR can lose the error of its last write (seen with a file-size limit and with a full disk): the
+    file is cut short but the writer reports success. So refuse a file that reached the process's file-size
+    limit, and where the disk is nearly full, read the file back before keeping it."""
+    size = os.stat(path).st_size
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        soft = -1
+    if soft not in (-1, getattr(resource, "RLIM_INFINITY", -1)) and size >= soft:
+        raise OSError(errno.EFBIG, f"File too large (the file-size limit of {soft} bytes)")
+    st = os.statvfs(path)
+    if st.f_bavail * st.f_frsize < LOW_SPACE:
+        try:
+            _read_exr(Path(path), key, port)
+        except Exception as exc:  # noqa: BLE001 - whatever the reader says, the file is incomplete
+            raise OSError(errno.ENOSPC, f"No space left on device (the entry was cut short: {_reason(exc)})") \
+                from exc
+
+
+def _read_exr(path: Path, key: str, port: str = "", expect: Expect | None = None) -> Loaded:
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
-        raise OSError(oiio.geterror() or "cannot open")
+        err = oiio.geterror() or "cannot open"
+        if not path.exists():
+            raise FileNotFoundError(err)
+        raise OSError(err)
     try:
         spec = inp.spec()
-        got = spec.get_string_attribute("sketchgraph:key")
-        if got != key:
-            raise ValueError(f"header key {got[:12] or 'missing'} does not match {key[:12]}")
+        _check_header(spec.get_string_attribute("sketchgraph:key"), spec.get_string_attribute("sketchgraph:port"),
+                      key, port or spec.get_string_attribute("sketchgraph:port"))
         fmt = spec.get_string_attribute("sketchgraph:fmt") or None
+        if expect is not None:  # from the header alone, before reading any pixels
+            kind = spec.get_string_attribute("sketchgraph:kind") or "texture"
+            pixel = {str(oiio.TypeHalf): "half", str(oiio.TypeFloat): "float"}.get(str(spec.format), str(spec.format))
+            if spec.channelformats:
+                pixel = "mixed"
+            diff = _differences(expect, kind=kind, fmt=fmt, width=spec.width, height=spec.height,
+                                channels=spec.nchannels, pixel=pixel)
+            if diff:
+                raise EntryMismatch(diff)
         pixels = inp.read_image(oiio.FLOAT)
         if pixels is None or not isinstance(pixels, np.ndarray):
             raise OSError(inp.geterror() or "no pixels")
@@ -302,12 +589,14 @@ def _read_exr(path: Path, key: str) -> Loaded:
 
 
 def _write_npz(path: str, kind: str, data: Any, key: str, port: str, meta: dict[str, Any], fmt: str | None) -> None:
-    payload: dict[str, Any] = {"__meta__": np.array(json.dumps({**_meta_attrs(key, port, meta), "kind": kind,
-                                                                 "fmt": fmt}))}
+    header: dict[str, Any] = {**_meta_attrs(key, port, meta), "kind": kind, "fmt": fmt}
+    payload: dict[str, Any] = {}
     if kind == "texture_array":  # stored in the texture's own precision (8-bit tones stay 8-bit)
         arr = np.asarray(data, dtype=np.float32)
         dt = types.numpy_dtype(fmt) if fmt else np.dtype(np.float32)
         payload["data"] = np.clip(np.rint(arr * 255.0), 0, 255).astype(np.uint8) if dt == np.uint8 else arr.astype(dt)
+        layers, h, w, _ = arr.shape
+        header.update(w=int(w), h=int(h), layers=int(layers))
     elif kind == "strokes":
         s: Strokes = data
         lengths = np.array([len(p) for p in s.polylines], dtype=np.int64)
@@ -322,26 +611,45 @@ def _write_npz(path: str, kind: str, data: Any, key: str, port: str, meta: dict[
             payload[f"a_{name}"] = value
     else:
         raise ValueError(f"cannot cache values of kind {kind}")
+    payload["__meta__"] = np.array(json.dumps(header))
     with open(path, "wb") as fh:
         np.savez(fh, **payload)
 
 
-def _read_npz(path: Path, key: str) -> Loaded:
+def _read_npz(path: Path, key: str, port: str = "", expect: Expect | None = None) -> Loaded:
     with np.load(path, allow_pickle=False) as z:
         meta = json.loads(str(z["__meta__"]))
-        if meta.get("sketchgraph:key") != key:
-            raise ValueError("header key does not match")
-        kind = meta["kind"]
+        _check_header(meta.get("sketchgraph:key"), meta.get("sketchgraph:port"), key,
+                      port or meta.get("sketchgraph:port", ""))
+        kind = meta.get("kind")
+        fmt = meta.get("fmt")
+        if expect is not None:  # the header's own claims first
+            diff = _differences(expect, kind=kind, fmt=fmt, width=_int_or_none(meta.get("w")),
+                                height=_int_or_none(meta.get("h")), layers=_int_or_none(meta.get("layers")))
+            if diff:
+                raise EntryMismatch(diff)
         if kind == "texture_array":
-            data = np.array(z["data"])
-            data = data.astype(np.float32) / 255.0 if data.dtype == np.uint8 else data.astype(np.float32)
-            return Loaded(kind, data, meta.get("fmt"))
+            raw = np.array(z["data"])
+            if raw.ndim != 4:
+                raise ValueError(f"texture array data has shape {raw.shape}, expected (layers, h, w, c)")
+            if expect is not None:  # then what the data really is (entries older than the size fields too)
+                layers, h, w, c = raw.shape
+                diff = _differences(expect, width=w, height=h, layers=layers, channels=c, pixel=str(raw.dtype))
+                if diff:
+                    raise EntryMismatch(diff)
+            data = raw.astype(np.float32) / 255.0 if raw.dtype == np.uint8 else raw.astype(np.float32)
+            return Loaded(kind, data, fmt)
         if kind == "strokes":
             pts, lengths = np.array(z["points"]), np.array(z["lengths"])
+            if pts.ndim != 2 or pts.shape[1] != 2 or lengths.ndim != 1 or (lengths < 0).any() \
+                    or int(lengths.sum()) != len(pts):
+                raise ValueError(f"strokes of {pts.shape} points and {lengths.shape} lengths do not fit together")
             splits = np.cumsum(lengths)[:-1]
             polys = np.split(pts, splits) if len(lengths) else []
             style = z["style"]
             size = tuple(int(v) for v in z["size"])
+            if len(size) != 2 or len(style) != 4:
+                raise ValueError("strokes size or style malformed")
             return Loaded(kind, Strokes(list(polys), size, float(style[0]), tuple(float(c) for c in style[1:4])))
         if kind == "arrays":
             return Loaded(kind, Arrays({k[2:]: np.array(z[k]) for k in z.files if k.startswith("a_")}))

@@ -9,12 +9,13 @@ the same way. So a node whose output is cached never causes its ancestors to loa
 from __future__ import annotations
 
 import time
+import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
 from . import types
-from .cache import Cache
+from .cache import Cache, CacheWarning, Expect, kind_of_port, value_mismatch
 from .errors import NodeError, PipelineError, SketchgraphError, one_line
 from .node import HashContext, Node, RunContext
 from .pipeline import Pipeline, PortRef
@@ -66,6 +67,7 @@ class Executor:
         self._memory_bytes = 0
         self.memory_limit = memory_limit
         self.compute_counts: dict[str, int] = {}
+        self._unstorable: set[tuple[str, str]] = set()  # outputs already reported as not cacheable
 
     @property
     def gl(self) -> Any:
@@ -95,6 +97,9 @@ class Executor:
         for ref in self.plan.requested:
             values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
         self._evict(pinned)
+        if self.cache is not None and self.mode == "loop":
+            self.cache.report_write_errors()
+            self.cache.maybe_prune()  # a long frame loop stays within the limit, not only at its end
         return RunResult(values, stats, frame)
 
     def _get(self, nid: str, port: str, keys: dict[str, str], stats: dict[str, NodeStat],
@@ -117,7 +122,8 @@ class Executor:
         node = self.pipeline.nodes[nid]
         if self.cache is not None and node.persist != "never" and not node.side_effect:
             t0 = time.perf_counter()
-            loaded = self.cache.load(keys[nid], self._entry(nid, port), f"node '{nid}'")
+            loaded = self.cache.load(keys[nid], self._entry(nid, port), f"node '{nid}' port '{port}'",
+                                     self._expect(nid, port))
             if loaded is not None:
                 value = self._upload(loaded, nid, port)
                 self._remember(mkey, value, pinned)
@@ -173,7 +179,7 @@ class Executor:
             self._remember(mkey, value, pinned)
             st.outputs[port] = describe(value)
             if persist and port in needed and self.cache.find(keys[nid], self._entry(nid, port)) is None:
-                self._persist(node, keys[nid], self._entry(nid, port), value)
+                self._persist(node, keys[nid], port, value)
 
     # -- memory cache ----------------------------------------------------------------------
     def _remember(self, mkey: tuple[str, str], value: Any, pinned: set[tuple[str, str]]) -> None:
@@ -244,14 +250,36 @@ class Executor:
         return f"{port}.{fmt}" if fmt else port
 
     # -- disk cache ------------------------------------------------------------------------
+    def _expect(self, nid: str, port: str) -> Expect | None:
+        """What a cache entry of this output must be: its kind from the port type, the planned format, and for
+        textures the size from `output_shape` (the image size unless the node says otherwise)."""
+        node = self.pipeline.nodes[nid]
+        kind = kind_of_port(node.outputs[port].type)
+        if kind is None:
+            return None
+        fmt = self.plan.formats.get((nid, port))
+        if kind not in ("texture", "texture_array"):
+            return Expect(kind, fmt)
+        w, h, layers = node.output_shape(port, self.pipeline.size)
+        return Expect(kind, fmt, int(w), int(h), int(layers))
+
     def _persist(self, node: Node, key: str, port: str, value: Any) -> None:
         assert self.cache is not None
         from . import __version__
 
+        expect = self._expect(node.id, port)
+        diff = value_mismatch(value, expect) if expect is not None else None
+        if diff:  # every later load would discard it: say so once, write nothing
+            if (node.id, port) not in self._unstorable:
+                self._unstorable.add((node.id, port))
+                warnings.warn(f"node '{node.id}' port '{port}' is not cached: its value differs from what the "
+                              f"plan expects ({diff}); check the node's output_shape() and formats",
+                              CacheWarning, stacklevel=2)
+            return
         meta = {"node": node.id, "type": node.type_name, "version": node.version,
                 "params": node.params.model_dump(mode="json"), "package": __version__}
         # the cache decides how (and whether: scenes and meshes are sources) a value is stored
-        self.cache.store_value(key, port, value, meta, background=self.mode == "loop")
+        self.cache.store_value(key, self._entry(node.id, port), value, meta, background=self.mode == "loop")
 
     def _upload(self, loaded: Any, nid: str, port: str) -> Any:
         """A value from a cache entry (`Cache.load`: host data and its stored kind): textures go to the GPU."""
@@ -268,10 +296,13 @@ class Executor:
         return loaded.data
 
     def close(self) -> None:
+        """Finish the background writes (reporting a failed one), prune the cache if anything was written or
+        discarded (frame loops too), and start the cache's next run."""
         if self.cache is not None:
             self.cache.flush()
-            if self.mode == "single" and self.cache.writes:
+            if self.cache.writes or self.cache.recovered:
                 self.cache.prune()
+            self.cache.new_run()
 
 
 def describe(value: Any) -> str:
