@@ -142,17 +142,29 @@ class Track:
 # --- deformation ----------------------------------------------------------------------------------
 
 
-def skin_vertices(vertices: np.ndarray, joints: np.ndarray, weights: np.ndarray,
-                  joint_matrices: np.ndarray) -> np.ndarray:
-    """Linear-blend skinning in float64: v' = sum_k w_k (J[j_k] @ v), per vertex.
+def skin_weights(joints: np.ndarray, weights: np.ndarray, n_joints: int) -> Any:
+    """The (n, J) sparse matrix of skin weights (CSR; repeated joints of one vertex add up): built once per
+    mesh, it turns skinning into one sparse product per frame (`skin_vertices`)."""
+    import scipy.sparse as sp
 
-    vertices (n, 3); joints (n, k) integer joint indices; weights (n, k); joint_matrices (J, 4, 4)
-    (each the joint's world matrix times its inverse bind matrix). The blended (3, 4) matrix per vertex
-    is a weighted sum of the k gathered joint matrices (one einsum), then applied to [v, 1]."""
+    j = np.asarray(joints, dtype=np.int64)
+    w = np.asarray(weights, dtype=np.float64)
+    rows = np.repeat(np.arange(len(j)), j.shape[1])
+    return sp.csr_matrix((w.ravel(), (rows, j.ravel())), shape=(len(j), int(n_joints)))
+
+
+def skin_vertices(vertices: np.ndarray, joints: np.ndarray | None, weights: np.ndarray | Any,
+                  joint_matrices: np.ndarray) -> np.ndarray:
+    """Linear-blend skinning in float64: v' = (sum_k w_k J[j_k]) @ [v, 1], per vertex.
+
+    vertices (n, 3); joints (n, k) joint indices and weights (n, k), or joints None and weights the sparse
+    (n, J) matrix of `skin_weights`; joint_matrices (J, 4, 4), each the joint's world matrix times its
+    inverse bind matrix. The blended (3, 4) matrix of every vertex is the weighted sum of its joints'
+    matrices, all at once as a sparse (n, J) x (J, 12) product; then one einsum applies them."""
     v = np.asarray(vertices, dtype=np.float64)
-    rows = np.ascontiguousarray(np.asarray(joint_matrices, dtype=np.float64)[:, :3, :]).reshape(-1, 12)
-    blended = np.einsum("nk,nkc->nc", np.asarray(weights, dtype=np.float64), rows[joints], optimize=False)
-    blended = blended.reshape(-1, 3, 4)
+    mats = np.asarray(joint_matrices, dtype=np.float64)
+    w = weights if joints is None else skin_weights(joints, weights, len(mats))
+    blended = np.asarray(w @ np.ascontiguousarray(mats[:, :3, :]).reshape(-1, 12)).reshape(-1, 3, 4)
     return np.einsum("nij,nj->ni", blended[:, :, :3], v) + blended[:, :, 3]
 
 

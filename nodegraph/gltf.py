@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_vertices, trs_matrix
+from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_vertices, skin_weights, trs_matrix
 from .errors import MeshError, PipelineError
 from .meshes import Mesh, MeshWarning
 
@@ -58,6 +58,7 @@ class _Prim:
     weights: np.ndarray | None = None  # (n, 4k) float64
     targets: np.ndarray | None = None  # (T, n, 3) POSITION deltas
     _rest: Mesh | None = None
+    _skin: Any = None  # the sparse (n, J) skin weights, built on first use
 
     def rest_mesh(self) -> Mesh:
         if self._rest is None:
@@ -194,7 +195,9 @@ class GltfAsset:
         if skinned:
             joints, ibm = self.skins[node.skin]
             mats = world[joints] @ ibm
-            v = skin_vertices(v, prim.joints, prim.weights, mats)
+            if prim._skin is None or prim._skin.shape[1] != len(mats):
+                prim._skin = skin_weights(prim.joints, prim.weights, len(mats))
+            v = skin_vertices(v, None, prim._skin, mats)
             h.update(mats.tobytes())
         mesh = Mesh(prim.name, v, prim.faces)
         # what shaped the vertices (rest mesh, joint matrices, morph weights) names them: no hashing of
