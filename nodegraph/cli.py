@@ -77,11 +77,18 @@ def cache_options(f: Any) -> Any:
 @click.option("--watch", is_flag=True, help="Re-render whenever the pipeline, its scene file or the scene's "
               "meshes change; only nodes whose key changed recompute. Ctrl-C stops.")
 @click.option("--interval", default=0.5, show_default=True, metavar="SECONDS", help="How often --watch polls.")
+@click.option("--fps", type=float, metavar="N", help="Frames per second of the animation and the film "
+              "(default: the scene's fps:, else 24).")
+@click.option("--camera", "camera", metavar="NAME|INDEX", help="Look through this camera of a glTF scene.")
+@click.option("--crf", type=int, metavar="N", help="Film quality (.mp4 H.264 / .webm VP9 constant rate factor: "
+              "lower is better; default 18 / 32).")
+@click.option("--resume", is_flag=True, help="Image sequences: skip frames already written with the same keys.")
 @pipeline_options
 @cache_options
 @out_dir_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
-        watch: bool, interval: float, overrides: tuple[str, ...], size: str | None, scene: str | None,
+        watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
+        overrides: tuple[str, ...], size: str | None, scene: str | None,
         no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
@@ -98,13 +105,16 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         watchmod.watch(watcher, interval, echo=click.echo)
         return
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside)
-    frame_list = parse_frames(frames)
+    from . import film
+
+    frame_list, fps = film.prepare(pipe, out, frames, fps, camera)
     name = output_name or next(iter(pipe.outputs))
     if name not in pipe.outputs:
         raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
     ref = pipe.outputs[name]
     cache = open_cache(no_cache, cache_dir)
-    ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 else "single", requested=[ref])
+    ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 or film.is_film(out or "") else "single",
+                  requested=[ref])
     if explain:
         from .tools.explain import explain as explain_plan
 
@@ -112,6 +122,17 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     pattern = out or f"out/{Path(pipeline).stem}.png"
     many = len(frame_list) > 1
     t0 = time.perf_counter()
+    if film.is_film(pattern) or many:
+        try:
+            done = film.render_frames(ex, ref, frame_list, pattern, fps=fps, crf=crf, resume=resume,
+                                      bar=lambda fl: _progress(fl, quiet, "frames"))
+        finally:
+            ex.close()
+        if not quiet:
+            skipped = f" ({done['skipped']} already written)" if done["skipped"] else ""
+            where = done["path"] if film.is_film(pattern) else done["path"].parent
+            click.echo(f"wrote {done['frames']} frames{skipped} to {where} in {time.perf_counter() - t0:.1f} s")
+        return
     bar = _progress(frame_list, quiet or not many, "frames")
     try:
         for frame in bar:

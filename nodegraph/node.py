@@ -159,7 +159,7 @@ class HashContext:
         self.size = size
         self.frame = frame
         self.seed = seed
-        self.scene = scene
+        self.scene = posed(scene, frame)
 
     def value(self, name: str, node_id: str) -> Any:
         if name == "size":
@@ -205,7 +205,7 @@ class RunContext:
         object.__setattr__(self, "size", (int(size[0]), int(size[1])))
         object.__setattr__(self, "frame", int(frame))
         object.__setattr__(self, "pipeline_seed", int(pipeline_seed))
-        object.__setattr__(self, "scene", scene)
+        object.__setattr__(self, "scene", posed(scene, frame))
         object.__setattr__(self, "formats", dict(formats or {}))
 
     @property
@@ -242,6 +242,11 @@ class RunContext:
     def program(self, filename: str, defines: dict[str, Any] | None = None) -> Any:
         """A compiled program from a GLSL file beside the node (cached by source and defines)."""
         return self.gl.program(self.node.source_dir() / filename, defines, node=self.node.id)
+
+
+def posed(scene: Any, frame: int) -> Any:
+    """An animated scene at `frame` (`Scene.at`): nodes see still geometry, and keys cover the pose."""
+    return scene.at(int(frame)) if getattr(scene, "animation", None) is not None else scene
 
 
 def derive_seed(pipeline_seed: int, node_id: str, frame: int) -> int:

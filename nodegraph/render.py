@@ -70,13 +70,15 @@ def frame_path(pattern: str, frame: int, many: bool) -> Path:
 
 def to_image(value: Any) -> Any:
     """A node value as a float (H, W, C) array for writing."""
+    import numpy as np
+
     from .values import Strokes, Tex, TexArray
 
+    if isinstance(value, np.ndarray):  # already read back (film.render_frames reads on the render thread)
+        return value
     if isinstance(value, Tex):
         return value.read()
     if isinstance(value, TexArray):
-        import numpy as np
-
         arr = value.read()
         return np.concatenate(list(arr), axis=1)  # layers side by side
     if isinstance(value, Strokes):

@@ -31,9 +31,11 @@ from pydantic import (
     model_validator,
 )
 
-from . import primitives, yamlio
+from . import keyframes, primitives, yamlio
+from .animation import DEFAULT_FPS, Animator, CameraAnim, ObjectAnim
 from .errors import Location, MeshError, PipelineError
 from .fsio import show_path
+from .gltf import GLTF_EXTENSIONS, GltfInstance, load_any_mesh, load_asset
 from .meshes import SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
 
 SCENE_EXTENSIONS = (".yaml", ".yml")
@@ -279,6 +281,7 @@ class Scene:
     orbit: Orbit | None = None
     background: Vec = (1.0, 1.0, 1.0)
     source: str | None = None
+    animation: Any = None  # an animation.Animator: the scene moves (see `at`); None: static
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -289,8 +292,23 @@ class Scene:
         if self.light_space not in ("view", "world"):
             raise ValueError(f"light space must be 'view' or 'world', got {self.light_space!r}")
 
+    def at(self, frame: int) -> Scene:
+        """The scene posed at `frame` (t = frame / fps) as a static scene; itself when static."""
+        if self.animation is None:
+            return self
+        key = ("pose", int(frame))
+        hit = self._cache.get(key)
+        if hit is None:
+            poses = [k for k in self._cache if isinstance(k, tuple) and k[0] == "pose"]
+            for k in poses[: max(0, len(poses) - 3)]:  # a few poses: keys and computes of one frame share one
+                del self._cache[k]
+            hit = self._cache[key] = self.animation.pose(self, int(frame))
+        return hit
+
     def camera_at(self, frame: int) -> Camera:
         """The camera for `frame`: eye, target and up turned rigidly about the orbit axis."""
+        if self.animation is not None:
+            return self.at(frame).camera_at(frame)
         if self.orbit is None or frame == 0 or self.orbit.degrees_per_frame == 0.0:
             return self.camera
         key = ("camera", int(frame))  # asked for several times per frame (keys, nodes): build it once
@@ -343,6 +361,8 @@ class Scene:
                 "orbit": None if self.orbit is None else self.orbit.params(),
                 "background": list(self.background),
             }
+            if self.animation is not None:  # static scenes keep their keys
+                doc["animation"] = self.animation.digest()
             text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
             self._cache["hash"] = hashlib.sha256(text.encode()).hexdigest()
         return self._cache["hash"]
@@ -420,8 +440,14 @@ class TransformSpec(_Spec):
 class ObjectSpec(_Spec):
     name: str | None = Field(None, description="Object name (default: the mesh file's stem or the "
                              "primitive type with its index).")
-    mesh: str | None = Field(None, description="Mesh file (.obj, .ply, .off, .stl), relative to the scene "
-                             "file. Give this or 'primitive'.")
+    mesh: str | None = Field(None, description="Mesh file (.obj, .ply, .off, .stl; .gltf/.glb as one still "
+                             "mesh), relative to the scene file. Give this, 'primitive' or 'gltf'.")
+    gltf: str | None = Field(None, description="A glTF 2.0 file (.gltf, .glb), relative to the scene file: its "
+                             "objects, skins, morph targets and animation, placed by 'transform'.")
+    animation: str | int | None = Field(None, description="With 'gltf': the animation to play, by name or index "
+                                        "(default: the first).")
+    animate: keyframes.ObjectAnimateSpec | None = Field(None, description="Keyframes of translate, rotate and "
+                                                        "scale (each replaces that part of 'transform').")
     primitive: dict[str, Any] | None = Field(None, description="A procedural mesh: {type: NAME, ...params}; "
                                              "types: " + ", ".join(primitives.PRIMITIVES) + ".")
     transform: TransformSpec = Field(default_factory=TransformSpec, description="Object-to-world transform.")
@@ -431,8 +457,12 @@ class ObjectSpec(_Spec):
 
     @model_validator(mode="after")
     def _one_source(self) -> ObjectSpec:
-        if (self.mesh is None) == (self.primitive is None):
-            raise ValueError("give exactly one of 'mesh' (a file) or 'primitive' ({type: ...})")
+        if sum(x is not None for x in (self.mesh, self.primitive, self.gltf)) != 1:
+            raise ValueError("give exactly one of 'mesh' (a file), 'primitive' ({type: ...}) or 'gltf' (a glTF file)")
+        if self.gltf is None and self.animation is not None:
+            raise ValueError("'animation' picks an animation of a 'gltf' file")
+        if self.gltf is not None and self.animate is not None:
+            raise ValueError("'animate' keyframes are for meshes and primitives; a glTF file plays its own animation")
         return self
 
 
@@ -445,6 +475,8 @@ class CameraSpec(_Spec):
                                "bounding sphere).")
     far: float | None = Field(None, gt=0.0, description="Far plane distance (default: hug the scene's "
                               "bounding sphere).")
+    animate: keyframes.CameraAnimateSpec | None = Field(None, description="Keyframes of eye, target, up and fov "
+                                                        "(each replaces that value).")
 
 
 class LightSpec(_Spec):
@@ -463,8 +495,9 @@ class SceneSpec(_Spec):
     scene: str | None = Field(None, description="Scene name (default: the file's stem).")
     objects: list[ObjectSpec] = Field(min_length=1, description="The objects, drawn in this order; object "
                                       "ids follow it.")
-    camera: CameraSpec | None = Field(None, description="Camera; framed from the scene's bounding box "
-                                      "when omitted.")
+    camera: CameraSpec | None = Field(None, description="Camera; framed from the scene's bounding box when "
+                                      "omitted; a name or index picks a camera of the scene's glTF objects.")
+    fps: float = Field(24.0, gt=0, le=1000, description="Frames per second: frame f shows time f / fps.")
     light: LightSpec = Field(default_factory=LightSpec, description="Directional light for shading nodes.")
     orbit: OrbitSpec | None = Field(None, description="Turn the camera per frame (for frame sequences).")
     background: Color = Field((1.0, 1.0, 1.0), description="Background (paper) color [r, g, b].")
@@ -572,8 +605,14 @@ def json_schema() -> dict[str, Any]:
     prim = obj["properties"]["primitive"]
     obj["properties"]["primitive"] = {"description": prim.get("description", ""), "oneOf": variants}
     # ObjectSpec._one_source: a mesh file or a primitive, not both
-    obj["oneOf"] = [{"required": ["mesh"], "not": {"required": ["primitive"]}},
-                    {"required": ["primitive"], "not": {"required": ["mesh"]}}]
+    sources = ("mesh", "primitive", "gltf")
+    obj["oneOf"] = [{"required": [k], "not": {"anyOf": [{"required": [o]} for o in sources if o != k]}}
+                    for k in sources]
+    cam = schema["properties"]["camera"]  # `camera: NAME | INDEX` picks a glTF camera (scene_from_yaml)
+    cam["anyOf"] = [c for c in cam["anyOf"] if c.get("type") != "null"] + [
+        {"type": "string", "description": "a camera of the scene's glTF objects, by name"},
+        {"type": "integer", "minimum": 0, "description": "a camera of the scene's glTF objects, by index"},
+        {"type": "null"}]
     schema["$schema"] = DIALECT
     schema["title"] = "sketchgraph scene"
     return schema
@@ -600,24 +639,37 @@ def _build_primitive(data: Any, file: str, path: tuple[Any, ...], root: Any) -> 
     return primitive_mesh(spec)
 
 
-def scene_from_yaml(path: str | Path) -> Scene:
-    """Load a scene YAML file; every error is a one-line PipelineError with file:line:col."""
+def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None) -> Scene:
+    """Load a scene YAML file; every error is a one-line PipelineError with file:line:col. `camera_choice`
+    (`--camera`) picks a camera of the scene's glTF objects instead of its `camera:`."""
     p = Path(path)
     file = str(path)
     data = yamlio.load(p)
     if not isinstance(data, dict):
         raise PipelineError(f"a scene file must be a mapping with 'objects:', found {yamlio.describe(data)}",
                             Location(file, 1, 1))
-    spec = yamlio.validate(SceneSpec, data, file, root=data, what="scene")
+    named_camera = data.get("camera")
+    checked = data
+    if isinstance(named_camera, (str, int)) and not isinstance(named_camera, bool):  # a glTF camera by name/index
+        checked = {k: v for k, v in data.items() if k != "camera"}
+    else:
+        named_camera = None
+    spec = yamlio.validate(SceneSpec, checked, file, root=data, what="scene")
     base = p.parent
     objects: list[SceneObject] = []
+    moving = _Moving(spec.fps)
     for i, obj in enumerate(spec.objects):
         where = ("objects", i)
+        if obj.gltf is not None:
+            loc = yamlio.locate(data, (*where, "gltf"), file)
+            try:
+                moving.add_gltf(objects, obj, _resolve(base, obj.gltf), obj.transform.matrix(), "color" in
+                                obj.model_fields_set)
+            except (MeshError, PipelineError) as exc:
+                raise PipelineError(str(exc), loc) from None
+            continue
         if obj.mesh is not None:
-            mesh_path = Path(obj.mesh).expanduser()
-            if not mesh_path.is_absolute():
-                mesh_path = base / mesh_path
-            mesh_path = mesh_path.absolute()
+            mesh_path = _resolve(base, obj.mesh)
             loc = yamlio.locate(data, (*where, "mesh"), file)
             try:
                 os.stat(mesh_path)
@@ -627,18 +679,29 @@ def scene_from_yaml(path: str | Path) -> Scene:
             except (OSError, ValueError):
                 pass  # load_mesh says what is wrong
             try:
-                mesh = load_mesh(mesh_path)
+                mesh = load_any_mesh(mesh_path)
             except MeshError as exc:
                 raise PipelineError(str(exc), loc) from None
             default_name = mesh_path.stem
         else:
             mesh = _build_primitive(data["objects"][i]["primitive"], file, (*where, "primitive"), data)
             default_name = f"{mesh.name}{i}"
+        if obj.animate is not None:
+            try:
+                moving.add_keyframes(len(objects), obj.animate, obj.transform)
+            except ValueError as exc:
+                raise PipelineError(f"animate: {exc}", yamlio.locate(data, (*where, "animate"), file)) from None
         objects.append(SceneObject(mesh=mesh, transform=obj.transform.matrix(), color=obj.color,
                                    sketchy=obj.sketchy, name=obj.name or default_name))
-    lo, hi = _bounds_of(objects)
+    lo, hi = moving.bounds(objects)
     center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
-    if spec.camera is None:
+    choice = camera_choice if camera_choice is not None else named_camera
+    if choice is not None:
+        try:
+            camera = moving.gltf_camera(choice, center, radius)
+        except (MeshError, PipelineError, ValueError) as exc:
+            raise PipelineError(f"camera: {exc}", yamlio.locate(data, ("camera",), file)) from None
+    elif spec.camera is None:
         camera = frame_camera(lo, hi)
     else:
         c = spec.camera
@@ -647,6 +710,8 @@ def scene_from_yaml(path: str | Path) -> Scene:
             camera = Camera(eye=c.eye, target=c.target, up=c.up, fov_y_deg=c.fov,
                             near=c.near if c.near is not None else near,
                             far=c.far if c.far is not None else max(far, (c.near or 0.0) * 1.001))
+            if c.animate is not None:
+                moving.add_camera_keyframes(camera, c.animate)
         except ValueError as exc:
             raise PipelineError(f"camera: {exc}", yamlio.locate(data, ("camera",), file)) from None
     orbit = None
@@ -655,7 +720,12 @@ def scene_from_yaml(path: str | Path) -> Scene:
                       center=spec.orbit.center)
     return Scene(name=spec.scene or p.stem, objects=tuple(objects), camera=camera,
                  light_direction=spec.light.direction, light_space=spec.light.space, orbit=orbit,
-                 background=spec.background, source=file)
+                 background=spec.background, source=file, animation=moving.animator())
+
+
+def _resolve(base: Path, name: str) -> Path:
+    path = Path(name).expanduser()
+    return (path if path.is_absolute() else base / path).absolute()
 
 
 def _bounds_of(objects: list[SceneObject]) -> tuple[np.ndarray, np.ndarray]:
@@ -894,10 +964,17 @@ def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
     ext = path.suffix.lower()
+    if ext in GLTF_EXTENSIONS:
+        if not path.exists():
+            raise PipelineError(f"scene file not found: {path.absolute()}")
+        try:
+            return scene_from_gltf(path)
+        except MeshError as exc:
+            raise PipelineError(str(exc)) from None
     if ext not in SCENE_EXTENSIONS + SUPPORTED_EXTENSIONS:
         hint = yamlio.suggest(spec, [f"builtin:{n}" for n in BUILTIN_SCENES]) if ":" in spec else ""
         raise PipelineError(f"scene '{spec}': expected builtin:NAME, a scene file ({', '.join(SCENE_EXTENSIONS)}) "
-                            f"or a mesh file ({', '.join(SUPPORTED_EXTENSIONS)}){hint}")
+                            f"or a mesh file ({', '.join(SUPPORTED_EXTENSIONS + GLTF_EXTENSIONS)}){hint}")
     try:
         os.stat(path)
     except FileNotFoundError:
@@ -907,3 +984,155 @@ def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
     if ext in SCENE_EXTENSIONS:
         return scene_from_yaml(path)
     return mesh_scene(path)
+
+
+# --- animated scenes ------------------------------------------------------------------------------------
+
+
+class _Moving:
+    """What moves in a scene being built: keyframed objects, glTF files placed in it, the camera."""
+
+    def __init__(self, fps: float):
+        self.fps = float(fps)
+        self.objects: dict[int, ObjectAnim] = {}
+        self.camera: CameraAnim | None = None
+        self.instances: list[GltfInstance] = []
+        self.ranges: list[tuple[float, float]] = []
+
+    def add_gltf(self, objects: list[SceneObject], spec: Any, path: Path, root: np.ndarray, color_given: bool,
+                 prefix: bool = True) -> None:
+        asset = load_asset(path)
+        inst = GltfInstance(asset, np.asarray(root, dtype=np.float64), asset.animation(spec.animation))
+        first = len(objects)
+        head = spec.name or path.stem
+        for name, mesh, matrix, color in inst.objects_at(0.0):
+            objects.append(SceneObject(mesh=mesh, transform=matrix, color=spec.color if color_given else color,
+                                       sketchy=spec.sketchy, name=f"{head}/{name}" if prefix else name))
+        self.objects.update(inst.object_anims(first))
+        self.instances.append(inst)
+        if inst.anim is not None:
+            self.ranges.append((inst.anim.start, inst.anim.end))
+
+    def add_keyframes(self, index: int, spec: keyframes.ObjectAnimateSpec, base: TransformSpec) -> None:
+        found = keyframes.tracks(spec, self.fps, {"translate": 3, "rotate": 3, "scale": 3})
+        if "scale" in found and not np.all(found["scale"].values > 0):
+            raise ValueError("scale: expected positive scale factors (mirroring is not supported)")
+        fixed = {"translate": base.translate, "rotate": base.rotate, "scale": base.scale}
+
+        def pose(t: float) -> tuple[None, np.ndarray]:
+            part = {k: (found[k].sample(t) if k in found else v) for k, v in fixed.items()}
+            return None, compose(part["translate"], part["rotate"], part["scale"])
+
+        h = hashlib.sha256(json.dumps(fixed).encode())
+        for name in sorted(found):
+            h.update(name.encode())
+            found[name].digest_into(h)
+        self.objects[index] = ObjectAnim(pose, h.hexdigest())
+        self.ranges.append(keyframes.time_range(found) or (0.0, 0.0))
+
+    def add_camera_keyframes(self, camera: Camera, spec: keyframes.CameraAnimateSpec) -> None:
+        found = keyframes.tracks(spec, self.fps, {"eye": 3, "target": 3, "up": 3, "fov": 1})
+        if not found:
+            return
+
+        def at(t: float) -> Camera:
+            kw = {k: found[k].sample(t) for k in ("eye", "target", "up") if k in found}
+            if "fov" in found:
+                kw["fov_y_deg"] = float(found["fov"].sample(t)[0])
+            return replace(camera, **kw)
+
+        for track in found.values():  # every key is a valid camera (up not along the view, fov in range)
+            for t in track.times:
+                at(float(t))
+        h = hashlib.sha256(json.dumps(camera.params()).encode())
+        for name in sorted(found):
+            h.update(name.encode())
+            found[name].digest_into(h)
+        self.camera = CameraAnim(at, h.hexdigest())
+        self.ranges.append(keyframes.time_range(found) or (0.0, 0.0))
+
+    def gltf_camera(self, choice: str | int | None, center: np.ndarray, radius: float) -> Camera | None:
+        """A camera of the placed glTF files by name or index (None: the first perspective one, if any)."""
+        error: PipelineError | None = None
+        for inst in self.instances:
+            try:
+                ci = inst.find_camera(choice)
+            except PipelineError as exc:
+                error = error or exc
+                continue
+            if ci is None:
+                continue
+            camera = Camera(**inst.camera_params(ci, 0.0, center, radius))
+            if inst.camera_moves(ci):
+                def at(t: float, inst: GltfInstance = inst, ci: int = ci) -> Camera:
+                    return Camera(**inst.camera_params(ci, t, center, radius))
+
+                self.camera = CameraAnim(at, f"{inst.digest()}|camera{ci}")
+            return camera
+        if choice is None:
+            return None
+        if error is not None:
+            raise error
+        raise PipelineError(f"camera {choice!r}: the scene has no glTF object with cameras")
+
+    def animator(self) -> Animator | None:
+        if not self.objects and self.camera is None:
+            return None
+        return Animator(objects=dict(self.objects), camera=self.camera, fps=self.fps,
+                        start=min([0.0] + [a for a, _ in self.ranges]), end=max([0.0] + [b for _, b in self.ranges]))
+
+    def bounds(self, objects: list[SceneObject], samples: int = 9) -> tuple[np.ndarray, np.ndarray]:
+        """World bounds over the animation (sampled at `samples` times), for framing and near/far."""
+        lo, hi = _bounds_of(objects)
+        if not self.objects or not self.ranges:
+            return lo, hi
+        a, b = min(r[0] for r in self.ranges), max(r[1] for r in self.ranges)
+        for t in np.linspace(a, b, samples):
+            for i, anim in self.objects.items():
+                mesh, matrix = anim.pose(float(t))
+                o = SceneObject(mesh=objects[i].mesh if mesh is None else mesh, transform=matrix)
+                olo, ohi = o.world_bounds()
+                lo, hi = np.minimum(lo, olo), np.maximum(hi, ohi)
+        return lo, hi
+
+
+def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation: str | int | None = None,
+                    fps: float = DEFAULT_FPS) -> Scene:
+    """A glTF file as a scene: its objects (colour from the material), seen through its first perspective
+    camera (or `camera`, by name or index), playing its first animation (or `animation`). Without a camera
+    the scene is framed over the whole animation; a still file without a camera gets a mesh file's view and
+    orbit."""
+    p = Path(path).expanduser().absolute()
+    spec = ObjectSpec(gltf=str(p), animation=animation)
+    moving = _Moving(fps)
+    objects: list[SceneObject] = []
+    moving.add_gltf(objects, spec, p, np.eye(4), False, prefix=False)
+    lo, hi = moving.bounds(objects)
+    center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
+    cam = moving.gltf_camera(camera, center, radius)
+    anim = moving.animator()
+    orbit = None
+    if cam is None:
+        still = anim is None
+        direction = best_view_direction(merge_meshes([o.mesh.transformed(o.transform) for o in objects], p.stem)) \
+            if still else (0.55, 0.45, 1.0)
+        cam = frame_camera(lo, hi, direction=direction)
+        orbit = Orbit() if still else None
+    return Scene(name=p.stem, objects=tuple(objects), camera=cam, orbit=orbit, source=str(p), animation=anim)
+
+
+def select_camera(scene: Scene, which: str | int | None) -> Scene:
+    """The scene reloaded to look through one of its glTF cameras, by name or index (`--camera`)."""
+    if which is None:
+        return scene
+    src = scene.source or ""
+    ext = Path(src).suffix.lower()
+    if ext in GLTF_EXTENSIONS:
+        try:
+            return scene_from_gltf(src, camera=which)
+        except MeshError as exc:
+            raise PipelineError(str(exc)) from None
+    if ext in SCENE_EXTENSIONS:
+        return scene_from_yaml(src, camera_choice=which)
+    raise PipelineError(f"--camera {which}: picks a camera of a glTF file (.gltf, .glb, or a scene YAML with "
+                        f"'gltf:' objects); the scene is {src or scene.name}")

@@ -1,4 +1,4 @@
-"""load_mesh: a mesh file as a value (OBJ, PLY, OFF, STL)."""
+"""load_mesh: a mesh file as a value (OBJ, PLY, OFF, STL; glTF as one still mesh at t = 0)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from nodegraph.errors import MeshError
-from nodegraph.meshes import load_mesh
+from nodegraph.gltf import load_any_mesh as load_mesh
 from nodegraph.node import HashContext, Node, NodeParams, Output, RunContext
 from nodegraph.types import MESH
 
@@ -25,7 +25,7 @@ class LoadMesh(Node):
     outputs = {"out": Output(MESH, "The mesh.")}
 
     class Params(NodeParams):
-        path: str = Field(description="Mesh file (.obj, .ply, .off, .stl).")
+        path: str = Field(description="Mesh file (.obj, .ply, .off, .stl, .gltf, .glb).")
 
         @field_validator("path")
         @classmethod

@@ -40,12 +40,12 @@ class SceneNode(Node):
         return None
 
     def hash_extra(self, ctx: HashContext) -> Any:
-        return load_scene(self.params.path, Path.cwd()).content_hash() if self.params.path else None
+        return load_scene(self.params.path, Path.cwd()).at(ctx.frame).content_hash() if self.params.path else None
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         if "mesh" in inputs:
             return {"out": scene_for_mesh(inputs["mesh"])}
-        return {"out": load_scene(self.params.path, Path.cwd())}
+        return {"out": load_scene(self.params.path, Path.cwd()).at(ctx.frame)}
 
 
 NODE = SceneNode

@@ -1,0 +1,257 @@
+"""Films and frame sequences: `-o` decides. `.mp4` (H.264, yuv420p), `.webm` (VP9), `.gif`, or an image
+pattern with `####` (PNG, EXR; one file per frame).
+
+Encoding and file writing run beside rendering: the render loop reads each frame back and hands it to a
+worker thread through a bounded queue, so a film costs little more than its frames. A film is encoded to
+a hidden temporary file in the output's folder and renamed when the container is finalised; if the run
+fails or is interrupted the temporary file is removed, so the output is either a complete, playable film
+or absent. With `resume`, image sequences keep a manifest (`<pattern>.frames.json`: frame -> the key of the
+written output) and skip frames already written with the same key.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import queue
+import threading
+from collections.abc import Callable, Iterable
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import SketchgraphError
+
+# extension -> (container format, codec, pixel format, default quality as CRF; None: not applicable)
+FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
+    ".mp4": ("mp4", "libx264", "yuv420p", 18),
+    ".webm": ("webm", "libvpx-vp9", "yuv420p", 32),
+    ".gif": ("gif", "gif", "rgb8", None),  # GIF: a fixed 3-3-2 palette of 256 colours
+}
+
+
+def is_film(path: str | Path) -> bool:
+    return Path(str(path)).suffix.lower() in FILM_FORMATS
+
+
+class _Worker:
+    """One thread consuming a bounded queue; an exception there is raised in the caller at the next put."""
+
+    def __init__(self, consume: Callable[[Any], None], depth: int = 8):
+        self._q: queue.Queue[Any] = queue.Queue(maxsize=depth)
+        self._consume = consume
+        self.error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name="sketchgraph-film", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            item = self._q.get()
+            if item is None:
+                return
+            if self.error is None:
+                try:
+                    self._consume(item)
+                except BaseException as exc:  # handed to the render thread
+                    self.error = exc
+
+    def put(self, item: Any) -> None:
+        self._check()
+        self._q.put(item)
+
+    def finish(self) -> None:
+        self._q.put(None)
+        self._thread.join()
+        self._check()
+
+    def _check(self) -> None:
+        if self.error is not None:
+            raise SketchgraphError(f"writing frames failed: {self.error}") from self.error
+
+
+class FilmWriter:
+    """Frames (uint8 RGB, row 0 at the top) into a film, encoded on a worker thread."""
+
+    def __init__(self, path: str | Path, fps: float, size: tuple[int, int], crf: int | None = None):
+        import av
+
+        self.path = Path(path)
+        fmt, codec, pix, default_crf = FILM_FORMATS[self.path.suffix.lower()]
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
+        self.container = av.open(str(self.tmp), "w", format=fmt)
+        try:
+            self.stream = self.container.add_stream(codec, rate=Fraction(fps).limit_denominator(1001))
+            w, h = size
+            if pix == "yuv420p":  # chroma subsampling needs even sizes: the last row/column is repeated
+                w, h = w + w % 2, h + h % 2
+            self.stream.width, self.stream.height, self.stream.pix_fmt = w, h, pix
+            quality = default_crf if crf is None else crf
+            if quality is not None:
+                self.stream.options = {"crf": str(quality), **({"b:v": "0"} if codec == "libvpx-vp9" else {})}
+        except Exception:
+            self.container.close()
+            self.tmp.unlink(missing_ok=True)
+            raise
+        self.frames = 0
+        self._worker = _Worker(self._encode)
+
+    def _encode(self, rgb: np.ndarray) -> None:
+        import av
+
+        h, w = self.stream.height, self.stream.width
+        if rgb.shape[0] != h or rgb.shape[1] != w:
+            rgb = np.pad(rgb, ((0, h - rgb.shape[0]), (0, w - rgb.shape[1]), (0, 0)), mode="edge")
+        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+        for packet in self.stream.encode(frame):
+            self.container.mux(packet)
+
+    def write(self, rgb: np.ndarray) -> None:
+        self._worker.put(rgb)
+        self.frames += 1
+
+    def close(self) -> Path:
+        """Finish encoding, finalise the container, move it into place."""
+        self._worker.finish()
+        for packet in self.stream.encode():
+            self.container.mux(packet)
+        self.container.close()
+        os.replace(self.tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Stop and remove the temporary file: no partial film is left."""
+        with contextlib.suppress(SketchgraphError):
+            self._worker.finish()
+        with contextlib.suppress(Exception):  # a container that never got a frame may refuse to finalise
+            self.container.close()
+        self.tmp.unlink(missing_ok=True)
+
+
+class SequenceWriter:
+    """One image file per frame (PNG, EXR, ...), written on a worker thread; a manifest of keys for resume."""
+
+    def __init__(self, manifest: Path | None, resume: bool):
+        self.manifest_path = manifest
+        self.done: dict[str, str] = {}
+        if manifest is not None and resume and manifest.is_file():
+            try:
+                self.done = {str(k): str(v) for k, v in json.loads(manifest.read_text()).get("frames", {}).items()}
+            except (ValueError, AttributeError):
+                self.done = {}
+        self._worker = _Worker(self._write)
+
+    def _write(self, item: tuple[Path, Any, int, str]) -> None:
+        from .render import write_value
+
+        path, value, frame, key = item
+        write_value(value, path)
+        self.done[str(frame)] = key
+
+    def up_to_date(self, frame: int, key: str, path: Path) -> bool:
+        return self.done.get(str(frame)) == key and path.is_file()
+
+    def write(self, path: Path, value: Any, frame: int, key: str) -> None:
+        self._worker.put((path, value, frame, key))
+
+    def close(self) -> None:
+        try:
+            self._worker.finish()
+        finally:
+            self._save()
+
+    def _save(self) -> None:
+        if self.manifest_path is None:
+            return
+        from .fsio import atomic_write_text
+
+        atomic_write_text(self.manifest_path,
+                          json.dumps({"frames": dict(sorted(self.done.items(), key=lambda kv: int(kv[0])))}, indent=1))
+
+
+def manifest_for(pattern: str) -> Path:
+    p = Path(pattern)
+    return p.with_name(p.name.replace("#", "").replace(p.suffix, "").rstrip("_.-") + ".frames.json")
+
+
+def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,
+                  crf: int | None = None, resume: bool = False, bar: Callable[[list[int]], Any] | None = None
+                  ) -> dict[str, Any]:
+    """Render `frames` of `ref` with executor `ex` into a film or an image sequence (by `pattern`'s extension).
+    Returns {"path", "frames", "skipped"}. The output key per frame is the node's key and the port."""
+    from .render import frame_path, to_image
+
+    frame_list = list(frames)
+    loop = bar(frame_list) if bar is not None else frame_list
+    if is_film(pattern):
+        film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
+        try:
+            for frame in loop:
+                img = to_image(ex.run(frame).values[ref])[::-1]
+                film.write(_rgb8(img))
+            path = film.close()
+        except BaseException:
+            film.abort()
+            raise
+        return {"path": path, "frames": len(frame_list), "skipped": 0}
+    many = len(frame_list) > 1
+    seq = SequenceWriter(manifest_for(pattern) if many and resume else None, resume)
+    skipped = 0
+    try:
+        for frame in loop:
+            path = frame_path(pattern, frame, many)
+            key = f"{ex.keys(frame)[ref[0]]}.{ref[1]}"
+            if resume and seq.up_to_date(frame, key, path):
+                skipped += 1
+                continue
+            value = ex.run(frame).values[ref]
+            seq.write(path, _host(value), frame, key)
+    finally:
+        seq.close()
+    return {"path": frame_path(pattern, frame_list[0], many) if frame_list else Path(pattern),
+            "frames": len(frame_list), "skipped": skipped}
+
+
+def _host(value: Any) -> Any:
+    """A value the writer thread can write without the GL context: textures are read back here."""
+    from .values import Tex, TexArray
+
+    if isinstance(value, (Tex, TexArray)):
+        from .render import to_image
+
+        return to_image(value)
+    return value
+
+
+def _rgb8(img: np.ndarray) -> np.ndarray:
+    from .imageio import to_uint8
+
+    a = to_uint8(np.asarray(img, dtype=np.float32))
+    if a.shape[2] == 1:
+        a = np.repeat(a, 3, axis=2)
+    return np.ascontiguousarray(a[:, :, :3])
+
+
+def prepare(pipe: Any, out: str | None, frames: str | None, fps: float | None, camera: str | None
+            ) -> tuple[list[int], float]:
+    """The command line's animation options applied to a loaded pipeline: `--camera` (a glTF camera), `--fps`;
+    returns (frames, fps). Without `--frames`, a film or a `####` pattern of an animated scene covers the
+    whole animation; anything else renders frame 0."""
+    from .animation import DEFAULT_FPS, default_frames, with_fps
+    from .render import parse_frames
+    from .scene import select_camera
+
+    if pipe.scene is not None:
+        pipe.scene = with_fps(select_camera(pipe.scene, camera), fps)
+    anim = getattr(pipe.scene, "animation", None)
+    rate = float(fps) if fps is not None else (anim.fps if anim is not None else DEFAULT_FPS)
+    if frames is None and out is not None and (is_film(out) or "#" in out):
+        whole = default_frames(pipe.scene)
+        if whole is not None:
+            return whole, rate
+        if is_film(out):
+            raise SketchgraphError(f"{out}: the scene does not move; give --frames START:END for a film")
+    return parse_frames(frames), rate

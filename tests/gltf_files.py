@@ -1,0 +1,176 @@
+"""Small glTF files built in code with pygltflib, for the tests: an animated box, a two-bone skinned bar, a
+morphing quad and a file with two cameras (and an orthographic one)."""
+
+from __future__ import annotations
+
+import base64
+import math
+from pathlib import Path
+
+import numpy as np
+import pygltflib as g
+
+FLOAT, UBYTE, USHORT, UINT = 5126, 5121, 5123, 5125
+BOX_V = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)], np.float32)
+# outward, counter-clockwise; vertex index bits (x, y, z)
+BOX_F = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.uint16)
+
+
+class Builder:
+    """Accumulates a binary buffer and a document; `save(path)` writes .glb, or .gltf with the buffer as
+    a data URI (`external=False`) or beside it in a .bin file."""
+
+    def __init__(self) -> None:
+        self.doc = g.GLTF2(scene=0, scenes=[g.Scene(nodes=[])])
+        self.blob = bytearray()
+
+    def accessor(self, data: np.ndarray, kind: str, ctype: int = FLOAT, normalized: bool = False,
+                 minmax: bool = False) -> int:
+        arr = np.ascontiguousarray(data)
+        while len(self.blob) % 4:
+            self.blob += b"\0"
+        self.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=arr.nbytes))
+        self.blob += arr.tobytes()
+        count = arr.shape[0]
+        acc = g.Accessor(bufferView=len(self.doc.bufferViews) - 1, componentType=ctype, count=count, type=kind,
+                         normalized=normalized)
+        if minmax:
+            flat = arr.reshape(count, -1).astype(np.float64)
+            acc.min, acc.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
+        self.doc.accessors.append(acc)
+        return len(self.doc.accessors) - 1
+
+    def mesh(self, vertices: np.ndarray, faces: np.ndarray, color: tuple[float, ...] | None = None,
+             mode: int = 4, **attrs: int) -> int:
+        pos = self.accessor(np.asarray(vertices, np.float32), "VEC3", minmax=True)
+        idx = self.accessor(np.asarray(faces).reshape(-1), "SCALAR",
+                            USHORT if np.asarray(faces).dtype == np.uint16 else UINT)
+        prim = g.Primitive(attributes=g.Attributes(POSITION=pos, **attrs), indices=idx, mode=mode)
+        if color is not None:
+            self.doc.materials.append(g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(
+                baseColorFactor=list(color) + [1.0])))
+            prim.material = len(self.doc.materials) - 1
+        self.doc.meshes.append(g.Mesh(primitives=[prim]))
+        return len(self.doc.meshes) - 1
+
+    def node(self, root: bool = True, **kw: object) -> int:
+        self.doc.nodes.append(g.Node(**kw))
+        i = len(self.doc.nodes) - 1
+        if root:
+            self.doc.scenes[0].nodes.append(i)
+        return i
+
+    def animate(self, node: int, path: str, times: list[float], values: np.ndarray, interpolation: str = "LINEAR",
+                name: str = "anim") -> None:
+        kind = {"translation": "VEC3", "scale": "VEC3", "rotation": "VEC4", "weights": "SCALAR"}[path]
+        t = self.accessor(np.asarray(times, np.float32), "SCALAR", minmax=True)
+        v = self.accessor(np.asarray(values, np.float32).reshape(-1, 4 if kind == "VEC4" else 3 if kind == "VEC3"
+                                                                  else 1), kind)
+        if not self.doc.animations:
+            self.doc.animations.append(g.Animation(name=name))
+        an = self.doc.animations[0]
+        an.samplers.append(g.AnimationSampler(input=t, output=v, interpolation=interpolation))
+        an.channels.append(g.AnimationChannel(sampler=len(an.samplers) - 1,
+                                              target=g.AnimationChannelTarget(node=node, path=path)))
+
+    def save(self, path: Path, external: bool = True) -> Path:
+        path = Path(path)
+        if path.suffix == ".glb":
+            self.doc.buffers = [g.Buffer(byteLength=len(self.blob))]
+            self.doc.set_binary_blob(bytes(self.blob))
+            self.doc.save_binary(str(path))
+        elif external:
+            bin_path = path.with_suffix(".bin")
+            bin_path.write_bytes(bytes(self.blob))
+            self.doc.buffers = [g.Buffer(uri=bin_path.name, byteLength=len(self.blob))]
+            path.write_text(self.doc.to_json())
+        else:
+            uri = "data:application/octet-stream;base64," + base64.b64encode(bytes(self.blob)).decode()
+            self.doc.buffers = [g.Buffer(uri=uri, byteLength=len(self.blob))]
+            path.write_text(self.doc.to_json())
+        return path
+
+
+def quat_axis(axis: tuple[float, float, float], degrees: float) -> list[float]:
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    h = math.radians(degrees) / 2
+    return [*(a * math.sin(h)).tolist(), math.cos(h)]
+
+
+def animated_box(path: Path, external: bool = True) -> Path:
+    """A unit box moving from x = 0 to x = 2 over 1 s (LINEAR), and a still box at z = -3."""
+    b = Builder()
+    m = b.mesh(BOX_V, BOX_F, color=(0.5, 0.2, 0.1))
+    box = b.node(mesh=m, name="mover")
+    b.node(mesh=b.mesh(BOX_V, BOX_F), name="still", translation=[0.0, 0.0, -3.0])
+    b.animate(box, "translation", [0.0, 1.0], np.array([[0, 0, 0], [2, 0, 0]]))
+    return b.save(path, external)
+
+
+def bar_vertices() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A bar along +x from 0 to 2: 5 rings of 4 vertices at x = 0, 0.5, 1, 1.5, 2 (y, z = +-0.1); joint 0
+    weights 1 up to x = 0.5, 0.5/0.5 at x = 1, joint 1 from x = 1.5."""
+    xs = [0.0, 0.5, 1.0, 1.5, 2.0]
+    ring = [(0.1, 0.1), (-0.1, 0.1), (-0.1, -0.1), (0.1, -0.1)]
+    v = np.array([[x, y, z] for x in xs for y, z in ring], np.float32)
+    faces = []
+    for i in range(len(xs) - 1):
+        for k in range(4):
+            a, b_, c, d = 4 * i + k, 4 * i + (k + 1) % 4, 4 * (i + 1) + (k + 1) % 4, 4 * (i + 1) + k
+            faces += [[a, b_, c], [a, c, d]]
+    faces += [[0, 2, 1], [0, 3, 2], [16, 17, 18], [16, 18, 19]]
+    w1 = np.repeat([0.0, 0.0, 0.5, 1.0, 1.0], 4)
+    weights = np.stack([1 - w1, w1, np.zeros_like(w1), np.zeros_like(w1)], axis=1).astype(np.float32)
+    joints = np.tile(np.array([0, 1, 0, 0], np.uint8), (len(v), 1))
+    return v, np.array(faces, np.uint16), joints, weights
+
+
+def skinned_bar(path: Path) -> Path:
+    """Joint 1 (at x = 1, child of joint 0 at the origin) turns from 0 to 90 degrees about +Z over 1 s."""
+    b = Builder()
+    v, f, joints, weights = bar_vertices()
+    j_acc = b.accessor(joints, "VEC4", UBYTE)
+    w_acc = b.accessor(weights, "VEC4")
+    m = b.mesh(v, f, color=(0.3, 0.5, 0.7), JOINTS_0=j_acc, WEIGHTS_0=w_acc)
+    j1 = len(b.doc.nodes) + 1
+    j0 = b.node(name="j0", children=[j1])
+    b.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.array([[1, 0, 0, -1], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)])
+    ibm_acc = b.accessor(ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")
+    b.doc.skins.append(g.Skin(joints=[j0, j1], inverseBindMatrices=ibm_acc))
+    b.node(mesh=m, skin=0, name="bar")
+    b.animate(j1, "rotation", [0.0, 1.0], np.array([quat_axis((0, 0, 1), 0), quat_axis((0, 0, 1), 90)]))
+    return b.save(path)
+
+
+def morphing_quad(path: Path) -> Path:
+    """A unit quad in the XY plane; target 0 lifts vertex 2 by +1 in z; weight 0 -> 1 over 1 s."""
+    b = Builder()
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    delta = np.zeros((4, 3), np.float32)
+    delta[2, 2] = 1.0
+    pos = b.accessor(v, "VEC3", minmax=True)
+    tgt = b.accessor(delta, "VEC3", minmax=True)
+    idx = b.accessor(np.array([0, 1, 2, 0, 2, 3], np.uint16), "SCALAR", USHORT)
+    b.doc.meshes.append(g.Mesh(primitives=[g.Primitive(attributes=g.Attributes(POSITION=pos), indices=idx,
+                                                       targets=[{"POSITION": tgt}])], weights=[0.0]))
+    quad = b.node(mesh=0, name="quad")
+    b.animate(quad, "weights", [0.0, 1.0], np.array([0.0, 1.0]))
+    return b.save(path)
+
+
+def two_cameras(path: Path) -> Path:
+    """A box and three cameras: 'front' at z = 5 (yfov 0.8), 'side' at x = 5 turned +90 deg about Y, 'top'
+    orthographic."""
+    b = Builder()
+    b.node(mesh=b.mesh(BOX_V, BOX_F), name="box")
+    b.doc.cameras += [g.Camera(type="perspective", name="front",
+                               perspective=g.Perspective(yfov=0.8, znear=0.1, zfar=50.0)),
+                      g.Camera(type="perspective", name="side", perspective=g.Perspective(yfov=0.6, znear=0.5)),
+                      g.Camera(type="orthographic", name="top",
+                               orthographic=g.Orthographic(xmag=2, ymag=2, znear=0.1, zfar=10))]
+    b.node(camera=0, name="front_node", translation=[0.0, 0.0, 5.0])
+    b.node(camera=1, name="side_node", translation=[5.0, 0.0, 0.0], rotation=quat_axis((0, 1, 0), 90))
+    b.node(camera=2, name="top_node", translation=[0.0, 5.0, 0.0], rotation=quat_axis((1, 0, 0), -90))
+    return b.save(path)

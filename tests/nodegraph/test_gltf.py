@@ -1,0 +1,166 @@
+"""glTF import and animation, on small files built in code (tests/gltf_files.py), against hand-computed values."""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+import pygltflib as g
+import pytest
+
+from nodegraph import animation as an
+from nodegraph import scene as sc
+from nodegraph.errors import PipelineError
+from nodegraph.gltf import load_any_mesh, load_asset
+from nodegraph.meshes import MeshWarning
+from tests import gltf_files as gf
+
+
+def _rot_z(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+@pytest.mark.parametrize("name,external", [("box.glb", True), ("box.gltf", True), ("box.gltf", False)])
+def test_box_in_every_container(tmp_path, name, external):
+    scene = sc.load_scene(str(gf.animated_box(tmp_path / name, external)))
+    assert [o.name for o in scene.objects] == ["mover", "still"]
+    assert scene.objects[0].mesh.n_faces == 12
+    # baseColorFactor is linear; the flat colour is its display (sRGB) value
+    assert scene.objects[0].color == pytest.approx((0.7354, 0.4845, 0.3492), abs=1e-3)
+    mid = scene.at(12)  # t = 0.5 s at 24 fps: halfway from x = 0 to x = 2
+    assert mid.objects[0].transform[:3, 3] == pytest.approx([1.0, 0.0, 0.0])
+    assert mid.objects[1].transform[:3, 3] == pytest.approx([0.0, 0.0, -3.0])
+    assert mid.objects[1].mesh is scene.objects[1].mesh  # a still object keeps its mesh (and its keys)
+    assert list(scene.animation.frame_range()) == list(range(25))
+    assert an.with_fps(scene, 10).at(5).objects[0].transform[0, 3] == pytest.approx(1.0)
+
+
+def test_skinned_bar_matches_the_blend_by_hand(tmp_path):
+    scene = sc.load_scene(str(gf.skinned_bar(tmp_path / "bar.glb")))
+    v, _, _, weights = gf.bar_vertices()
+    posed = scene.at(12)  # t = 0.5: joint 1 turned 45 degrees about +Z
+    got = posed.objects[0].world_vertices()
+    # joint matrices: J0 = I, J1 = T(1,0,0) R(45) T(-1,0,0) (world of joint 1 times its inverse bind matrix)
+    pivot = np.array([1.0, 0, 0])
+    for i in range(len(v)):
+        p = v[i].astype(np.float64)
+        bent = pivot + _rot_z(45) @ (p - pivot)
+        want = weights[i, 0] * p + weights[i, 1] * bent
+        assert got[i] == pytest.approx(want, abs=1e-6), i
+    tip = got[16]  # (2, 0.1, 0.1) fully on joint 1
+    assert tip == pytest.approx([1 + math.cos(math.pi / 4) - 0.1 * math.sin(math.pi / 4),
+                                 math.sin(math.pi / 4) + 0.1 * math.cos(math.pi / 4), 0.1], abs=1e-6)
+    assert scene.at(0).objects[0].world_vertices() == pytest.approx(v.astype(np.float64), abs=1e-7)
+
+
+def test_morphing_quad(tmp_path):
+    scene = sc.load_scene(str(gf.morphing_quad(tmp_path / "quad.glb")))
+    assert scene.at(12).objects[0].mesh.vertices[2] == pytest.approx([1, 1, 0.5])
+    assert scene.at(24).objects[0].mesh.vertices[2] == pytest.approx([1, 1, 1.0])
+    assert scene.at(0).content_hash() != scene.at(12).content_hash()
+    assert scene.at(30).content_hash() == scene.at(24).content_hash()  # the last key holds
+
+
+def test_cameras_by_default_name_and_index(tmp_path):
+    path = gf.two_cameras(tmp_path / "cams.glb")
+    scene = sc.load_scene(str(path))
+    cam = scene.camera  # the first camera by default
+    assert cam.eye == pytest.approx([0, 0, 5]) and cam.fov_y_deg == pytest.approx(math.degrees(0.8))
+    assert (cam.near, cam.far) == (pytest.approx(0.1), pytest.approx(50.0))
+    side = sc.select_camera(scene, "side").camera
+    world = np.eye(4)
+    world[:3, :3] = gf_quat_matrix(gf.quat_axis((0, 1, 0), 90))
+    world[:3, 3] = [5, 0, 0]
+    assert side.view_matrix() == pytest.approx(np.linalg.inv(world), abs=1e-9)
+    assert sc.select_camera(scene, 1).camera.eye == pytest.approx([5, 0, 0])
+    with pytest.raises(PipelineError, match="orthographic"):
+        sc.select_camera(scene, "top")
+    with pytest.raises(PipelineError, match="no such camera.*front"):
+        sc.select_camera(scene, "frnt")
+
+
+def gf_quat_matrix(q: list[float]) -> np.ndarray:
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def test_no_camera_frames_the_whole_animation(tmp_path):
+    scene = sc.load_scene(str(gf.animated_box(tmp_path / "box.glb")))
+    last = scene.at(24)
+    ndc = scene.camera.project(last.objects[0].world_vertices())
+    assert np.all(np.abs(ndc[:, :2]) < 1.0)  # the mover's end position is in the picture
+    assert scene.orbit is None
+
+
+def test_strips_fans_and_left_out_parts_warn_once(tmp_path):
+    b = gf.Builder()
+    strip = b.mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], np.float32),
+                   np.array([0, 1, 2, 3], np.uint32), mode=5)
+    b.doc.meshes[strip].primitives.append(g.Primitive(attributes=g.Attributes(POSITION=0), mode=1))
+    b.node(mesh=strip, name="s")
+    b.doc.extensionsUsed = ["KHR_draco_mesh_compression"]
+    path = b.save(tmp_path / "strip.glb")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        asset = load_asset(path)
+    msgs = [str(w.message) for w in caught if issubclass(w.category, MeshWarning)]
+    assert len(msgs) == 1 and "LINES" in msgs[0] and "KHR_draco_mesh_compression" in msgs[0]
+    faces = asset.meshes[0][0].faces
+    assert faces.tolist() == [[0, 1, 2], [2, 1, 3]]  # the strip's second triangle keeps the winding
+    assert load_any_mesh(path).n_faces == 2
+
+
+def test_points_only_is_one_line_error(tmp_path):
+    b = gf.Builder()
+    b.node(mesh=b.mesh(gf.BOX_V, np.arange(8, dtype=np.uint16), mode=0), name="p")
+    path = b.save(tmp_path / "points.glb")
+    with pytest.raises(PipelineError, match="no triangle meshes") as err, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sc.load_scene(str(path))
+    assert "\n" not in str(err.value)
+
+
+def test_tracks_step_cubic_and_slerp():
+    step = an.Track([0, 1], [[0.0], [1.0]], "STEP")
+    assert step.sample(0.99)[0] == 0.0 and step.sample(1.0)[0] == 1.0
+    # CUBICSPLINE: (in, value, out) per key; tangents scaled by the segment length
+    cub = an.Track([0, 2], [[[0.0]], [[0.0]], [[1.0]], [[1.0]], [[1.0]], [[0.0]]], "CUBICSPLINE")
+    s = 0.25
+    want = (s**3 - 2 * s**2 + s) * 2 * 1.0 + (-2 * s**3 + 3 * s**2) * 1.0 + (s**3 - s**2) * 2 * 1.0
+    assert cub.sample(0.5)[0] == pytest.approx(want)
+    rot = an.Track([0, 1], [gf.quat_axis((0, 1, 0), 0), gf.quat_axis((0, 1, 0), 120)], "LINEAR", quaternion=True)
+    assert rot.sample(0.25) == pytest.approx(gf.quat_axis((0, 1, 0), 30))
+    q = an.Track([0, 1], np.array([[[0, 0, 0, 0]], [[0, 0, 0, 1]], [[0, 0, 0, 0]], [[0, 0, 0, 0]],
+                                   [[0, 0, 0.5, 1]], [[0, 0, 0, 0]]], float).reshape(2, 3, 4), "CUBICSPLINE",
+                 quaternion=True)
+    assert np.linalg.norm(q.sample(0.5)) == pytest.approx(1.0)  # normalised
+    smooth = an.Track([0, 1], [[0.0], [1.0]], segment=("SMOOTH", "LINEAR"))
+    assert smooth.sample(0.25)[0] == pytest.approx(0.15625)
+
+
+def test_skinning_100k_vertices_is_fast():
+    rng = np.random.default_rng(1)
+    n, j = 100_000, 40
+    v = rng.normal(size=(n, 3))
+    joints = rng.integers(0, j, size=(n, 4))
+    w = rng.random((n, 4))
+    w /= w.sum(axis=1, keepdims=True)
+    mats = np.tile(np.eye(4), (j, 1, 1))
+    mats[:, :3, 3] = rng.normal(size=(j, 3))
+    out = an.skin_vertices(v, joints, w, mats)
+    ref = sum(w[:, k, None] * (v + mats[joints[:, k], :3, 3]) for k in range(4))
+    assert out == pytest.approx(ref)
+    prebuilt = an.skin_weights(joints, w, j)  # once per mesh, as posing does
+    best = min(_timed(lambda: an.skin_vertices(v, None, prebuilt, mats)) for _ in range(5))
+    assert best < 0.05  # the target is 5 ms here (see docs/animation.md); a loose bound for noisy machines
+
+
+def _timed(f) -> float:
+    t0 = time.perf_counter()
+    f()
+    return time.perf_counter() - t0
