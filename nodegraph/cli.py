@@ -50,6 +50,14 @@ def pipeline_options(f: Any) -> Any:
     return f
 
 
+def scheduler_options(f: Any) -> Any:
+    f = click.option("--chunk", type=int, default=None, metavar="N", help="With --scheduler: work items per task "
+                     "(default: chosen from the measured per-task overhead; docs/distributed.md).")(f)
+    f = click.option("--scheduler", metavar="local:N|tcp://HOST:PORT", help="Run on a Dask cluster: N local worker "
+                     "processes, or a running scheduler (the cache folder must be shared; docs/distributed.md).")(f)
+    return f
+
+
 def cache_options(f: Any) -> Any:
     f = click.option("--no-cache", is_flag=True, help="Neither read nor write the disk cache.")(f)
     f = click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder "
@@ -69,13 +77,37 @@ def cache_options(f: Any) -> Any:
 @click.option("--watch", is_flag=True, help="Re-render whenever the pipeline, its scene file or the scene's "
               "meshes change; only nodes whose key changed recompute. Ctrl-C stops.")
 @click.option("--interval", default=0.5, show_default=True, metavar="SECONDS", help="How often --watch polls.")
+@click.option("--resume", is_flag=True, help="Skip frames an earlier (killed) run finished: the sidecar manifest "
+              "beside the pattern says which, checked against keys and file hashes.")
 @pipeline_options
 @cache_options
+@scheduler_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
-        watch: bool, interval: float, overrides: tuple[str, ...], size: str | None, scene: str | None,
-        no_cache: bool, cache_dir: Path | None) -> None:
+        watch: bool, interval: float, resume: bool, overrides: tuple[str, ...], size: str | None, scene: str | None,
+        no_cache: bool, cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
+
+    if scheduler is not None:
+        if watch or explain:
+            raise SketchgraphError("--scheduler renders on a cluster; drop --watch and --explain")
+        from . import distributed as dist
+
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        frame_list = parse_frames(frames)
+        dist.ref_of(spec.open(), output_name)  # load-time errors before a cluster starts
+        pattern = out or f"out/{Path(pipeline).stem}.png"
+        root: Any = False if no_cache else cache_dir
+        with dist.connect(scheduler, cache_root=root) as client:
+            report = dist.render_frames(client, spec, frame_list, pattern, chunk=chunk, resume=resume,
+                                        progress=not quiet, cache_root=root)
+        if not quiet:
+            click.echo(report.format())
+            click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent}"
+                       if len(frame_list) > 1 else f"wrote {frame_path(pattern, frame_list[0], False)}")
+        return
+    if chunk is not None:
+        raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
 
     if watch:
         if frames is not None and len(parse_frames(frames)) > 1:
@@ -103,13 +135,30 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     many = len(frame_list) > 1
     t0 = time.perf_counter()
     bar = _progress(frame_list, quiet or not many, "frames")
+    manifest = None
+    if resume and many:
+        from .frames_manifest import FramesManifest
+
+        manifest = FramesManifest.load(pattern)
     try:
         for frame in bar:
+            target = frame_path(pattern, frame, many)
+            if manifest is not None:
+                from .frames_manifest import file_sha256, frame_digest
+
+                digest = frame_digest(ex.keys(frame)[ref[0]], ref[1], target.suffix)
+                if manifest.done(frame, digest, target):
+                    continue
             result = ex.run(frame)
-            path = write_value(result.values[ref], frame_path(pattern, frame, many))
+            path = write_value(result.values[ref], target)
+            if manifest is not None:
+                manifest.record(frame, digest, file_sha256(path))
+                manifest.save(every=1.0)
             if not quiet and not many:
                 click.echo(f"wrote {path}  ({summary(result)})")
     finally:
+        if manifest is not None:
+            manifest.save()
         ex.close()
     if many and not quiet:
         click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "

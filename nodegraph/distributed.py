@@ -168,7 +168,7 @@ class WorkerState:
     def __init__(self, cache_root: str | None | bool = None, address: str = "") -> None:
         self.cache_root = cache_root
         self.address = address
-        self._cache: Cache | None = None
+        self._caches: dict[str | None, Cache] = {}
         self._pipes: OrderedDict[PipeSpec, Any] = OrderedDict()
         self._executor: Any = None
         self.tasks = 0
@@ -185,12 +185,17 @@ class WorkerState:
 
     @property
     def cache(self) -> Cache | None:
-        if self.cache_root is False:
+        return self.cache_for(self.cache_root)
+
+    def cache_for(self, root: str | Path | None | bool) -> Cache | None:
+        """The shared cache at `root` (None: the default root; False: none), in this renderer's namespace."""
+        if root is False:
             return None
-        if self._cache is None:
-            root = None if self.cache_root in (None, True) else str(self.cache_root)
-            self._cache = namespaced_cache(root, self.renderer, WorkerCache)
-        return self._cache
+        name = None if root in (None, True) else str(root)
+        cache = self._caches.get(name)
+        if cache is None:
+            cache = self._caches[name] = namespaced_cache(name, self.renderer, WorkerCache)
+        return cache
 
     def pipeline(self, spec: PipeSpec) -> Any:
         pipe = self._pipes.get(spec)
@@ -202,16 +207,18 @@ class WorkerState:
             self._pipes.move_to_end(spec)
         return pipe
 
-    def executor(self, pipe: Any, refs: list[tuple[str, str]], mode: str, frame: int, like: Any = None) -> Any:
+    def executor(self, pipe: Any, refs: list[tuple[str, str]], mode: str, frame: int, like: Any = None,
+                 cache: Any = ...) -> Any:
         """The executor of the last task when it ran the same pipeline and outputs, else a new one that
         adopts its in-memory values (content-addressed: only unchanged keys are reused)."""
         from .executor import Executor
 
+        cache = self.cache if cache is ... else cache
         old = self._executor
-        if (old is not None and like is None and old.pipeline is pipe and old.mode == mode
+        if (old is not None and like is None and old.pipeline is pipe and old.mode == mode and old.cache is cache
                 and list(old.plan.requested) == refs):
             return old
-        ex = Executor(pipe, self.cache, mode=mode, requested=refs, like=like)
+        ex = Executor(pipe, cache, mode=mode, requested=refs, like=like)
         ex.adopt_memory(old, frame)
         if old is not None:
             old.close()
@@ -250,7 +257,8 @@ _LOCAL_STATE: WorkerState | None = None
 
 
 def worker_state() -> WorkerState:
-    """This worker's state (the plugin's); outside a worker, one for the process."""
+    """This worker's state (the plugin's); outside a worker, one for the process. A worker must run one
+    thread: its GL context is current in one thread only."""
     global _LOCAL_STATE
     try:
         from distributed import get_worker
@@ -259,6 +267,10 @@ def worker_state() -> WorkerState:
     except ValueError:
         worker = None
     if worker is not None:
+        if int(getattr(worker, "nthreads", 1) or 1) > 1:
+            raise SketchgraphError(f"worker {worker.address} runs {worker.nthreads} threads; start sketchgraph "
+                                   "workers with --nthreads 1 (one GL context each), e.g. dask worker ADDRESS "
+                                   "--nthreads 1 --nworkers N")
         plugin = worker.plugins.get(PLUGIN_NAME)
         if plugin is not None and getattr(plugin, "state", None) is not None:
             return plugin.state
@@ -275,16 +287,17 @@ def _disk_hits(result: Any) -> int:
     return sum(1 for s in result.stats.values() if s.status == "disk")
 
 
-def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bool) -> dict[str, Any]:
+def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bool,
+                       cache_root: str | None | bool = None) -> dict[str, Any]:
     """Render `frames` and write each to `pattern`; returns metadata only (or the error as a value)."""
     t0 = time.perf_counter()
-    state = worker_state()
-    fresh = state.tasks == 0
-    state.tasks += 1
     try:
+        state = worker_state()
+        fresh = state.tasks == 0
+        state.tasks += 1
         pipe = state.pipeline(spec)
         ref = ref_of(pipe, spec.output)
-        ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0])
+        ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0], cache=state.cache_for(cache_root))
         out = []
         for frame in frames:
             t1 = time.perf_counter()
@@ -297,20 +310,22 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             ex.cache.flush()
     except SketchgraphError as exc:
         return {"error": TaskFailure.of(exc)}
-    return {"worker": state.address, "pid": os.getpid(), "fresh": fresh, "frames": out,
+    return {"worker": state.address, "pid": os.getpid(), "fresh": fresh, "frames": out, "renderer": state.renderer,
             "ms": (time.perf_counter() - t0) * 1000}
 
 
-def prepare_task(spec: PipeSpec, refs: list[tuple[str, str]], frame: int) -> dict[str, Any]:
+def prepare_task(spec: PipeSpec, refs: list[tuple[str, str]], frame: int,
+                 cache_root: str | None | bool = None) -> dict[str, Any]:
     """Compute the given (frame-independent) ports once and persist them to the shared cache, in the formats
     the full render plans for them (so that its tasks find the entries)."""
     from .plan import plan
 
     t0 = time.perf_counter()
-    state = worker_state()
     try:
+        state = worker_state()
         pipe = state.pipeline(spec)
-        ex = state.executor(pipe, refs, "loop", frame, like=plan(pipe, [ref_of(pipe, spec.output)]))
+        ex = state.executor(pipe, refs, "loop", frame, like=plan(pipe, [ref_of(pipe, spec.output)]),
+                            cache=state.cache_for(cache_root))
         result = ex.run(frame)
         stored = 0
         if ex.cache is not None:
@@ -323,7 +338,7 @@ def prepare_task(spec: PipeSpec, refs: list[tuple[str, str]], frame: int) -> dic
             ex.cache.flush()
     except SketchgraphError as exc:
         return {"error": TaskFailure.of(exc)}
-    return {"worker": state.address, "stored": stored, "computed": result.computed(),
+    return {"worker": state.address, "stored": stored, "computed": result.computed(), "renderer": state.renderer,
             "ms": (time.perf_counter() - t0) * 1000}
 
 
@@ -544,6 +559,7 @@ class FrameRun:
         self.resources = resources
         self.use_manifest = manifest
         self.report = RunReport(frames=len(self.frames))
+        self.renderers: set[str] = set()
         self.pipe = spec.open()  # every load-time error here, before any task
         self.ref = ref_of(self.pipe, spec.output)
 
@@ -557,7 +573,8 @@ class FrameRun:
 
         t0 = time.perf_counter()
         rep = self.report
-        ensure_plugin(self.client, _root_arg(self.cache_root))
+        root = _root_arg(self.cache_root)
+        ensure_plugin(self.client, root)
         planner = Executor(self.pipe, None, requested=[self.ref])
         keysets = {f: planner.keys(f) for f in self.frames}
         suffix = Path(self.pattern).suffix
@@ -586,7 +603,7 @@ class FrameRun:
             refs = shared_frontier(self.pipe, self.ref, [keysets[f] for f in todo])
             if refs and len(todo) > 1:
                 t1 = time.perf_counter()
-                res = self.client.submit(prepare_task, self.spec, refs, todo[0], retries=self.retries, pure=False,
+                res = self.client.submit(prepare_task, self.spec, refs, todo[0], root, retries=self.retries, pure=False,
                                          key=f"sketchgraph-prepare-{uuid.uuid4().hex[:12]}",
                                          resources=self.resources).result()
                 _raise_failure(res)
@@ -596,7 +613,7 @@ class FrameRun:
             rep.chunk = size
             token = uuid.uuid4().hex[:12]
             for i, part in enumerate(chunks(todo, size)):
-                futures.append(self.client.submit(render_frames_task, self.spec, part, self.pattern, self.many,
+                futures.append(self.client.submit(render_frames_task, self.spec, part, self.pattern, self.many, root,
                                                   key=f"sketchgraph-frames-{token}-{i:05d}", retries=self.retries,
                                                   pure=False, resources=self.resources))
             rep.tasks = len(futures)
@@ -608,6 +625,7 @@ class FrameRun:
                 except Exception as exc:  # noqa: BLE001 - one line, as a local run prints
                     raise remote_error(exc) from None
                 _raise_failure(res)
+                self.renderers.add(res["renderer"])
                 rep.task_ms.append(res["ms"])
                 for rec in res["frames"]:
                     f = rec["frame"]
@@ -639,10 +657,34 @@ class FrameRun:
         """Only the client prunes the shared cache (each renderer's namespace the workers wrote into)."""
         if self.cache_root is False:
             return
+        prune_shared(self.cache_root, self.renderers)
+
+
+def prune_shared(cache_root: Any, renderers: set[str]) -> None:
+    """Prune each namespace the workers wrote into (the client's job; workers never prune)."""
+    if cache_root is False:
+        return
+    root = _root_arg(cache_root)
+    for r in renderers:
         with contextlib.suppress(Exception):
-            renderers = set(self.client.run(worker_renderer).values())
-            for r in renderers:
-                namespaced_cache(_root_arg(self.cache_root) or None, r).prune()
+            namespaced_cache(root if isinstance(root, str) else None, r).prune()
+
+
+def worker_renderers(client: Any) -> dict[str, str]:
+    """Each worker's GL renderer, asked through a task on that worker (so the context is made in the thread
+    that renders, never in the worker's event loop as `client.run` would)."""
+    addrs = list(client.scheduler_info(n_workers=-1).get("workers", {}))
+    futs = {a: client.submit(worker_renderer, key=f"sketchgraph-renderer-{uuid.uuid4().hex[:12]}", workers=[a],
+                             allow_other_workers=False, pure=False) for a in addrs}
+    out = {}
+    for a, f in futs.items():
+        try:
+            out[a] = f.result()
+        except SketchgraphError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            raise remote_error(exc) from None
+    return out
 
 
 def _root_arg(cache_root: Any) -> str | None | bool:
