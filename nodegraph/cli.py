@@ -184,6 +184,12 @@ def _progress(items: list[int], disable: bool, unit: str) -> Any:
     return tqdm(items, disable=disable, unit=unit, file=sys.stderr, leave=False)
 
 
+def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(items, total=total, disable=disable, unit=unit, file=sys.stderr, leave=False)
+
+
 # -- inspect --------------------------------------------------------------------------------
 @main.command()
 @click.argument("pipeline", type=click.Path())
@@ -446,9 +452,10 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
 @click.option("--frame", default=0, show_default=True, help="Frame to render.")
 @pipeline_options
 @cache_options
+@scheduler_options
 def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: str | None, cell: int, frame: int,
           overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-          cache_dir: Path | None) -> None:
+          cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
     """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
     from .tools import viz
     from .tools import wedge as wedgemod
@@ -456,9 +463,21 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
     axes = wedgemod.axes_from(list(params))
     t0 = time.perf_counter()
     n = len(wedgemod.combinations(axes))
-    cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
-                         output_name, frame, open_cache(no_cache, cache_dir),
-                         progress=lambda it: _progress(list(it), n < 2, "cells"))
+    if scheduler is not None:
+        from . import distributed as dist
+
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        spec.open()  # load-time errors before a cluster starts
+        root: Any = False if no_cache else cache_dir
+        with dist.connect(scheduler, cache_root=root) as client:
+            cells = wedgemod.run_distributed(client, spec, axes, frame, root, chunk,
+                                             progress=lambda it: _progress_total(it, n, n < 2, "cells"))
+    elif chunk is not None:
+        raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
+    else:
+        cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
+                             output_name, frame, open_cache(no_cache, cache_dir),
+                             progress=lambda it: _progress(list(it), n < 2, "cells"))
     path = Path(out or f"out/{Path(pipeline).stem}.wedge.png")
     viz.write_png(path, wedgemod.sheet(cells, axes, Path(pipeline).stem, cell))
     for c in cells:
@@ -489,14 +508,25 @@ def _gallery_options(f: Any) -> Any:
               "page) under gallery/out/inspect/.")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the node cache.")
 @click.option("--cache-dir", type=click.Path(path_type=Path), help="Node cache folder (default: gallery/out/cache).")
+@scheduler_options
 def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force: bool, cold: bool, inspect_: bool,
-                  no_cache: bool, cache_dir: Path | None) -> None:
+                  no_cache: bool, cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
     """Render every entry that is not up to date; print the time per entry and in total."""
     from .tools import gallery as gal
 
+    if chunk not in (None, 1):
+        raise SketchgraphError(f"gallery build --chunk: an entry is one task; expected 1, found {chunk}")
     g = gal.load(gallery_file)
-    report = gal.build(g, gal.node_cache(g, no_cache, cache_dir, cold), only=list(only), force=force or cold,
-                       inspect=inspect_, echo=click.echo, progress=not quiet, cold=cold)
+    cache = gal.node_cache(g, no_cache, cache_dir, cold)
+    if scheduler is not None:
+        from . import distributed as dist
+
+        with dist.connect(scheduler, cache_root=cache.root if cache is not None else False) as client:
+            report = gal.build(g, cache, only=list(only), force=force or cold, inspect=inspect_, echo=click.echo,
+                               progress=not quiet, cold=cold, scheduler=client)
+    else:
+        report = gal.build(g, cache, only=list(only), force=force or cold, inspect=inspect_, echo=click.echo,
+                           progress=not quiet, cold=cold)
     click.echo(gal.format_build(report))
     click.echo(f"wrote {g.manifest_path} and {g.root / 'index.html'}")
     if report.failed:
