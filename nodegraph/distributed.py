@@ -50,8 +50,9 @@ RETRIES = 2
 """`retries=` of every task: unexpected exceptions (an OS error on the shared filesystem) are tried again.
 A dead worker's tasks are rescheduled by the scheduler (`distributed.scheduler.allowed-failures`)."""
 MIN_CHUNK = 4
-"""The smallest default chunk: per-task overhead measured at 3-6 ms against 10-15 ms per 96x96 frame
-(`sketchgraph bench distributed`, docs/distributed.md), so 4 frames keep the overhead under ~10% even there."""
+"""The smallest default chunk. Measured (`sketchgraph bench distributed`, docs/distributed.md): 1.6-3 ms per
+task when tasks are queued, 10-12 ms for a lone round trip; a frame costs 10 ms (96x96) to 100+ ms (800x800),
+so 4 frames a task keep the overhead under ~7% even at the smallest sizes."""
 MAX_CHUNK = 32
 """The largest default chunk: past it, a lost worker costs more and the last chunks balance worse."""
 
@@ -600,7 +601,9 @@ class FrameRun:
                 next_frame = next(order, None)
             if not todo:
                 return
-            refs = shared_frontier(self.pipe, self.ref, [keysets[f] for f in todo])
+            workers = n_workers(self.client)
+            # with one worker there is nothing to share: its executor keeps those values in memory
+            refs = shared_frontier(self.pipe, self.ref, [keysets[f] for f in todo]) if workers > 1 else []
             if refs and len(todo) > 1:
                 t1 = time.perf_counter()
                 res = self.client.submit(prepare_task, self.spec, refs, todo[0], root, retries=self.retries, pure=False,
@@ -609,7 +612,7 @@ class FrameRun:
                 _raise_failure(res)
                 rep.prepared = [f"{n}.{p}" for n, p in refs]
                 rep.prepare_s = time.perf_counter() - t1
-            size = self.chunk or default_chunk(len(todo), n_workers(self.client))
+            size = self.chunk or default_chunk(len(todo), workers)
             rep.chunk = size
             token = uuid.uuid4().hex[:12]
             for i, part in enumerate(chunks(todo, size)):
