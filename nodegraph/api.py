@@ -204,18 +204,50 @@ class Pipe:
         like = plan(self.pipeline)
         return to_array(self._run([ref], frame, like=like).values[ref], "float32")
 
-    def frames(self, frames: Iterable[int] | str, output: str | None = None,
-               dtype: str = "uint8") -> Iterator[tuple[int, np.ndarray]]:
+    def frames(self, frames: Iterable[int] | str, output: str | None = None, dtype: str = "uint8", *,
+               scheduler: Any = None, chunk: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
         """(frame, image) for each frame (an iterable of ints, or 'START:END[:STEP]' as on the command line);
-        frame-independent nodes run once, per-frame buffers are never written to the disk cache."""
+        frame-independent nodes run once, per-frame buffers are never written to the disk cache.
+
+        `scheduler`: a `dask.distributed.Client` (or "local:N", "tcp://HOST:PORT") renders the frames on that
+        cluster, `chunk` frames a task; the images arrive in frame order (docs/distributed.md)."""
         frame_list = render.parse_frames(frames) if isinstance(frames, str) else [int(f) for f in frames]
         ref = self._ref(output)
+        if scheduler is not None:
+            yield from self._frames_on(scheduler, frame_list, output, dtype, chunk)
+            return
         ex = self.session.executor(self.pipeline, [ref], "loop", frame_list[0] if frame_list else 0)
         for frame in frame_list:
             result = ex.run(frame)
             self.last_run = result
             self.session.count(result)
             yield frame, to_array(result.values[ref], dtype)
+
+    def _frames_on(self, scheduler: Any, frame_list: list[int], output: str | None, dtype: str,
+                   chunk: int | None) -> Iterator[tuple[int, np.ndarray]]:
+        import shutil
+
+        from . import distributed as dist
+        from .imageio import read, to_uint8
+
+        if dtype not in ("uint8", "float32"):
+            raise SketchgraphError(f"dtype: expected 'uint8' or 'float32', found '{dtype}'")
+        arg = self.session._cache_arg
+        root: Any = arg if arg is False else (None if arg is True else str(arg))
+        size = self.size_arg if isinstance(self.size_arg, str) or self.size_arg is None else \
+            f"{int(self.size_arg[0])}x{int(self.size_arg[1])}"
+        spec = dist.PipeSpec.make(self.source, self.overrides, size, self.scene_arg, output)
+        with dist.connect(scheduler, cache_root=root) as client:
+            scratch = dist.scratch_dir(root, "frames-")
+            try:  # EXR keeps every channel and the float values; uint8 is quantised here as to_array does
+                run = dist.FrameRun(client, spec, frame_list, scratch / "f_########.exr", chunk=chunk,
+                                    cache_root=root, manifest=False, many=True)
+                for frame, path in run:
+                    arr = np.ascontiguousarray(read(path)[::-1], dtype=np.float32)
+                    path.unlink(missing_ok=True)
+                    yield frame, (to_uint8(arr) if dtype == "uint8" else arr)
+            finally:
+                shutil.rmtree(scratch, ignore_errors=True)
 
     def write(self, path: str | Path, output: str | None = None, frame: int = 0) -> Path:
         """Write an output to a file (PNG, EXR, SVG for strokes), as `sketchgraph run -o` does."""

@@ -58,6 +58,14 @@ def out_dir_options(f: Any) -> Any:
     return f
 
 
+def scheduler_options(f: Any) -> Any:
+    f = click.option("--chunk", type=int, default=None, metavar="N", help="With --scheduler: work items per task "
+                     "(default: chosen from the measured per-task overhead; docs/distributed.md).")(f)
+    f = click.option("--scheduler", metavar="local:N|tcp://HOST:PORT", help="Run on a Dask cluster: N local worker "
+                     "processes, or a running scheduler (the cache folder must be shared; docs/distributed.md).")(f)
+    return f
+
+
 def cache_options(f: Any) -> Any:
     f = click.option("--no-cache", is_flag=True, help="Neither read nor write the disk cache.")(f)
     f = click.option("--cache-dir", type=click.Path(path_type=Path), help="Cache folder "
@@ -68,8 +76,8 @@ def cache_options(f: Any) -> Any:
 # -- run ------------------------------------------------------------------------------------
 @main.command()
 @click.argument("pipeline", type=click.Path())
-@click.option("-o", "--out", "out", metavar="FILE", help="Image to write (PNG, EXR; #### = frame number). "
-              "Default: out/<pipeline>.png")
+@click.option("-o", "--out", "out", metavar="FILE", help="Image (PNG, EXR), image sequence (#### = frame number) "
+              "or film (.mp4, .webm, .gif) to write. Default: out/<pipeline>.png")
 @click.option("--output", "output_name", metavar="NAME", help="Which pipeline output to write (default: the first).")
 @click.option("--frames", metavar="START:END[:STEP]", help="Render a frame sequence along the scene's orbit.")
 @click.option("--explain", is_flag=True, help="Print the plan (what runs, why, from where, formats, memory) first.")
@@ -82,16 +90,42 @@ def cache_options(f: Any) -> Any:
 @click.option("--camera", "camera", metavar="NAME|INDEX", help="Look through this camera of a glTF scene.")
 @click.option("--crf", type=int, metavar="N", help="Film quality (.mp4 H.264 / .webm VP9 constant rate factor: "
               "lower is better; default 18 / 32).")
-@click.option("--resume", is_flag=True, help="Image sequences: skip frames already written with the same keys.")
+@click.option("--resume", is_flag=True, help="Image sequences: skip frames an earlier (killed) run finished: the "
+              "sidecar manifest beside the pattern says which, checked against keys and file hashes.")
 @pipeline_options
 @cache_options
 @out_dir_options
+@scheduler_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
         overrides: tuple[str, ...], size: str | None, scene: str | None,
-        no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool) -> None:
+        no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
+        chunk: int | None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
+
+    if scheduler is not None:
+        if watch or explain:
+            raise SketchgraphError("--scheduler renders on a cluster; drop --watch and --explain")
+        from . import distributed as dist
+        from . import film
+
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        opened = spec.open()
+        dist.ref_of(opened, output_name)  # load-time errors before a cluster starts
+        frame_list, rate = film.prepare(opened, out, frames, None, None)  # the scene's own animation and fps
+        pattern = out or f"out/{Path(pipeline).stem}.png"
+        root: Any = False if no_cache else cache_dir
+        with dist.connect(scheduler, cache_root=root) as client:
+            report = dist.render_frames(client, spec, frame_list, pattern, chunk=chunk, resume=resume,
+                                        progress=not quiet, cache_root=root, fps=rate)
+        if not quiet:
+            click.echo(report.format())
+            click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent}"
+                       if len(frame_list) > 1 else f"wrote {frame_path(pattern, frame_list[0], False)}")
+        return
+    if chunk is not None:
+        raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
 
     if watch:
         if frames is not None and len(parse_frames(frames)) > 1:
@@ -134,13 +168,30 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
             click.echo(f"wrote {done['frames']} frames{skipped} to {where} in {time.perf_counter() - t0:.1f} s")
         return
     bar = _progress(frame_list, quiet or not many, "frames")
+    manifest = None
+    if resume and many:
+        from .frames_manifest import FramesManifest
+
+        manifest = FramesManifest.load(pattern)
     try:
         for frame in bar:
+            target = frame_path(pattern, frame, many)
+            if manifest is not None:
+                from .frames_manifest import file_sha256, frame_digest
+
+                digest = frame_digest(ex.keys(frame)[ref[0]], ref[1], target.suffix)
+                if manifest.done(frame, digest, target):
+                    continue
             result = ex.run(frame)
-            path = write_value(result.values[ref], frame_path(pattern, frame, many))
+            path = write_value(result.values[ref], target)
+            if manifest is not None:
+                manifest.record(frame, digest, file_sha256(path))
+                manifest.save(every=1.0)
             if not quiet and not many:
                 click.echo(f"wrote {path}  ({summary(result)})")
     finally:
+        if manifest is not None:
+            manifest.save()
         ex.close()
     if many and not quiet:
         click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
@@ -164,6 +215,12 @@ def _progress(items: list[int], disable: bool, unit: str) -> Any:
     from tqdm import tqdm
 
     return tqdm(items, disable=disable, unit=unit, file=sys.stderr, leave=False)
+
+
+def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(items, total=total, disable=disable, unit=unit, file=sys.stderr, leave=False)
 
 
 # -- inspect --------------------------------------------------------------------------------
@@ -430,9 +487,10 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
 @click.option("--frame", default=0, show_default=True, help="Frame to render.")
 @pipeline_options
 @cache_options
+@scheduler_options
 def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: str | None, cell: int, frame: int,
           overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-          cache_dir: Path | None) -> None:
+          cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
     """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
     from .tools import viz
     from .tools import wedge as wedgemod
@@ -440,9 +498,21 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
     axes = wedgemod.axes_from(list(params))
     t0 = time.perf_counter()
     n = len(wedgemod.combinations(axes))
-    cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
-                         output_name, frame, open_cache(no_cache, cache_dir),
-                         progress=lambda it: _progress(list(it), n < 2, "cells"))
+    if scheduler is not None:
+        from . import distributed as dist
+
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        spec.open()  # load-time errors before a cluster starts
+        root: Any = False if no_cache else cache_dir
+        with dist.connect(scheduler, cache_root=root) as client:
+            cells = wedgemod.run_distributed(client, spec, axes, frame, root, chunk,
+                                             progress=lambda it: _progress_total(it, n, n < 2, "cells"))
+    elif chunk is not None:
+        raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
+    else:
+        cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
+                             output_name, frame, open_cache(no_cache, cache_dir),
+                             progress=lambda it: _progress(list(it), n < 2, "cells"))
     path = Path(out or f"out/{Path(pipeline).stem}.wedge.png")
     viz.write_png(path, wedgemod.sheet(cells, axes, Path(pipeline).stem, cell))
     for c in cells:
@@ -473,14 +543,25 @@ def _gallery_options(f: Any) -> Any:
               "page) under gallery/out/inspect/.")
 @click.option("--no-cache", is_flag=True, help="Neither read nor write the node cache.")
 @click.option("--cache-dir", type=click.Path(path_type=Path), help="Node cache folder (default: gallery/out/cache).")
+@scheduler_options
 def gallery_build(gallery_file: Path, only: tuple[str, ...], quiet: bool, force: bool, cold: bool, inspect_: bool,
-                  no_cache: bool, cache_dir: Path | None) -> None:
+                  no_cache: bool, cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
     """Render every entry that is not up to date; print the time per entry and in total."""
     from .tools import gallery as gal
 
+    if chunk not in (None, 1):
+        raise SketchgraphError(f"gallery build --chunk: an entry is one task; expected 1, found {chunk}")
     g = gal.load(gallery_file)
-    report = gal.build(g, gal.node_cache(g, no_cache, cache_dir, cold), only=list(only), force=force or cold,
-                       inspect=inspect_, echo=click.echo, progress=not quiet, cold=cold)
+    cache = gal.node_cache(g, no_cache, cache_dir, cold)
+    if scheduler is not None:
+        from . import distributed as dist
+
+        with dist.connect(scheduler, cache_root=cache.root if cache is not None else False) as client:
+            report = gal.build(g, cache, only=list(only), force=force or cold, inspect=inspect_, echo=click.echo,
+                               progress=not quiet, cold=cold, scheduler=client)
+    else:
+        report = gal.build(g, cache, only=list(only), force=force or cold, inspect=inspect_, echo=click.echo,
+                           progress=not quiet, cold=cold)
     click.echo(gal.format_build(report))
     click.echo(f"wrote {g.manifest_path} and {g.root / 'index.html'}")
     if report.failed:

@@ -250,6 +250,14 @@ class Executor:
         return f"{port}.{fmt}" if fmt else port
 
     # -- disk cache ------------------------------------------------------------------------
+    def is_stored(self, nid: str, port: str, key: str) -> bool:
+        """Whether the disk cache holds output `port` of node `nid` under `key`, in the planned format."""
+        return self.cache is not None and self.cache.find(key, self._entry(nid, port)) is not None
+
+    def store(self, nid: str, port: str, key: str, value: Any) -> None:
+        """Persist one output to the disk cache (checked against the plan like any computed value)."""
+        self._persist(self.pipeline.nodes[nid], key, port, value)
+
     def _expect(self, nid: str, port: str) -> Expect | None:
         """What a cache entry of this output must be: its kind from the port type, the planned format, and for
         textures the size from `output_shape` (the image size unless the node says otherwise)."""

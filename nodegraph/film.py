@@ -5,14 +5,14 @@ Encoding and file writing run beside rendering: the render loop reads each frame
 worker thread through a bounded queue, so a film costs little more than its frames. A film is encoded to
 a hidden temporary file in the output's folder and renamed when the container is finalised; if the run
 fails or is interrupted the temporary file is removed, so the output is either a complete, playable film
-or absent. With `resume`, image sequences keep a manifest (`<pattern>.frames.json`: frame -> the key of the
-written output) and skip frames already written with the same key.
+or absent. With `resume`, image sequences keep the frames manifest of `nodegraph.frames_manifest` (beside the
+pattern: frame -> the digest of what it was rendered from and the file's SHA-256, shared with distributed
+runs) and skip frames already written from the same keys whose files are intact.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import queue
 import threading
@@ -132,49 +132,38 @@ class FilmWriter:
 
 
 class SequenceWriter:
-    """One image file per frame (PNG, EXR, ...), written on a worker thread; a manifest of keys for resume."""
+    """One image file per frame (PNG, EXR, ...), written on a worker thread; with `resume`, the frames
+    manifest (`nodegraph.frames_manifest`, shared with distributed runs) records each frame's digest and
+    file hash as it is written, so a later `--resume` skips what is done."""
 
-    def __init__(self, manifest: Path | None, resume: bool):
-        self.manifest_path = manifest
-        self.done: dict[str, str] = {}
-        if manifest is not None and resume and manifest.is_file():
-            try:
-                self.done = {str(k): str(v) for k, v in json.loads(manifest.read_text()).get("frames", {}).items()}
-            except (ValueError, AttributeError):
-                self.done = {}
+    def __init__(self, pattern: str, resume: bool):
+        from .frames_manifest import FramesManifest
+
+        self.manifest = FramesManifest.load(pattern) if resume else None
         self._worker = _Worker(self._write)
 
     def _write(self, item: tuple[Path, Any, int, str]) -> None:
+        from .frames_manifest import file_sha256
         from .render import write_value
 
-        path, value, frame, key = item
-        write_value(value, path)
-        self.done[str(frame)] = key
+        path, value, frame, digest = item
+        written = write_value(value, path)
+        if self.manifest is not None:
+            self.manifest.record(frame, digest, file_sha256(written))
+            self.manifest.save(every=1.0)
 
-    def up_to_date(self, frame: int, key: str, path: Path) -> bool:
-        return self.done.get(str(frame)) == key and path.is_file()
+    def up_to_date(self, frame: int, digest: str, path: Path) -> bool:
+        return self.manifest is not None and self.manifest.done(frame, digest, path)
 
-    def write(self, path: Path, value: Any, frame: int, key: str) -> None:
-        self._worker.put((path, value, frame, key))
+    def write(self, path: Path, value: Any, frame: int, digest: str) -> None:
+        self._worker.put((path, value, frame, digest))
 
     def close(self) -> None:
         try:
             self._worker.finish()
         finally:
-            self._save()
-
-    def _save(self) -> None:
-        if self.manifest_path is None:
-            return
-        from .fsio import atomic_write_text
-
-        atomic_write_text(self.manifest_path,
-                          json.dumps({"frames": dict(sorted(self.done.items(), key=lambda kv: int(kv[0])))}, indent=1))
-
-
-def manifest_for(pattern: str) -> Path:
-    p = Path(pattern)
-    return p.with_name(p.name.replace("#", "").replace(p.suffix, "").rstrip("_.-") + ".frames.json")
+            if self.manifest is not None:
+                self.manifest.save()
 
 
 def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,
@@ -198,13 +187,15 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
             raise
         return {"path": path, "frames": len(frame_list), "skipped": 0}
     many = len(frame_list) > 1
-    seq = SequenceWriter(manifest_for(pattern) if many and resume else None, resume)
+    from .frames_manifest import frame_digest
+
+    seq = SequenceWriter(pattern, resume and many)
     skipped = 0
     try:
         for frame in loop:
             path = frame_path(pattern, frame, many)
-            key = f"{ex.keys(frame)[ref[0]]}.{ref[1]}"
-            if resume and seq.up_to_date(frame, key, path):
+            key = frame_digest(ex.keys(frame)[ref[0]], ref[1], path.suffix)
+            if seq.up_to_date(frame, key, path):
                 skipped += 1
                 continue
             value = ex.run(frame).values[ref]

@@ -28,6 +28,7 @@ NAMED: dict[str, str] = {
     "hatching": "nodegraph.tools.bench_pencil:hatching_command",
     "curvature": "nodegraph.tools.bench_pencil:curvature_command",
     "particles": "nodegraph.tools.bench_particles:command",
+    "distributed": "nodegraph.tools.bench_distributed:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -135,3 +135,97 @@ def sheet(cells: list[Cell], axes: list[Axis], title: str = "", cell: int = 256)
         [viz.Cell(c.image, []) for c in cells], cell=cell, columns=len(cols.values), title=head,
         column_labels=[f"{cols.param.split('.')[-1]}={label(v)}" for v in cols.values],
         row_labels=[f"{rows.param.split('.')[-1]}={label(v)}" for v in rows.values] if rows else None)
+
+
+# -- on a Dask cluster (`--scheduler`) -------------------------------------------------------------------
+def cell_task(spec: Any, cells: list[tuple[list[str], str]], frame: int,
+              cache_root: str | None | bool = None) -> dict[str, Any]:
+    """Render wedge cells on a worker; each cell's display image goes to its .npy path (beside the sheet,
+    atomically); only metadata comes back. A SketchgraphError comes back as a value."""
+    from dataclasses import replace
+
+    from .. import distributed as dist
+    from ..fsio import atomic_output
+
+    out = []
+    try:
+        state = dist.worker_state()
+        for overrides, path in cells:
+            t0 = time.perf_counter()
+            cspec = replace(spec, overrides=spec.overrides + tuple(overrides))
+            pipe = state.pipeline(cspec)
+            name = spec.output or next(iter(pipe.outputs))
+            if name not in pipe.outputs:
+                raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
+            ref = pipe.outputs[name]
+            ex = state.executor(pipe, [ref], "single", frame, cache=state.cache_for(cache_root))
+            result = ex.run(frame)
+            panel = viz.visualize(result.values[ref], ref[1], pipe.nodes[ref[0]].outputs[ref[1]].doc)
+            if panel.image is None:
+                raise SketchgraphError(f"output '{name}' ({ref[0]}.{ref[1]}) is not an image; pick one with --output")
+            with atomic_output(path) as tmp:
+                np.save(tmp, np.ascontiguousarray(panel.image))
+            out.append({"path": path, "computed": result.computed(), "ms": (time.perf_counter() - t0) * 1000})
+        if ex.cache is not None:
+            ex.cache.flush()
+    except SketchgraphError as exc:
+        return {"error": dist.TaskFailure.of(exc)}
+    return {"cells": out, "worker": state.address, "renderer": state.renderer}
+
+
+def run_distributed(client: Any, spec: Any, axes: list[Axis], frame: int = 0, cache_root: Any = None,
+                    chunk: int | None = None, progress: Callable[[Any], Any] | None = None) -> list[Cell]:
+    """`run` on the cluster behind `client`: one task per `chunk` cells (default 1); nodes whose key is the
+    same in every cell are computed once, first, and reach the cells through the shared cache."""
+    import shutil
+    from dataclasses import replace
+
+    from distributed import as_completed
+
+    from .. import distributed as dist
+
+    combos = combinations(axes)
+    if chunk is not None and chunk < 1:
+        raise SketchgraphError(f"--chunk: expected at least 1 cell, found {chunk}")
+    pipes = [replace(spec, overrides=spec.overrides + tuple(ov)).open() for _, _, ov, _ in combos]
+    name = spec.output or next(iter(pipes[0].outputs))
+    if name not in pipes[0].outputs:
+        raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipes[0].outputs)}")
+    ref = pipes[0].outputs[name]
+    keysets = [Executor(p, None, requested=[ref]).keys(frame) for p in pipes]
+    dist.ensure_plugin(client, cache_root)
+    renderers: set[str] = set()
+    refs = dist.shared_frontier(pipes[0], ref, keysets)
+    if refs:
+        first = replace(spec, overrides=spec.overrides + tuple(combos[0][2]))
+        res = client.submit(dist.prepare_task, first, refs, frame, cache_root, pure=False,
+                            retries=dist.RETRIES).result()
+        dist._raise_failure(res)
+        renderers.add(res["renderer"])
+    scratch = dist.scratch_dir(cache_root, "wedge-")
+    try:
+        items = [(ov, str(scratch / f"cell_r{r}c{c}.npy")) for r, c, ov, _ in combos]
+        size = chunk or 1
+        futures = [client.submit(cell_task, spec, items[i:i + size], frame, cache_root, pure=False,
+                                 retries=dist.RETRIES) for i in range(0, len(items), size)]
+        by_path: dict[str, dict[str, Any]] = {}
+        done = progress(as_completed(futures)) if progress else as_completed(futures)
+        for fut in done:
+            try:
+                res = fut.result()
+            except SketchgraphError:
+                raise
+            except Exception as exc:  # noqa: BLE001
+                raise dist.remote_error(exc) from None
+            dist._raise_failure(res)
+            renderers.add(res["renderer"])
+            for rec in res["cells"]:
+                by_path[rec["path"]] = rec
+        cells = []
+        for (r, c, ov, text), (_, path) in zip(combos, items, strict=True):
+            rec = by_path[path]
+            cells.append(Cell(r, c, ov, text, np.load(path), rec["computed"], rec["ms"]))
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+        dist.prune_shared(cache_root, renderers)
+    return cells

@@ -60,7 +60,7 @@ def test_sequence_resume_skips_frames_with_the_same_keys(tmp_path):
     box = gf.animated_box(tmp_path / "box.glb")
     pattern = str(tmp_path / "seq" / "f_####.png")
     assert _run("--scene", str(box), "--size", "48x48", "--frames", "0:4", "-o", pattern, "--resume").exit_code == 0
-    manifest = json.loads((tmp_path / "seq" / "f.frames.json").read_text())
+    manifest = json.loads((tmp_path / "seq" / ".f_####.png.frames.json").read_text())
     assert sorted(manifest["frames"], key=int) == ["0", "1", "2", "3"]
     (tmp_path / "seq" / "f_0002.png").unlink()
     res = CliRunner().invoke(main, ["run", "nienhaus_sketchy", "--no-cache", "--scene", str(box), "--size", "48x48",

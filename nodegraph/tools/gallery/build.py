@@ -243,6 +243,57 @@ def _renderer() -> str:
     return glmod.get().renderer
 
 
+def _cluster_renderer(client: Any, cache: Any) -> str:
+    """The workers' GL renderer (the manifest has one; a cluster of mixed renderers cannot build it)."""
+    from ... import distributed as dist
+
+    dist.ensure_plugin(client, cache.root if cache is not None else False)
+    found = set(dist.worker_renderers(client).values())
+    if len(found) != 1:
+        raise SketchgraphError("gallery build --scheduler: expected workers with one GL renderer, found "
+                               + (" and ".join(sorted(found)) if found else "no workers"))
+    return found.pop()
+
+
+def render_entry_task(entry: Entry, renderer: str, cell: int, root: str, inspect_dir: str | None,
+                      cache_root: Any) -> dict[str, Any]:
+    """On a worker: plan and render one entry into the (shared) gallery folder; the result is small."""
+    from ... import distributed as dist
+
+    try:
+        state = dist.worker_state()
+        if state.renderer != renderer:
+            raise SketchgraphError(f"entry '{entry.name}': worker renders with {state.renderer}, the build plans "
+                                   f"{renderer}")
+        ep = plan_entry(entry, renderer, cell, Path(root))
+        res = render_entry(ep, state.cache_for(cache_root), Path(root), cell,
+                           Path(inspect_dir) if inspect_dir else None)
+    except SketchgraphError as exc:
+        return {"error": dist.TaskFailure.of(exc)}
+    return {"result": res}
+
+
+def _submit_entry(client: Any, entry: Entry, renderer: str, gallery: Gallery, cache: Any, inspect: bool) -> Any:
+    from ... import distributed as dist
+
+    return client.submit(render_entry_task, entry, renderer, gallery.cell, str(gallery.root),
+                         str(gallery.out / "inspect") if inspect else None,
+                         str(cache.root) if cache is not None else False, pure=False, retries=dist.RETRIES)
+
+
+def _entry_result(fut: Any) -> EntryResult:
+    from ... import distributed as dist
+
+    try:
+        res = fut.result()
+    except SketchgraphError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        raise dist.remote_error(exc) from None
+    dist._raise_failure(res)
+    return res["result"]
+
+
 def _progress(items: list[Any], disable: bool) -> Any:
     import sys
 
@@ -253,11 +304,14 @@ def _progress(items: list[Any], disable: bool) -> Any:
 
 def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force: bool = False,
           inspect: bool = False, echo: Callable[[str], None] = print, progress: bool = True,
-          cold: bool = False) -> BuildReport:
+          cold: bool = False, scheduler: Any = None) -> BuildReport:
     """Render every entry that is not up to date (every entry with `force`); write manifest.json,
-    timings.json and index.html. `cold` says the cache is fresh and empty (for the build history)."""
+    timings.json and index.html. `cold` says the cache is fresh and empty (for the build history).
+    `scheduler`: a `distributed.Client`; entries render as tasks on its workers (one renderer for all),
+    which write the images into the gallery folder (shared) and return their records."""
     t0 = time.perf_counter()
-    renderer = _renderer()
+    renderer = _renderer() if scheduler is None else _cluster_renderer(scheduler, cache)
+    remote: dict[str, tuple[Any, EntryPlan]] = {}
     old = read_manifest(gallery.manifest_path)
     old_entries: dict[str, Any] = old.get("entries", {}) if old.get("renderer") == renderer else {}
     entries = [gallery.entry(n) for n in only] if only else gallery.entries
@@ -284,6 +338,9 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
             if not force and _up_to_date(prev, ep, gallery.root):
                 res = EntryResult(entry.name, "up to date", dict(prev["files"]))
                 records[entry.name] = prev
+            elif scheduler is not None:  # rendered on the cluster; its result is filled in below
+                remote[entry.name] = (_submit_entry(scheduler, entry, renderer, gallery, cache, inspect), ep)
+                res = EntryResult(entry.name, "submitted")
             else:
                 res = render_entry(ep, cache, gallery.root, gallery.cell,
                                    gallery.out / "inspect" if inspect else None)
@@ -297,7 +354,29 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
                 records[entry.name] = old["entries"][entry.name]
         res.ms = (time.perf_counter() - t1) * 1000
         results.append(res)
+        if res.status != "submitted":
+            _echo_line(echo, bar, res)
+    for i, res in enumerate(results):
+        if res.name not in remote:
+            continue
+        fut, ep = remote[res.name]
+        t1 = time.perf_counter()
+        try:
+            res = _entry_result(fut)
+            records[res.name] = {**ep.record, "build_key": ep.build_key, "files": res.files}
+        except Exception as exc:  # noqa: BLE001 - one broken entry must not stop the others
+            if not isinstance(exc, SketchgraphError):
+                exc = SketchgraphError(f"{type(exc).__name__}: {exc}")
+            res = EntryResult(res.name, "failed", note=str(exc))
+            failed.append(res.name)
+            if res.name in old.get("entries", {}):
+                records[res.name] = old["entries"][res.name]
+        results[i] = res
         _echo_line(echo, bar, res)
+    if remote:
+        from ... import distributed as dist
+
+        dist.prune_shared(cache.root if cache is not None else False, {renderer})
     if only:  # a partial build keeps the other entries' records
         for name, rec in old.get("entries", {}).items():
             records.setdefault(name, rec)

@@ -1,0 +1,769 @@
+"""Frame sequences (and, through the tools, wedges and gallery entries) on a Dask cluster.
+
+- `connect("local:N" | "tcp://host:port" | Client)`: a `distributed.LocalCluster` of N spawned worker
+  processes (one thread each, llvmpipe limited to cores // N threads), a running scheduler, or a client
+  the caller made.
+- Each worker process keeps one headless GL context (texture pool, compiled programs) and its last executor
+  (in-memory values) across tasks: `SketchgraphPlugin` / `WorkerState`.
+- The disk cache is shared (`SKETCHGRAPH_CACHE_DIR` on a filesystem every worker sees) and namespaced by the
+  GL renderer (`renderer_namespace`: a subfolder of the cache root; node keys are unchanged), so an entry
+  made by llvmpipe is never read where another renderer renders. Workers never prune; the client does.
+- Nodes whose key is the same for every requested frame are computed once, in one task, persisted, and
+  reach the other tasks through the cache.
+- Workers write frames straight to the output pattern and return small metadata (frame, digest, SHA-256,
+  timings). A task's `SketchgraphError` comes back as a value and is raised on the client as the same class
+  with the same one-line message (deterministic errors are not retried); a killed worker costs only its
+  chunk, which the scheduler runs again.
+
+See docs/distributed.md for the measured overheads and the throughput model.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import importlib
+import logging
+import math
+import os
+import shutil
+import sys
+import tempfile
+import time
+import uuid
+from collections import Counter, OrderedDict
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+from distributed import WorkerPlugin
+
+from . import render
+from .cache import Cache, default_root
+from .errors import SketchgraphError, one_line
+from .frames_manifest import FramesManifest, file_sha256, frame_digest
+
+PLUGIN_NAME = "sketchgraph"
+VIDEO_SUFFIXES = (".mp4", ".gif", ".mov", ".webm", ".mkv")
+RETRIES = 2
+"""`retries=` of every task: unexpected exceptions (an OS error on the shared filesystem) are tried again.
+A dead worker's tasks are rescheduled by the scheduler (`distributed.scheduler.allowed-failures`)."""
+MIN_CHUNK = 4
+"""The smallest default chunk. Measured (`sketchgraph bench distributed`, docs/distributed.md): 1.6-3 ms per
+task when tasks are queued, 10-12 ms for a lone round trip; a frame costs 10 ms (96x96) to 100+ ms (800x800),
+so 4 frames a task keep the overhead under ~7% even at the smallest sizes."""
+MAX_CHUNK = 32
+"""The largest default chunk: past it, a lost worker costs more and the last chunks balance worse."""
+
+
+# -- the renderer namespace of the shared cache ----------------------------------------------------------
+def renderer_namespace(renderer: str) -> str:
+    """The cache subfolder of one GL renderer (vendor, renderer and version string, digested)."""
+    return "renderer-" + hashlib.sha256(renderer.encode("utf-8")).hexdigest()[:16]
+
+
+class WorkerCache(Cache):
+    """A worker's view of the shared cache: it never prunes (only the client does)."""
+
+    def prune(self, limit: int | None = None) -> tuple[int, int]:
+        return 0, 0
+
+
+def namespaced_cache(root: str | Path | None, renderer: str, cls: type[Cache] = Cache) -> Cache:
+    base = Path(root) if root else default_root()
+    return cls(base / renderer_namespace(renderer))
+
+
+# -- what a task renders ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PipeSpec:
+    """A pipeline as every process can open it: a path every worker sees (or a shipped name), the
+    overrides, size and scene, and the output (a name or NODE.PORT; None: the first)."""
+
+    source: str
+    overrides: tuple[str, ...] = ()
+    size: str | None = None
+    scene: str | None = None
+    output: str | None = None
+
+    @classmethod
+    def make(cls, source: str | Path, overrides: Sequence[str] = (), size: str | None = None,
+             scene: str | None = None, output: str | None = None) -> PipeSpec:
+        src = str(source)
+        if Path(src).exists():
+            src = str(Path(src).resolve())
+        if scene is not None and not scene.startswith("builtin:") and Path(scene).exists():
+            scene = str(Path(scene).resolve())
+        return cls(src, tuple(overrides), size, scene, output)
+
+    def open(self) -> Any:
+        return render.open_pipeline(self.source, self.overrides, self.size, self.scene)
+
+
+def ref_of(pipe: Any, output: str | None) -> tuple[str, str]:
+    if output is None:
+        return next(iter(pipe.outputs.values()))
+    if output in pipe.outputs:
+        return pipe.outputs[output]
+    if "." in output:
+        return pipe.parse_ref(output)
+    raise SketchgraphError(f"pipeline has no output '{output}'; outputs: {', '.join(pipe.outputs)}")
+
+
+# -- errors across processes -----------------------------------------------------------------------------
+@dataclass
+class TaskFailure:
+    """A task's SketchgraphError as plain data: its class (module:qualname), its one-line message and its
+    attributes (only those that pickle)."""
+
+    cls: str
+    message: str
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, exc: SketchgraphError) -> TaskFailure:
+        import pickle
+
+        attrs = {}
+        for k, v in vars(exc).items():
+            try:
+                pickle.dumps(v)
+            except Exception:  # noqa: BLE001 - what does not pickle stays behind
+                continue
+            attrs[k] = v
+        return cls(f"{type(exc).__module__}:{type(exc).__qualname__}", str(exc), attrs)
+
+    def error(self) -> SketchgraphError:
+        mod, _, name = self.cls.partition(":")
+        try:
+            klass: Any = importlib.import_module(mod)
+            for part in name.split("."):
+                klass = getattr(klass, part)
+            if not (isinstance(klass, type) and issubclass(klass, SketchgraphError)):
+                raise TypeError(name)
+        except Exception:  # noqa: BLE001 - an unknown class: the base class, same message
+            klass = SketchgraphError
+        exc = klass.__new__(klass)
+        Exception.__init__(exc, self.message)
+        exc.__dict__.update(self.attrs)
+        return exc
+
+
+def remote_error(exc: BaseException) -> SketchgraphError:
+    """An exception a future raised on the client, as the one line a local run prints."""
+    if isinstance(exc, SketchgraphError):
+        return exc
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return SketchgraphError(f"a task failed on every worker it was tried on (workers died: out of memory, "
+                                f"killed or crashed): {one_line(exc)}")
+    return SketchgraphError(one_line(exc))
+
+
+# -- the worker side -------------------------------------------------------------------------------------
+class WorkerState:
+    """What one worker process keeps between tasks: its GL context (created on first use), the shared cache
+    in its renderer's namespace, opened pipelines, and the last executor with its in-memory values."""
+
+    def __init__(self, cache_root: str | None | bool = None, address: str = "") -> None:
+        self.cache_root = cache_root
+        self.address = address
+        self._caches: dict[str | None, Cache] = {}
+        self._pipes: OrderedDict[PipeSpec, Any] = OrderedDict()
+        self._executor: Any = None
+        self.tasks = 0
+
+    @property
+    def gl(self) -> Any:
+        from . import gl as glmod
+
+        return glmod.get()
+
+    @property
+    def renderer(self) -> str:
+        return self.gl.renderer
+
+    @property
+    def cache(self) -> Cache | None:
+        return self.cache_for(self.cache_root)
+
+    def cache_for(self, root: str | Path | None | bool) -> Cache | None:
+        """The shared cache at `root` (None: the default root; False: none), in this renderer's namespace."""
+        if root is False:
+            return None
+        name = None if root in (None, True) else str(root)
+        cache = self._caches.get(name)
+        if cache is None:
+            cache = self._caches[name] = namespaced_cache(name, self.renderer, WorkerCache)
+        return cache
+
+    def pipeline(self, spec: PipeSpec) -> Any:
+        pipe = self._pipes.get(spec)
+        if pipe is None:
+            pipe = self._pipes[spec] = spec.open()
+            while len(self._pipes) > 8:
+                self._pipes.popitem(last=False)
+        else:
+            self._pipes.move_to_end(spec)
+        return pipe
+
+    def executor(self, pipe: Any, refs: list[tuple[str, str]], mode: str, frame: int, like: Any = None,
+                 cache: Any = ...) -> Any:
+        """The executor of the last task when it ran the same pipeline and outputs, else a new one that
+        adopts its in-memory values (content-addressed: only unchanged keys are reused)."""
+        from .executor import Executor
+
+        cache = self.cache if cache is ... else cache
+        old = self._executor
+        if (old is not None and like is None and old.pipeline is pipe and old.mode == mode and old.cache is cache
+                and list(old.plan.requested) == refs):
+            return old
+        ex = Executor(pipe, cache, mode=mode, requested=refs, like=like)
+        ex.adopt_memory(old, frame)
+        if old is not None:
+            old.close()
+        self._executor = ex
+        return ex
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.clear_memory()
+            self._executor.close()
+            self._executor = None
+
+
+class SketchgraphPlugin(WorkerPlugin):
+    """Registered on every worker (also those that join or restart later): sets llvmpipe's thread count
+    before the GL context exists and keeps the `WorkerState`."""
+
+    name = PLUGIN_NAME
+
+    def __init__(self, cache_root: str | None | bool = None, lp_threads: int | None = None) -> None:
+        self.cache_root = cache_root
+        self.lp_threads = lp_threads
+        self.state: WorkerState | None = None
+
+    def setup(self, worker: Any) -> None:
+        if self.lp_threads and "LP_NUM_THREADS" not in os.environ:
+            os.environ["LP_NUM_THREADS"] = str(self.lp_threads)
+        self.state = WorkerState(self.cache_root, getattr(worker, "address", ""))
+
+    def teardown(self, worker: Any) -> None:
+        if self.state is not None:
+            self.state.close()
+
+
+_LOCAL_STATE: WorkerState | None = None
+
+
+def worker_state() -> WorkerState:
+    """This worker's state (the plugin's); outside a worker, one for the process. A worker must run one
+    thread: its GL context is current in one thread only."""
+    global _LOCAL_STATE
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except ValueError:
+        worker = None
+    if worker is not None:
+        if int(getattr(worker, "nthreads", 1) or 1) > 1:
+            raise SketchgraphError(f"worker {worker.address} runs {worker.nthreads} threads; start sketchgraph "
+                                   "workers with --nthreads 1 (one GL context each), e.g. dask worker ADDRESS "
+                                   "--nthreads 1 --nworkers N")
+        plugin = worker.plugins.get(PLUGIN_NAME)
+        if plugin is not None and getattr(plugin, "state", None) is not None:
+            return plugin.state
+    if _LOCAL_STATE is None:
+        _LOCAL_STATE = WorkerState()
+    return _LOCAL_STATE
+
+
+def worker_renderer() -> str:
+    return worker_state().renderer
+
+
+def _disk_hits(result: Any) -> int:
+    return sum(1 for s in result.stats.values() if s.status == "disk")
+
+
+def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bool,
+                       cache_root: str | None | bool = None) -> dict[str, Any]:
+    """Render `frames` and write each to `pattern`; returns metadata only (or the error as a value)."""
+    t0 = time.perf_counter()
+    try:
+        state = worker_state()
+        fresh = state.tasks == 0
+        state.tasks += 1
+        pipe = state.pipeline(spec)
+        ref = ref_of(pipe, spec.output)
+        ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0], cache=state.cache_for(cache_root))
+        out = []
+        for frame in frames:
+            t1 = time.perf_counter()
+            result = ex.run(frame)
+            path = render.write_value(result.values[ref], render.frame_path(pattern, frame, many))
+            out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
+                        "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
+                        "ms": (time.perf_counter() - t1) * 1000})
+        if ex.cache is not None:
+            ex.cache.flush()
+    except SketchgraphError as exc:
+        return {"error": TaskFailure.of(exc)}
+    return {"worker": state.address, "pid": os.getpid(), "fresh": fresh, "frames": out, "renderer": state.renderer,
+            "ms": (time.perf_counter() - t0) * 1000}
+
+
+def prepare_task(spec: PipeSpec, refs: list[tuple[str, str]], frame: int,
+                 cache_root: str | None | bool = None) -> dict[str, Any]:
+    """Compute the given (frame-independent) ports once and persist them to the shared cache, in the formats
+    the full render plans for them (so that its tasks find the entries)."""
+    from .plan import plan
+
+    t0 = time.perf_counter()
+    try:
+        state = worker_state()
+        pipe = state.pipeline(spec)
+        ex = state.executor(pipe, refs, "loop", frame, like=plan(pipe, [ref_of(pipe, spec.output)]),
+                            cache=state.cache_for(cache_root))
+        result = ex.run(frame)
+        stored = 0
+        if ex.cache is not None:
+            for nid, port in refs:
+                node = pipe.nodes[nid]
+                key = result.stats[nid].key
+                if node.persist != "never" and not node.side_effect and not ex.is_stored(nid, port, key):
+                    ex.store(nid, port, key, result.values[(nid, port)])
+                    stored += 1
+            ex.cache.flush()
+    except SketchgraphError as exc:
+        return {"error": TaskFailure.of(exc)}
+    return {"worker": state.address, "stored": stored, "computed": result.computed(), "renderer": state.renderer,
+            "ms": (time.perf_counter() - t0) * 1000}
+
+
+def noop_task(x: Any = None) -> Any:
+    """For measuring the per-task overhead."""
+    return x
+
+
+# -- frame-independent nodes -----------------------------------------------------------------------------
+def shared_frontier(pipe: Any, ref: tuple[str, str], key_sets: Sequence[dict[str, str]]) -> list[tuple[str, str]]:
+    """The ports of nodes whose key is the same in every key set (frames, wedge cells) that feed a node whose
+    key changes: computing these once makes every other unchanged node unnecessary downstream."""
+    from .plan import plan
+
+    if len(key_sets) < 2:
+        return []
+    first = key_sets[0]
+    same = {nid for nid, k in first.items() if all(ks.get(nid) == k for ks in key_sets[1:])}
+    p = plan(pipe, [ref])
+
+    def source(nid: str, port: str) -> tuple[str, str]:
+        seen = 0
+        while (nid, port) in p.aliases and seen < 1000:
+            nid, port = p.aliases[(nid, port)]
+            seen += 1
+        return nid, port
+
+    out: list[tuple[str, str]] = []
+    for nid in p.order:
+        if nid in same:
+            continue
+        for _port, (src, sport) in sorted(pipe.connections[nid].items()):
+            s = source(src, sport)
+            node = pipe.nodes[s[0]]
+            if s[0] in same and s not in out and node.persist != "never" and not node.side_effect:
+                out.append(s)
+    return out
+
+
+# -- connecting ------------------------------------------------------------------------------------------
+def lp_threads_for(n_workers: int, cores: int | None = None) -> int:
+    return max(1, (cores or os.cpu_count() or 1) // max(1, n_workers))
+
+
+@contextlib.contextmanager
+def connect(scheduler: Any, *, cache_root: str | Path | None | bool = None) -> Iterator[Any]:
+    """A `distributed.Client` for `local:N`, `tcp://host:port` or a Client (used as it is, not closed), with
+    the sketchgraph plugin registered on every worker."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    root: str | None | bool = str(cache_root) if isinstance(cache_root, (str, Path)) else cache_root
+    if not isinstance(scheduler, str):
+        ensure_plugin(scheduler, root)
+        yield scheduler
+        return
+    text = scheduler.strip()
+    config = {"distributed.worker.multiprocessing-method": "spawn",  # never fork a process holding GL
+              "distributed.scheduler.allowed-failures": 3,
+              "distributed.worker.daemon": True}
+    if text.startswith("local:"):
+        try:
+            n = int(text[6:])
+        except ValueError:
+            n = 0
+        if n < 1 or n > 256:
+            raise SketchgraphError(f"--scheduler: expected local:N with N from 1 to 256, found '{text[:40]}'")
+        lp = lp_threads_for(n)
+        env = {"LP_NUM_THREADS": str(lp)}
+        if isinstance(root, str):
+            env["SKETCHGRAPH_CACHE_DIR"] = root
+        with dask.config.set(config):
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=None, silence_logs=logging.ERROR, env=env,
+                                   worker_dashboard_address=None)
+            try:
+                client = Client(cluster)
+                try:
+                    ensure_plugin(client, root, lp)
+                    yield client
+                finally:
+                    client.close()
+            finally:
+                cluster.close()
+        return
+    if not text.startswith(("tcp://", "tls://", "ucx://", "inproc://")):
+        raise SketchgraphError(f"--scheduler: expected local:N or tcp://HOST:PORT, found '{text[:60]}'")
+    with dask.config.set(config):
+        try:
+            client = Client(text, timeout="15s")
+        except OSError as exc:
+            raise SketchgraphError(f"--scheduler {text}: cannot connect ({one_line(exc)}); start one with "
+                                   "`dask scheduler` (docs/distributed.md)") from None
+        try:
+            ensure_plugin(client, root)
+            yield client
+        finally:
+            client.close()
+
+
+def ensure_plugin(client: Any, cache_root: str | None | bool = None, lp_threads: int | None = None) -> None:
+    """Register the plugin once per client (workers that join later get it too)."""
+    done = getattr(client, "_sketchgraph_plugin", None)
+    if done == (cache_root, lp_threads):
+        return
+    client.register_plugin(SketchgraphPlugin(cache_root, lp_threads), name=PLUGIN_NAME)
+    client._sketchgraph_plugin = (cache_root, lp_threads)
+
+
+def n_workers(client: Any) -> int:
+    return max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+
+
+def default_chunk(frames: int, workers: int) -> int:
+    """At least four chunks per worker (balance, and a lost worker costs little), at least `MIN_CHUNK` frames
+    each (the per-task overhead), at most `MAX_CHUNK`."""
+    return max(1, min(frames, max(MIN_CHUNK, min(MAX_CHUNK, math.ceil(frames / (4 * max(1, workers)))))))
+
+
+def chunks(items: Sequence[int], size: int) -> list[list[int]]:
+    return [list(items[i:i + size]) for i in range(0, len(items), size)]
+
+
+def task_attempts(client: Any, keys: list[str], retries: int) -> int:
+    """How many times tasks were run again: retries used plus reschedules after a worker died."""
+
+    def count(dask_scheduler: Any, keys: list[str], retries: int) -> int:
+        total = 0
+        for k in keys:
+            ts = dask_scheduler.tasks.get(k)
+            if ts is not None:
+                total += int(getattr(ts, "suspicious", 0)) + max(0, retries - int(getattr(ts, "retries", retries)))
+        return total
+
+    try:
+        return int(client.run_on_scheduler(count, keys=keys, retries=retries))
+    except Exception:  # noqa: BLE001 - a figure for the summary only
+        return 0
+
+
+# -- sinks for video outputs -----------------------------------------------------------------------------
+class FrameSink(Protocol):
+    """What a video encoder offers the client: frames in order, then close."""
+
+    def add(self, frame: int, rgb: Any) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class _FilmSink:
+    """`nodegraph.film.FilmWriter` behind the sink protocol: frames arrive in order; `abort` on a failure
+    removes the partial film, so the output is a complete film or nothing."""
+
+    def __init__(self, path: Path, fps: float, size: tuple[int, int], crf: int | None = None) -> None:
+        from .film import FilmWriter
+
+        self._film = FilmWriter(path, fps, size, crf)
+
+    def add(self, frame: int, rgb: Any) -> None:
+        self._film.write(rgb)
+
+    def close(self) -> None:
+        self._film.close()
+
+    def abort(self) -> None:
+        self._film.abort()
+
+
+def open_sink(path: Path, fps: float, size: tuple[int, int], crf: int | None = None) -> FrameSink:
+    """The film encoder (`nodegraph.film`) for a video path."""
+    return _FilmSink(path, fps, size, crf)
+
+
+def video_frames_dir(path: str | Path) -> Path:
+    p = Path(path)
+    return p.parent / f".{p.name}.frames"
+
+
+# -- the client side -------------------------------------------------------------------------------------
+@dataclass
+class RunReport:
+    frames: int = 0
+    rendered: int = 0
+    skipped: int = 0  # finished by an earlier run (--resume)
+    chunk: int = 0
+    tasks: int = 0
+    retries: int = 0
+    cache_hits: int = 0
+    per_worker: Counter[str] = field(default_factory=Counter)
+    prepared: list[str] = field(default_factory=list)  # NODE.PORT computed once, first
+    prepare_s: float = 0.0
+    wall_s: float = 0.0
+    task_ms: list[float] = field(default_factory=list)
+    frame_ms: list[float] = field(default_factory=list)
+
+    def fps(self) -> float:
+        return self.rendered / self.wall_s if self.wall_s > 0 else 0.0
+
+    def format(self) -> str:
+        workers = ", ".join(f"{w.rsplit('/', 1)[-1] or w}: {n}" for w, n in sorted(self.per_worker.items()))
+        lines = [f"{self.rendered} frames rendered in {self.wall_s:.1f} s ({self.fps():.1f} frames/s) in "
+                 f"{self.tasks} tasks of up to {self.chunk} frames; {self.skipped} already done",
+                 f"frames per worker: {workers or 'none'}; retries: {self.retries}; cache hits: {self.cache_hits}"]
+        if self.prepared:
+            lines.append(f"frame-independent, computed once first ({self.prepare_s:.1f} s): "
+                         + ", ".join(self.prepared))
+        return "\n".join(lines)
+
+
+class FrameRun:
+    """Render frames on a cluster; iterating yields (frame, path) in frame order as frames arrive (frames a
+    resumed run skips included). `report` holds the summary once the iteration is over."""
+
+    def __init__(self, client: Any, spec: PipeSpec, frames: Sequence[int], pattern: str | Path, *,
+                 chunk: int | None = None, resume: bool = False, retries: int = RETRIES, progress: bool = False,
+                 cache_root: str | Path | None | bool = None, resources: dict[str, float] | None = None,
+                 many: bool | None = None, manifest: bool = True) -> None:
+        self.client = client
+        self.spec = spec
+        self.frames = [int(f) for f in frames]
+        if len(set(self.frames)) != len(self.frames):
+            raise SketchgraphError("frames: each frame may be named once")
+        self.pattern = str(pattern)
+        self.many = len(self.frames) > 1 if many is None else many
+        self.chunk = chunk
+        if chunk is not None and chunk < 1:
+            raise SketchgraphError(f"--chunk: expected at least 1 frame, found {chunk}")
+        self.resume = resume
+        self.retries = retries
+        self.progress = progress
+        self.cache_root = cache_root
+        self.resources = resources
+        self.use_manifest = manifest
+        self.report = RunReport(frames=len(self.frames))
+        self.renderers: set[str] = set()
+        self.pipe = spec.open()  # every load-time error here, before any task
+        self.ref = ref_of(self.pipe, spec.output)
+
+    def path(self, frame: int) -> Path:
+        return render.frame_path(self.pattern, frame, self.many)
+
+    def __iter__(self) -> Iterator[tuple[int, Path]]:
+        from distributed import as_completed
+
+        from .executor import Executor
+
+        t0 = time.perf_counter()
+        rep = self.report
+        root = _root_arg(self.cache_root)
+        ensure_plugin(self.client, root)
+        planner = Executor(self.pipe, None, requested=[self.ref])
+        keysets = {f: planner.keys(f) for f in self.frames}
+        suffix = Path(self.pattern).suffix
+        digests = {f: frame_digest(keysets[f][self.ref[0]], self.ref[1], suffix) for f in self.frames}
+        manifest = FramesManifest.load(self.pattern) if self.use_manifest else None
+        done: dict[int, Path] = {}
+        if manifest is not None and self.resume:
+            for f in self.frames:
+                if manifest.done(f, digests[f], self.path(f)):
+                    done[f] = self.path(f)
+        todo = [f for f in self.frames if f not in done]
+        rep.skipped = len(done)
+        if manifest is not None:
+            for f in todo:
+                manifest.forget(f)
+        bar = _bar(len(self.frames), len(done), not self.progress)
+        order = iter(self.frames)
+        next_frame = next(order, None)
+        futures: list[Any] = []
+        try:
+            while next_frame is not None and next_frame in done:  # what a resumed run finished already
+                yield next_frame, done[next_frame]
+                next_frame = next(order, None)
+            if not todo:
+                return
+            workers = n_workers(self.client)
+            # with one worker there is nothing to share: its executor keeps those values in memory
+            refs = shared_frontier(self.pipe, self.ref, [keysets[f] for f in todo]) if workers > 1 else []
+            if refs and len(todo) > 1:
+                t1 = time.perf_counter()
+                res = self.client.submit(prepare_task, self.spec, refs, todo[0], root, retries=self.retries, pure=False,
+                                         key=f"sketchgraph-prepare-{uuid.uuid4().hex[:12]}",
+                                         resources=self.resources).result()
+                _raise_failure(res)
+                rep.prepared = [f"{n}.{p}" for n, p in refs]
+                rep.prepare_s = time.perf_counter() - t1
+            size = self.chunk or default_chunk(len(todo), workers)
+            rep.chunk = size
+            token = uuid.uuid4().hex[:12]
+            for i, part in enumerate(chunks(todo, size)):
+                futures.append(self.client.submit(render_frames_task, self.spec, part, self.pattern, self.many, root,
+                                                  key=f"sketchgraph-frames-{token}-{i:05d}", retries=self.retries,
+                                                  pure=False, resources=self.resources))
+            rep.tasks = len(futures)
+            for fut in as_completed(futures):
+                try:
+                    res = fut.result()
+                except SketchgraphError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - one line, as a local run prints
+                    raise remote_error(exc) from None
+                _raise_failure(res)
+                self.renderers.add(res["renderer"])
+                rep.task_ms.append(res["ms"])
+                for rec in res["frames"]:
+                    f = rec["frame"]
+                    done[f] = Path(rec["path"])
+                    rep.rendered += 1
+                    rep.cache_hits += rec["hits"]
+                    rep.frame_ms.append(rec["ms"])
+                    rep.per_worker[res["worker"]] += 1
+                    if manifest is not None:
+                        manifest.record(f, rec["digest"], rec["sha256"])
+                if manifest is not None:
+                    manifest.save(every=1.0)
+                bar.update(len(res["frames"]))
+                while next_frame is not None and next_frame in done:
+                    yield next_frame, done[next_frame]
+                    next_frame = next(order, None)
+            rep.retries = task_attempts(self.client, [f.key for f in futures], self.retries)
+        finally:
+            for fut in futures:
+                if not fut.done():
+                    fut.cancel()
+            if manifest is not None:
+                manifest.save()
+            bar.close()
+            rep.wall_s = time.perf_counter() - t0
+            self._prune()
+
+    def _prune(self) -> None:
+        """Only the client prunes the shared cache (each renderer's namespace the workers wrote into)."""
+        if self.cache_root is False:
+            return
+        prune_shared(self.cache_root, self.renderers)
+
+
+def prune_shared(cache_root: Any, renderers: set[str]) -> None:
+    """Prune each namespace the workers wrote into (the client's job; workers never prune)."""
+    if cache_root is False:
+        return
+    root = _root_arg(cache_root)
+    for r in renderers:
+        with contextlib.suppress(Exception):
+            namespaced_cache(root if isinstance(root, str) else None, r).prune()
+
+
+def worker_renderers(client: Any) -> dict[str, str]:
+    """Each worker's GL renderer, asked through a task on that worker (so the context is made in the thread
+    that renders, never in the worker's event loop as `client.run` would)."""
+    addrs = list(client.scheduler_info(n_workers=-1).get("workers", {}))
+    futs = {a: client.submit(worker_renderer, key=f"sketchgraph-renderer-{uuid.uuid4().hex[:12]}", workers=[a],
+                             allow_other_workers=False, pure=False) for a in addrs}
+    out = {}
+    for a, f in futs.items():
+        try:
+            out[a] = f.result()
+        except SketchgraphError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            raise remote_error(exc) from None
+    return out
+
+
+def _root_arg(cache_root: Any) -> str | None | bool:
+    if isinstance(cache_root, (str, Path)):
+        return str(cache_root)
+    return cache_root
+
+
+def _raise_failure(res: Any) -> None:
+    if isinstance(res, dict) and isinstance(res.get("error"), TaskFailure):
+        raise res["error"].error()
+
+
+def _bar(total: int, initial: int, disable: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, disable=disable, unit="frame", file=sys.stderr, leave=False,
+                dynamic_ncols=True, smoothing=0.1)
+
+
+def render_frames(client: Any, spec: PipeSpec, frames: Sequence[int], out: str | Path, *,
+                  chunk: int | None = None, resume: bool = False, progress: bool = False,
+                  cache_root: str | Path | None | bool = None, retries: int = RETRIES,
+                  on_frame: Callable[[int, Path], None] | None = None, sink: FrameSink | None = None,
+                  fps: float = 24.0, resources: dict[str, float] | None = None) -> RunReport:
+    """Render `frames` of `spec` to `out` (a frame pattern, or a video file through `sink`), on the cluster
+    behind `client`. `on_frame(frame, path)` is called in frame order as frames arrive."""
+    out = Path(out)
+    if out.suffix.lower() in VIDEO_SUFFIXES:
+        tmp = video_frames_dir(out)
+        run = FrameRun(client, spec, frames, tmp / "f_########.png", chunk=chunk, resume=resume, progress=progress,
+                       cache_root=cache_root, retries=retries, resources=resources, many=True)
+        if sink is None:
+            sink = open_sink(out, fps, run.pipe.size)
+        from .imageio import read, to_uint8
+
+        try:
+            for frame, path in run:
+                rgb = to_uint8(read(path)[::-1][:, :, :3])  # files are top-down; read() gives bottom-up
+                sink.add(frame, rgb)
+                if on_frame is not None:
+                    on_frame(frame, path)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                (getattr(sink, "abort", None) or sink.close)()
+            raise
+        sink.close()
+        shutil.rmtree(tmp, ignore_errors=True)  # kept after a failure: --resume picks up from it
+        return run.report
+    run = FrameRun(client, spec, frames, out, chunk=chunk, resume=resume, progress=progress, cache_root=cache_root,
+                   retries=retries, resources=resources)
+    for frame, path in run:
+        if on_frame is not None:
+            on_frame(frame, path)
+    return run.report
+
+
+def scratch_dir(cache_root: str | Path | None | bool, prefix: str) -> Path:
+    """A temporary folder every worker sees: under the shared cache root (two levels down, so the cache never
+    takes its files for entries), else the system's temporary folder."""
+    base = (Path(cache_root) if isinstance(cache_root, (str, Path)) else default_root()) / ".tmp"
+    if cache_root is False:
+        base = Path(tempfile.gettempdir())
+    base.mkdir(parents=True, exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix=prefix, dir=base))
