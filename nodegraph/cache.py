@@ -4,7 +4,7 @@ Every entry is `ROOT/<key[:2]>/<key>.<port>.<ext>`; an EXR's header (an npz's `_
 the port, the kind, the format, the size, the node type, its params and the versions, so a cached file
 explains itself.
 
-Promises (docs/reliability-cache.md, tests/nodegraph/test_cache_faults.py):
+Promises (docs/reliability.md, tests/nodegraph/test_cache_faults.py):
 
 - Never serve a wrong entry: `load` checks an entry against what the plan expects of it (`Expect`: port,
   kind, format, width, height, layers, channels, pixel type). A file that fails to read, or that differs

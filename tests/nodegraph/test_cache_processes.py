@@ -5,7 +5,7 @@ that fails validation and no damaged earlier output; several processes sharing o
 byte-identical images. Randomness is seeded; counts are small so the whole file takes well under a minute.
 
 With SKETCHGRAPH_FAULT_REPORT=FILE set, the kill and concurrency tests write what happened there (JSON), for
-docs/reliability-cache.md."""
+docs/reliability.md."""
 
 from __future__ import annotations
 
