@@ -1,6 +1,8 @@
 """Content-addressed disk cache: textures as EXR (OpenImageIO), arrays and strokes as .npz.
 
-Every entry is `ROOT/<key[:2]>/<key>.<port>.<ext>`; an EXR's header (an npz's `__meta__`) carries the key,
+Every entry is `ROOT/renderer-<digest>/<key[:2]>/<key>.<port>.<ext>`: node keys do not name the GL
+renderer, so each renderer's entries live in their own folder and are never read for another (every run,
+serial or on a cluster, binds its cache to its context's renderer string). An EXR's header (an npz's `__meta__`) carries the key,
 the port, the kind, the format, the size, the node type, its params and the versions, so a cached file
 explains itself.
 
@@ -28,6 +30,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import errno
+import hashlib
 import json
 import os
 import re
@@ -190,9 +193,28 @@ def _stored_pixel(kind: str, fmt: str) -> str:
     return str(types.numpy_dtype(fmt))
 
 
+def renderer_namespace(renderer: str) -> str:
+    """The cache subfolder of one GL renderer (vendor, renderer and version string, digested): node keys
+    do not name the renderer, so entries of different renderers live apart and are never read for each
+    other (an llvmpipe texture is not served to an NVIDIA run, nor the other way round)."""
+    return NAMESPACE_PREFIX + hashlib.sha256(renderer.encode("utf-8")).hexdigest()[:16]
+
+
+NAMESPACE_PREFIX = "renderer-"
+
+
 class Cache:
-    def __init__(self, root: Path | None = None, limit: int | None = None):
-        self.root = Path(root) if root else default_root()
+    """The disk cache under `root`. Entries live in the subfolder of the GL renderer that made them
+    (`root/renderer-<digest>/<key[:2]>/...`); the renderer is given, or bound by the executor from its GL
+    context before the first read or write (`bind`). Size limit, `info` and `prune` cover every renderer's
+    entries under `root` together."""
+
+    def __init__(self, root: Path | None = None, limit: int | None = None, renderer: str | None = None):
+        self.base = Path(root) if root else default_root()
+        self.namespace: str | None = None
+        self.root = self.base  # where this cache's entries go: base/namespace once a renderer is bound
+        if renderer is not None:
+            self.bind(renderer)
         self.limit = default_limit() if limit is None else limit
         self._writer: ThreadPoolExecutor | None = None
         self._pending: list[Future] = []
@@ -207,6 +229,13 @@ class Cache:
         self._write_error: str | None = None  # first failure not yet reported (set on the writer thread too)
         self._write_warned = False
         atexit.register(_report_at_exit, weakref.ref(self))
+
+    def bind(self, renderer: str) -> None:
+        """Read and write the entries of `renderer` from now on (the GL renderer string of the context)."""
+        ns = renderer_namespace(renderer)
+        if ns != self.namespace:
+            self.namespace = ns
+            self.root = self.base / ns
 
     # -- paths -----------------------------------------------------------------------------
     def _base(self, key: str, port: str) -> Path:
@@ -338,9 +367,9 @@ class Cache:
         ents: list[Entry] = []
         temps: list[Entry] = []
         try:
-            if not self.root.is_dir():
+            if not self.base.is_dir():
                 return ents, temps
-            paths = list(self.root.glob("*/*"))
+            paths = [*self.base.glob("*/*"), *self.base.glob(f"{NAMESPACE_PREFIX}*/*/*")]
         except OSError:
             return ents, temps
         for p in paths:
@@ -364,7 +393,9 @@ class Cache:
     def info(self) -> dict[str, Any]:
         ents, temps = self._scan()
         return {
-            "root": str(self.root),
+            "root": str(self.base),
+            "renderers": len({e.path.parent.parent.name for e in ents
+                              if e.path.parent.parent.name.startswith(NAMESPACE_PREFIX)}),
             "entries": len(ents),
             "bytes": sum(e.size for e in ents) + sum(t.size for t in temps),
             "limit": self.limit,

@@ -21,7 +21,6 @@ See docs/distributed.md for the measured overheads and the throughput model.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import importlib
 import logging
 import math
@@ -58,9 +57,6 @@ MAX_CHUNK = 32
 
 
 # -- the renderer namespace of the shared cache ----------------------------------------------------------
-def renderer_namespace(renderer: str) -> str:
-    """The cache subfolder of one GL renderer (vendor, renderer and version string, digested)."""
-    return "renderer-" + hashlib.sha256(renderer.encode("utf-8")).hexdigest()[:16]
 
 
 class WorkerCache(Cache):
@@ -71,8 +67,7 @@ class WorkerCache(Cache):
 
 
 def namespaced_cache(root: str | Path | None, renderer: str, cls: type[Cache] = Cache) -> Cache:
-    base = Path(root) if root else default_root()
-    return cls(base / renderer_namespace(renderer))
+    return cls(Path(root) if root else default_root(), renderer=renderer)
 
 
 # -- what a task renders ---------------------------------------------------------------------------------

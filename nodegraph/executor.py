@@ -53,7 +53,7 @@ class Executor:
         """`like`: allocate every texture as that plan does (inspecting intermediates must not raise their
         precision and so change what the next node sees)."""
         self.pipeline = pipeline
-        self.cache = cache
+        self._cache = cache
         self.mode = mode
         self.timing = timing
         self.persist_all = persist_all
@@ -68,6 +68,15 @@ class Executor:
         self.memory_limit = memory_limit
         self.compute_counts: dict[str, int] = {}
         self._unstorable: set[tuple[str, str]] = set()  # outputs already reported as not cacheable
+
+    @property
+    def cache(self) -> Cache | None:
+        """The disk cache, bound to this executor's GL renderer before its first use (entries of different
+        renderers never mix; see `Cache.bind`). Binding creates the GL context."""
+        c = self._cache
+        if c is not None and c.namespace is None:
+            c.bind(self.gl.renderer)
+        return c
 
     @property
     def gl(self) -> Any:
@@ -97,9 +106,9 @@ class Executor:
         for ref in self.plan.requested:
             values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
         self._evict(pinned)
-        if self.cache is not None and self.mode == "loop":
-            self.cache.report_write_errors()
-            self.cache.maybe_prune()  # a long frame loop stays within the limit, not only at its end
+        if self._cache is not None and self.mode == "loop":
+            self._cache.report_write_errors()
+            self._cache.maybe_prune()  # a long frame loop stays within the limit, not only at its end
         return RunResult(values, stats, frame)
 
     def _get(self, nid: str, port: str, keys: dict[str, str], stats: dict[str, NodeStat],
@@ -306,11 +315,11 @@ class Executor:
     def close(self) -> None:
         """Finish the background writes (reporting a failed one), prune the cache if anything was written or
         discarded (frame loops too), and start the cache's next run."""
-        if self.cache is not None:
-            self.cache.flush()
-            if self.cache.writes or self.cache.recovered:
-                self.cache.prune()
-            self.cache.new_run()
+        if self._cache is not None:
+            self._cache.flush()
+            if self._cache.writes or self._cache.recovered:
+                self._cache.prune()
+            self._cache.new_run()
 
 
 def describe(value: Any) -> str:

@@ -26,8 +26,7 @@ def explain(ex: Any, frame: int = 0) -> str:
         if status.get(nid) == "compute":
             return
         node = pipe.nodes[nid]
-        cached = (ex.cache is not None and node.persist != "never" and not node.side_effect
-                  and ex.cache.find(keys[nid], ex._entry(nid, port)) is not None)
+        cached = node.persist != "never" and not node.side_effect and ex.is_stored(nid, port, keys[nid])
         if cached:
             status.setdefault(nid, "disk cache")
             return

@@ -97,3 +97,24 @@ def test_a_wrong_key_is_discarded(tmp_path: Path):
     path.rename(path.with_name(path.name.replace(KEY, other)))
     with pytest.warns(UserWarning, match="unusable"):
         assert cache.load(other, "out") is None
+
+
+def test_serial_runs_read_and_write_their_renderers_namespace(gl, tmp_path) -> None:
+    """An executor binds its cache to its GL renderer: entries land in root/renderer-<digest>/ and a run on
+    another renderer (a cache bound to another string) finds none of them; info and prune see all."""
+    from nodegraph import pipeline as pl
+    from nodegraph.cache import Cache, renderer_namespace
+    from nodegraph.executor import Executor
+
+    pipe = pl.loads("pipeline: t\nsize: [24, 16]\nscene: builtin:box\nnodes:\n  g: {type: rasterize}\n"
+                    "outputs: {image: g.color}\n", "t.yaml")
+    cache = Cache(tmp_path)
+    ex = Executor(pipe, cache, gl=gl)
+    ex.run()
+    ex.close()
+    ns = renderer_namespace(gl.renderer)
+    assert cache.namespace == ns and {p.name for p in tmp_path.iterdir()} == {ns}
+    key = ex.keys()["g"]
+    assert Cache(tmp_path, renderer=gl.renderer).find(key, ex._entry("g", "color")) is not None
+    assert Cache(tmp_path, renderer="NVIDIA Corporation NVIDIA H200 4.6").find(key, ex._entry("g", "color")) is None
+    assert Cache(tmp_path).info()["entries"] == len(cache.entries()) >= 1

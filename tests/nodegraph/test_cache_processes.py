@@ -84,7 +84,9 @@ def _bad_entries(root: Path, pipeline: Path, sizes: list[int]) -> tuple[list[str
         for nid in ex.plan.order:
             for port in ex.pipeline.nodes[nid].outputs:
                 planned[(keys[nid], ex._entry(nid, port))] = (ex, nid, port)
-    cache = Cache(root)
+    from nodegraph import gl as glmod
+
+    cache = Cache(root, renderer=glmod.get().renderer)  # the runs' entries live in this renderer's namespace
     problems = []
     entries = cache.entries()
     for e in entries:
@@ -196,7 +198,8 @@ def test_a_frame_loop_whose_background_writes_fail_warns_once(tmp_path: Path):
 
 # -- SIGKILL ---------------------------------------------------------------------------------------------------
 def _temps(root: Path) -> list[str]:
-    return [p.name for p in root.glob("*/.tmp-*")]
+    """Temporary files in the entry folders, in any renderer's namespace (root/renderer-*/xx/.tmp-*)."""
+    return [p.name for p in [*root.glob("*/.tmp-*"), *root.glob("renderer-*/*/.tmp-*")]]
 
 
 def _kill_when(proc: subprocess.Popen, root: Path, delay: float | None, rng: random.Random) -> str:

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 pytest.importorskip("distributed")
 
 from nodegraph import distributed as dist  # noqa: E402
-from nodegraph.cache import Cache  # noqa: E402
+from nodegraph.cache import Cache, renderer_namespace  # noqa: E402
 from nodegraph.cli import main  # noqa: E402
 from nodegraph.errors import NodeError, PipelineError  # noqa: E402
 from nodegraph.frames_manifest import FramesManifest, manifest_path  # noqa: E402
@@ -129,8 +129,9 @@ def test_renderer_namespaces_are_disjoint(tmp_path: Path) -> None:
     assert a.find(key, "out") is not None and b.find(key, "out") is None
     b.store(key, "out", "arrays", _arrays(), {"node": "n", "type": "t"})
     assert a.find(key, "out") != b.find(key, "out")
-    assert {p.name for p in tmp_path.iterdir()} == {dist.renderer_namespace(r) for r in (LLVMPIPE, NVIDIA)}
-    assert Cache(tmp_path).find(key, "out") is None  # the plain cache (serial runs) reads neither
+    assert {p.name for p in tmp_path.iterdir()} == {renderer_namespace(r) for r in (LLVMPIPE, NVIDIA)}
+    assert Cache(tmp_path).find(key, "out") is None  # a cache bound to no renderer reads neither
+    assert len(Cache(tmp_path).entries()) == 2  # info and prune see every renderer's entries
     # a worker's cache never prunes, whatever its limit
     w = dist.namespaced_cache(tmp_path, LLVMPIPE, dist.WorkerCache)
     w.limit = 0
