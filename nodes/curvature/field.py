@@ -52,7 +52,6 @@ def to_complex(d: np.ndarray, b1: np.ndarray, b2: np.ndarray) -> np.ndarray:
 def cotan_weights(V: np.ndarray, F: np.ndarray, E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Cotangent weight per edge of E (clipped at 0) and the barycentric vertex areas."""
     n = len(V)
-    w = {}
     p = V[F]
     area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
     keys, vals = [], []
@@ -68,7 +67,6 @@ def cotan_weights(V: np.ndarray, F: np.ndarray, E: np.ndarray) -> tuple[np.ndarr
     order = np.argsort(ecode)
     pos = order[np.searchsorted(ecode[order], code)]
     wt = np.bincount(pos, np.concatenate(vals), minlength=len(E))
-    del w
     varea = np.zeros(n)
     for c in range(3):
         np.add.at(varea, F[:, c], area / 3.0)
