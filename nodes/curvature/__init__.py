@@ -9,7 +9,7 @@ own vertices.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -54,6 +54,11 @@ class Curvature(Node):
         min_confidence: float = Field(0.5, gt=0, le=1, description="Below this a vertex's own direction is "
                                       "replaced by one smoothed from its neighbours.")
         weld: bool = Field(True, description="Measure on the mesh with coincident vertices merged.")
+        field: Literal["spread", "smooth"] = Field("spread", description="How dmin is smoothed: spread: "
+                                                   "rounds of 1-ring tensor averaging; smooth: one global "
+                                                   "solve for the smoothest line field aligned to the measured "
+                                                   "directions, weighted by the anisotropy (Knoppel et al. "
+                                                   "2013; see field.py), `smoothing` x diagonal its length.")
 
     def key(self, ctx: HashContext, input_keys: dict[str, str]) -> str:
         base = super().key(ctx, input_keys)
@@ -98,8 +103,20 @@ class Curvature(Node):
             return {**res, "key": np.array(key)}
         c = compute_curvature(Vm, Fm, p.radius, min_confidence=p.min_confidence)
         dmin = np.array(c.dmin)
+        source = np.array(c.source)
         rounds = smoothing_rounds(Vm, Fm, p.smoothing)
-        if rounds:
+        if p.field == "smooth" and p.smoothing > 0 and len(Fm):
+            from .field import alignment_weight, smooth_field
+            from .principal import Reason
+
+            measured = (c.reason == Reason.OK) | (c.reason == Reason.UMBILIC)
+            weight = alignment_weight(c.kmin, c.kmax, measured)
+            diag = float(np.linalg.norm(Vm.max(axis=0) - Vm.min(axis=0)))
+            field, strength = smooth_field(Vm, Fm, c.normal, c.dmin, weight, p.smoothing * diag)
+            ok = strength > 1e-3 * max(float(strength.max()), 1e-300)
+            dmin[ok] = field[ok]
+            source[ok & (source == DirectionSource.FIXED_FRAME)] = DirectionSource.SMOOTHED
+        elif rounds:
             dmin = smooth_line_field(Fm, dmin, c.normal, np.maximum(c.confidence, 0.05), rounds,
                                      fixed=c.source == DirectionSource.FIXED_FRAME)
         dmax = np.cross(c.normal, dmin)
@@ -107,7 +124,7 @@ class Curvature(Node):
                "confidence": c.confidence}
         res = {k: np.ascontiguousarray(v[wid], dtype=np.float32) for k, v in out.items()}
         res["reason"] = np.ascontiguousarray(c.reason[wid], dtype=np.uint8)
-        res["source"] = np.ascontiguousarray(c.source[wid], dtype=np.uint8)
+        res["source"] = np.ascontiguousarray(source[wid], dtype=np.uint8)
         res["key"] = np.array(key)
         return res
 

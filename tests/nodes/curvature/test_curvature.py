@@ -208,3 +208,20 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"out": "c.out"})
     assert assert_outputs_as_planned(ex, res, "c") == ["out"]
+
+
+def test_smooth_field_follows_the_torus_major_circle_and_is_smoother():
+    """field: smooth (global 2-RoSy solve): dmin within 10 degrees of the major circle, as spread, and the
+    neighbour angle after transport no larger than spread's."""
+    from nodegraph_nodes.curvature.field import smoothness_deg
+
+    mesh, u, v = torus_grid()
+    results = {}
+    for field in ("spread", "smooth"):
+        _, _, out = run_on([mesh], [f"curv.field={field}"])
+        d = out[object_field(0, "dmin")].astype(np.float64)
+        major = np.stack([-np.sin(u), np.cos(u), np.zeros_like(u)], 1)
+        angle = np.degrees(np.arccos(np.clip(np.abs(np.sum(d * major, 1)), 0, 1)))
+        assert angle.max() < 10.0, field
+        results[field] = smoothness_deg(mesh.vertices, mesh.faces, out[object_field(0, "normal")].astype(np.float64), d)
+    assert results["smooth"] <= results["spread"] + 0.05
