@@ -2,9 +2,9 @@
 
 Every entry is `ROOT/renderer-<digest>/<key[:2]>/<key>.<port>.<ext>`: node keys do not name the GL
 renderer, so each renderer's entries live in their own folder and are never read for another (every run,
-serial or on a cluster, binds its cache to its context's renderer string). An EXR's header (an npz's `__meta__`) carries the key,
-the port, the kind, the format, the size, the node type, its params and the versions, so a cached file
-explains itself.
+serial or on a cluster, binds its cache to its context's renderer string). An EXR's header (an npz's
+`__meta__`) carries the key, the port, the kind, the format, the size, the node type, its params and the
+versions, so a cached file explains itself.
 
 Promises (docs/reliability.md, tests/nodegraph/test_cache_faults.py):
 
