@@ -64,7 +64,7 @@ class ObjectNoise(Node):
         p = self.params
         if p.unit == "absolute" or scene is None:
             return p.scale
-        lo, hi = scene.bounds()
+        lo, hi = scene.scale_bounds()  # fixed over an animation: the noise does not change scale per frame
         diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         return p.scale / diag if diag > 0 else p.scale
 
