@@ -155,6 +155,13 @@ class Node:
         """Anything else the output depends on (override; must be cheap)."""
         return None
 
+    def recorded_params(self) -> dict[str, Any]:
+        """The params as records show them (gallery manifest): `key_omits` left out where at their default, so a
+        record made before a node gained such a param (`hold`) still matches."""
+        fields = type(self.params).model_fields
+        skip = {n for n in self.key_omits if n in fields and getattr(self.params, n) == fields[n].default}
+        return self.params.model_dump(mode="json", exclude=skip)
+
     def key_parts(self, ctx: HashContext, input_keys: dict[str, str]) -> dict[str, Any]:
         """What `key()` digests (tools/diff.py explains a changed key part by part)."""
         from .glsl import source_digest
