@@ -162,10 +162,15 @@ def skin_vertices(vertices: np.ndarray, joints: np.ndarray | None, weights: np.n
     inverse bind matrix. The blended (3, 4) matrix of every vertex is the weighted sum of its joints'
     matrices, all at once as a sparse (n, J) x (J, 12) product; then one einsum applies them."""
     v = np.asarray(vertices, dtype=np.float64)
+    blended = skin_matrices(joints, weights, joint_matrices)
+    return np.einsum("nij,nj->ni", blended[:, :, :3], v) + blended[:, :, 3]
+
+
+def skin_matrices(joints: np.ndarray | None, weights: np.ndarray | Any, joint_matrices: np.ndarray) -> np.ndarray:
+    """(n, 3, 4) the blended skin matrix of every vertex, sum_k w_k J[j_k] (arguments as `skin_vertices`)."""
     mats = np.asarray(joint_matrices, dtype=np.float64)
     w = weights if joints is None else skin_weights(joints, weights, len(mats))
-    blended = np.asarray(w @ np.ascontiguousarray(mats[:, :3, :]).reshape(-1, 12)).reshape(-1, 3, 4)
-    return np.einsum("nij,nj->ni", blended[:, :, :3], v) + blended[:, :, 3]
+    return np.asarray(w @ np.ascontiguousarray(mats[:, :3, :]).reshape(-1, 12)).reshape(-1, 3, 4)
 
 
 def morph_vertices(base: np.ndarray, deltas: np.ndarray, weights: Sequence[float]) -> np.ndarray:
@@ -204,6 +209,9 @@ class Animator:
     fps: float = DEFAULT_FPS
     start: float = 0.0
     end: float = 0.0
+    # posed meshes carry their rest pose (Mesh.rest, Mesh.skin_linear) for object-space noise and curvature;
+    # False drops it, so both are computed on the posed surface (the shower-door comparison's "before")
+    rest_pose: bool = True
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.fps) and self.fps > 0):
@@ -220,6 +228,8 @@ class Animator:
 
     def digest(self) -> str:
         h = hashlib.sha256(f"animator:fps={self.fps!r}".encode())
+        if not self.rest_pose:
+            h.update(b"|posed-space")
         for i in sorted(self.objects):
             h.update(f"|o{i}:{self.objects[i].digest}".encode())
         if self.camera is not None:
@@ -232,10 +242,13 @@ class Animator:
         objects = list(scene.objects)
         for i, anim in self.objects.items():
             mesh, matrix = anim.pose(t)
+            if mesh is not None and not self.rest_pose and mesh.rest is not None:
+                mesh = mesh.without_rest()
             obj = objects[i]
             objects[i] = replace(obj, mesh=obj.mesh if mesh is None else mesh, transform=matrix)
         camera = scene.camera if self.camera is None else self.camera.at(t)
-        return replace(scene, objects=tuple(objects), camera=camera, animation=None)
+        extent = scene.extent if scene.extent is not None else scene.bounds()
+        return replace(scene, objects=tuple(objects), camera=camera, animation=None, extent=extent)
 
 
 def with_fps(scene: Any, fps: float | None) -> Any:

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_vertices, skin_weights, trs_matrix
+from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_matrices, skin_weights, trs_matrix
 from .errors import MeshError, PipelineError
 from .meshes import Mesh, MeshWarning
 
@@ -189,6 +189,7 @@ class GltfAsset:
             return prim.rest_mesh(), False
         h = hashlib.sha256(prim.rest_mesh().content_hash().encode())
         v = prim.positions
+        linear = None
         if w is not None:
             v = morph_vertices(v, prim.targets, w)
             h.update(np.asarray(w, dtype=np.float64).tobytes())
@@ -197,9 +198,12 @@ class GltfAsset:
             mats = world[joints] @ ibm
             if prim._skin is None or prim._skin.shape[1] != len(mats):
                 prim._skin = skin_weights(prim.joints, prim.weights, len(mats))
-            v = skin_vertices(v, None, prim._skin, mats)
+            blended = skin_matrices(None, prim._skin, mats)
+            v = np.einsum("nij,nj->ni", blended[:, :, :3], v) + blended[:, :, 3]
+            linear = blended[:, :, :3]
             h.update(mats.tobytes())
-        mesh = Mesh(prim.name, v, prim.faces)
+        # the rest pose rides along: object-space noise and curvature read it (docs/animation.md)
+        mesh = Mesh(prim.name, v, prim.faces, rest=prim.rest_mesh(), skin_linear=linear)
         # what shaped the vertices (rest mesh, joint matrices, morph weights) names them: no hashing of
         # 100k posed vertices per frame
         mesh._cache["hash"] = h.hexdigest()

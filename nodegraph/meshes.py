@@ -71,6 +71,12 @@ class Mesh:
     vertices: np.ndarray
     faces: np.ndarray
     source: str | None = None
+    # a posed (skinned or morphed) mesh: the same mesh in its rest pose (same faces, vertex for vertex), what
+    # object-space noise and curvature read so they stay on the deforming surface (docs/animation.md)
+    rest: Mesh | None = field(default=None, repr=False, compare=False)
+    # a skinned mesh: (n, 3, 3) the linear part of each vertex's blended skin matrix (rest -> posed), which
+    # carries rest-pose tangent directions (curvature) with the skin
+    skin_linear: np.ndarray | None = field(default=None, repr=False, compare=False)
     _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -369,6 +375,13 @@ class Mesh:
         return RenderArrays(**arrays)
 
     # --- derived meshes ---------------------------------------------------------------------------
+
+    def without_rest(self) -> Mesh:
+        """The same posed mesh without its rest pose (same content hash)."""
+        out = Mesh(self.name, self.vertices, self.faces, self.source)
+        if "hash" in self._cache:
+            out._cache["hash"] = self._cache["hash"]
+        return out
 
     def transformed(self, matrix: np.ndarray, name: str | None = None) -> Mesh:
         """A copy with vertices mapped by a 4x4 affine matrix (winding flipped if it mirrors)."""

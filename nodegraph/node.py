@@ -62,6 +62,19 @@ def digest(value: Any) -> str:
 # context values a node may read; each node lists the ones it reads in `context_keys`
 CONTEXT_KEYS = frozenset({"size", "frame", "seed", "scene", "camera"})
 
+# The `hold` convention of stochastic nodes: a `hold` param (frames per change of the node's noise, the boil
+# rate; 0: the same noise for the whole sequence) makes the frame the node's seed and noise see, and the
+# frame its key covers, `held_frame(frame, hold)`. Held frames share one key, so they share one cache entry.
+HOLD_PARAM = "hold"
+
+
+def held_frame(frame: int, hold: int | None) -> int:
+    """The frame a node's noise is drawn for at `frame`: frame // hold * hold; 0 when hold is 0; `frame`
+    itself when the node has no hold."""
+    if hold is None:
+        return int(frame)
+    return 0 if hold == 0 else int(frame) // int(hold) * int(hold)
+
 
 class Node:
     """One processing stage. Subclasses declare ports, `Params`, `version`, `shaders` and `compute`."""
@@ -79,6 +92,9 @@ class Node:
     # params that name files the node writes: resolved at load time against the output directory
     # (pipeline.build), where they must stay unless the user allows otherwise
     file_params: ClassVar[tuple[str, ...]] = ()
+    # params the key leaves out because it covers them another way (`hold`: through the held frame, so the
+    # key of a node that gained a hold param is the one it had before, and held frames share it)
+    key_omits: ClassVar[frozenset[str]] = frozenset()
     doc: ClassVar[str] = ""
 
     class Params(NodeParams):
@@ -88,6 +104,16 @@ class Node:
         self.id = node_id
         self.params = params if params is not None else self.Params()
         self.paths: dict[str, Path] = {}  # file_params resolved by pipeline.build (absolute)
+
+    @property
+    def hold(self) -> int | None:
+        """Frames per change of the node's noise (its `hold` param), or None when it has none."""
+        value = getattr(self.params, HOLD_PARAM, None)
+        return None if value is None else int(value)
+
+    def held_frame(self, frame: int) -> int:
+        """The frame this node's seed and noise see at `frame` (`held_frame` with its hold)."""
+        return held_frame(frame, self.hold)
 
     def output_path(self, name: str) -> Path:
         """The file a `file_params` entry names: as resolved at load time, else the param itself (~ expanded)."""
@@ -129,19 +155,32 @@ class Node:
         """Anything else the output depends on (override; must be cheap)."""
         return None
 
-    def key(self, ctx: HashContext, input_keys: dict[str, str]) -> str:
+    def recorded_params(self) -> dict[str, Any]:
+        """The params as records show them (gallery manifest): `key_omits` left out where at their default, so a
+        record made before a node gained such a param (`hold`) still matches."""
+        fields = type(self.params).model_fields
+        skip = {n for n in self.key_omits if n in fields and getattr(self.params, n) == fields[n].default}
+        return self.params.model_dump(mode="json", exclude=skip)
+
+    def key_parts(self, ctx: HashContext, input_keys: dict[str, str]) -> dict[str, Any]:
+        """What `key()` digests (tools/diff.py explains a changed key part by part)."""
         from .glsl import source_digest
 
-        ctx_values = {k: ctx.value(k, self.id) for k in sorted(self.context_keys)}
-        return digest({
+        params: Any = self.params
+        if self.key_omits:
+            params = self.params.model_dump(mode="json", exclude=set(self.key_omits))
+        return {
             "type": self.type_name,
             "version": self.version,
             "glsl": [source_digest(self.source_dir() / s) for s in self.shaders],
-            "params": self.params,
+            "params": params,
             "inputs": input_keys,
-            "context": ctx_values,
+            "context": ctx.values_for(self),
             "extra": self.hash_extra(ctx),
-        })
+        }
+
+    def key(self, ctx: HashContext, input_keys: dict[str, str]) -> str:
+        return digest(self.key_parts(ctx, input_keys))
 
     # -- work --------------------------------------------------------------------------------
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
@@ -160,6 +199,11 @@ class HashContext:
         self.frame = frame
         self.seed = seed
         self.scene = posed(scene, frame)
+
+    def values_for(self, node: Node) -> dict[str, Any]:
+        """The context values `node` reads (its `context_keys`), the frame held by its `hold`."""
+        return {k: node.held_frame(self.frame) if k == "frame" else self.value(k, node.id)
+                for k in sorted(node.context_keys)}
 
     def value(self, name: str, node_id: str) -> Any:
         if name == "size":
@@ -219,10 +263,16 @@ class RunContext:
         return src() if callable(src) else src
 
     @property
+    def noise_frame(self) -> int:
+        """The frame the node's noise is drawn for: its frame held by its `hold` (`Node.held_frame`) where the
+        node reads the frame, else 0."""
+        return self.node.held_frame(self.frame) if "frame" in self.node.context_keys else 0
+
+    @property
     def seed(self) -> int:
-        """This node's seed: from the pipeline seed, the node id, and the frame if the node reads it."""
-        frame = self.frame if "frame" in self.node.context_keys else 0
-        return derive_seed(self.pipeline_seed, self.node.id, frame)
+        """This node's seed: from the pipeline seed, the node id, and the frame if the node reads it (held by
+        the node's `hold`: the same seed for every frame of a hold)."""
+        return derive_seed(self.pipeline_seed, self.node.id, self.noise_frame)
 
     def seed_for_frame(self, frame: int) -> int:
         return derive_seed(self.pipeline_seed, self.node.id, frame)

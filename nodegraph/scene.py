@@ -282,6 +282,9 @@ class Scene:
     background: Vec = (1.0, 1.0, 1.0)
     source: str | None = None
     animation: Any = None  # an animation.Animator: the scene moves (see `at`); None: static
+    # a posed scene: the animated scene's bounds, which sizes relative to the scene (`scale_bounds`) use, so
+    # they stay fixed over the animation; None: `bounds()`
+    extent: tuple[np.ndarray, np.ndarray] | None = None
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -337,6 +340,13 @@ class Scene:
         lo, hi = self._cache["bounds"]
         return lo.copy(), hi.copy()
 
+    def scale_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds that sizes relative to the scene measure (noise cycles and enlargement per scene
+        diagonal): the same at every frame of an animation (`extent`), else `bounds()`."""
+        if self.extent is None:
+            return self.bounds()
+        return self.extent[0].copy(), self.extent[1].copy()
+
     def select(self, which: Literal["all", "sketchy", "non_sketchy"] = "all") -> list[SceneObject]:
         """Objects in scene order; each keeps its `index` so object ids agree across selections."""
         if which == "all":
@@ -363,6 +373,8 @@ class Scene:
             }
             if self.animation is not None:  # static scenes keep their keys
                 doc["animation"] = self.animation.digest()
+            if self.extent is not None:
+                doc["extent"] = [_floats(b) for b in self.extent]
             text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
             self._cache["hash"] = hashlib.sha256(text.encode()).hexdigest()
         return self._cache["hash"]

@@ -144,6 +144,43 @@ def skinned_bar(path: Path) -> Path:
     return b.save(path)
 
 
+def skinned_tube(path: Path, rings: int = 33, segments: int = 16, radius: float = 0.25, bend: float = 90.0,
+                 seconds: float = 1.0) -> Path:
+    """A closed tube along +x from 0 to 2 (`rings` rings of `segments` vertices, capped), skinned to joint 0
+    at the origin and joint 1 at x = 1 (weights blend smoothly over 0.6 < x < 1.4); joint 1 turns from 0
+    to `bend` degrees about +Z over `seconds`, so the tube bends like an elbow."""
+    b = Builder()
+    xs = np.linspace(0.0, 2.0, rings)
+    ang = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    v = [[x, radius * math.cos(a), radius * math.sin(a)] for x in xs for a in ang] + [[0.0, 0, 0], [2.0, 0, 0]]
+    f = []
+    for i in range(rings - 1):
+        for k in range(segments):
+            k1 = (k + 1) % segments
+            a, b_, c, d = i * segments + k, i * segments + k1, (i + 1) * segments + k1, (i + 1) * segments + k
+            f += [[a, b_, c], [a, c, d]]
+    c0, c1 = rings * segments, rings * segments + 1
+    last = (rings - 1) * segments
+    f += [[c0, (k + 1) % segments, k] for k in range(segments)]
+    f += [[c1, last + k, last + (k + 1) % segments] for k in range(segments)]
+    verts = np.array(v, np.float32)
+    s_ = np.clip((verts[:, 0] - 0.6) / 0.8, 0.0, 1.0)
+    w1 = s_ * s_ * (3 - 2 * s_)
+    weights = np.stack([1 - w1, w1, np.zeros_like(w1), np.zeros_like(w1)], axis=1).astype(np.float32)
+    joints = np.tile(np.array([0, 1, 0, 0], np.uint8), (len(verts), 1))
+    m = b.mesh(verts, np.array(f, np.uint32), color=(0.55, 0.6, 0.75), JOINTS_0=b.accessor(joints, "VEC4", UBYTE),
+               WEIGHTS_0=b.accessor(weights, "VEC4"))
+    j1 = len(b.doc.nodes) + 1
+    j0 = b.node(name="j0", children=[j1])
+    b.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.array([[1, 0, 0, -1], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)])
+    b.doc.skins.append(g.Skin(joints=[j0, j1], inverseBindMatrices=b.accessor(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    b.node(mesh=m, skin=0, name="tube")
+    b.animate(j1, "rotation", [0.0, seconds], np.array([quat_axis((0, 0, 1), 0), quat_axis((0, 0, 1), bend)]))
+    return b.save(path)
+
+
 def morphing_quad(path: Path) -> Path:
     """A unit quad in the XY plane; target 0 lifts vertex 2 by +1 in z; weight 0 -> 1 over 1 s."""
     b = Builder()

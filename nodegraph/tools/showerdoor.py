@@ -179,6 +179,90 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
     }
 
 
+# -- deforming meshes -------------------------------------------------------------------------------------
+def surface_pair_metric(rest0: np.ndarray, off0: np.ndarray, rest1: np.ndarray, off1: np.ndarray,
+                        tol_texels: float = 1.5) -> tuple[float, float, int]:
+    """`pair_metric` for a deforming surface: the same surface point in two frames is found by its rest-pose
+    position (rasterize.position of a posed mesh, alpha = coverage), not through depth and the cameras.
+    Each surface pixel of frame k is matched to the pixel of frame k+1 with the nearest rest position; the
+    match counts only within `tol_texels` times the rest-space size of a pixel (so points hidden or gone in
+    frame k+1 are skipped). Returns (D, D relative to the offsets' spread, pixels compared)."""
+    from scipy.spatial import cKDTree
+
+    m0, m1 = rest0[..., 3] > 0, rest1[..., 3] > 0
+    if not m0.any() or not m1.any():
+        return 0.0, 0.0, 0
+    p0, p1 = rest0[m0][:, :3].astype(np.float64), rest1[m1][:, :3].astype(np.float64)
+    both = m1[:, 1:] & m1[:, :-1]  # rest-space size of one pixel: the median step between neighbours
+    step = float(np.median(np.linalg.norm(rest1[:, 1:, :3] - rest1[:, :-1, :3], axis=-1)[both])) if both.any() else 0.0
+    dist, idx = cKDTree(p1).query(p0)
+    ok = dist <= tol_texels * max(step, 1e-12)
+    if not ok.any():
+        return 0.0, 0.0, 0
+    o0 = off0[m0][ok].astype(np.float64)
+    o1 = off1[m1][idx[ok]].astype(np.float64)
+    size = np.linalg.norm(o0, axis=1).sum()
+    spread = np.linalg.norm(o0 - o0.mean(axis=0), axis=1).sum()
+    change = np.linalg.norm(o1 - o0, axis=1).sum()
+    return (float(change / size) if size > 0 else 0.0), (float(change / spread) if spread > 0 else 0.0), int(ok.sum())
+
+
+def _rest_run(pipeline: str | Path, scene: str, frames: range, size: tuple[int, int], rest_pose: bool,
+              gl: Any) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """(rest positions, sketch offsets in pixels) per frame of an animated scene, with the rest pose carried
+    by posed meshes (`rest_pose`) or dropped (object-space noise then reads posed positions)."""
+    from .. import pipeline as pl
+    from ..executor import Executor
+
+    pipe = pl.load(pipeline, size=size, scene=scene)
+    if pipe.scene.animation is None:
+        raise SketchgraphError(f"{scene}: the deforming-mesh shower-door needs an animated scene")
+    pipe.scene = replace(pipe.scene, animation=replace(pipe.scene.animation, rest_pose=rest_pose))
+    depth_ref, off_ref = _sketch_refs(pipe)
+    pos_ref = (depth_ref[0], "position")
+    ex = Executor(pipe, None, mode="loop", requested=[pos_ref, off_ref], gl=gl)
+    w, h = pipe.size
+    scale = np.array([w, h, w, h], dtype=np.float64)
+    rests, offs = [], []
+    for f in frames:
+        res = ex.run(f)
+        rests.append(res.values[pos_ref].read().copy())
+        offs.append(res.values[off_ref].read()[..., :4] * scale)
+    ex.clear_memory()
+    return rests, offs
+
+
+def compare_rest_pose(scene: str, frames: int | None = None, size: tuple[int, int] = (400, 400),
+                      pipeline: str | Path = OBJECT_PIPELINE, gl: Any = None) -> dict[str, Any]:
+    """The shower-door metric on a deforming (skinned or morphing) scene for object-space noise read at
+    posed positions ("posed", before) and at rest-pose positions ("rest", after), over the scene's
+    animation (or at most its first `frames` frames). The same surface point in consecutive frames is matched by
+    its rest position from the rest-pose run (`surface_pair_metric`); both runs draw the same geometry."""
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..animation import default_frames
+
+    gl = gl or glmod.get()
+    t0 = time.perf_counter()
+    all_frames = default_frames(pl.load(pipeline, size=size, scene=scene).scene) or []
+    n = len(all_frames) if not frames else min(frames, len(all_frames))
+    rng = range(all_frames[0], all_frames[0] + n) if all_frames else range(0)
+    if len(rng) < 2:
+        raise SketchgraphError(f"{scene}: the metric compares consecutive frames of an animation, so at least 2")
+    rest_pos, rest_off = _rest_run(pipeline, scene, rng, size, True, gl)
+    _, posed_off = _rest_run(pipeline, scene, rng, size, False, gl)
+    out: dict[str, Any] = {"scene": scene, "frames": len(rng), "size": list(size), "pipeline": str(pipeline)}
+    for name, offs in (("posed", posed_off), ("rest", rest_off)):
+        pairs = [surface_pair_metric(rest_pos[k], offs[k], rest_pos[k + 1], offs[k + 1]) for k in range(len(rng) - 1)]
+        out[name] = statistics.fmean(p[0] for p in pairs)
+        out[f"{name}_vs_spread"] = statistics.fmean(p[1] for p in pairs)
+        out[f"{name}_per_pair"] = [p[0] for p in pairs]
+        out["pixels_compared"] = [p[2] for p in pairs]
+    out["ratio"] = out["rest"] / out["posed"] if out["posed"] > 0 else math.inf
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
 @click.command()
 @click.option("--scene", default="builtin:sphere", show_default=True, help="builtin:NAME, a scene YAML or a mesh "
               "file (a mesh file gets a framed camera and a 6 degrees/frame orbit about +Y).")
@@ -189,13 +273,27 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
               help="Pipeline with screen-space uncertainty (a file or a shipped pipeline's name).")
 @click.option("--object", "object_", default=OBJECT_PIPELINE, show_default=True,
               help="Pipeline with object-space uncertainty (a file or a shipped pipeline's name).")
+@click.option("--deforming", is_flag=True, help="For an animated scene with skinned or morphing meshes: the "
+              "object-space pipeline with noise at posed positions vs at rest-pose positions, over the animation "
+              "(--frames: its first N frames; same-point matching by rest position).")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(scene: str, frames: int, size: str, degrees_per_frame: float | None, screen: str, object_: str,
-            json_path: Path | None) -> None:
+            deforming: bool, json_path: Path | None) -> None:
     """Shower-door effect: frame-to-frame change of the uncertainty on the same surface point, relative to
     its size, for screen-space vs object-space uncertainty along the scene's orbit (lower is better)."""
     from ..pipeline import parse_size
 
+    if deforming:
+        r = compare_rest_pose(scene, frames, parse_size(size), object_)
+        click.echo(f"shower-door on deforming {scene}: {r['frames']} frames, {size}, {r['pipeline']}")
+        click.echo(f"  noise at posed positions: {r['posed']:.4f}")
+        click.echo(f"  noise at rest positions:  {r['rest']:.4f}")
+        click.echo(f"  ratio (rest / posed): {r['ratio']:.4f}")
+        if json_path:
+            json_path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_text(json_path, json.dumps(r, indent=2) + "\n")
+            click.echo(f"wrote {json_path}")
+        return
     result = compare(scene, frames, parse_size(size), degrees_per_frame, screen, object_)
     click.echo(f"shower-door on {scene}: {frames} frames at {result['degrees_per_frame']:g} deg/frame, "
                f"{size}")

@@ -47,11 +47,12 @@ class Contour(Node):
     texture the darkness is modulated by the dot product of the grain normal and the stroke direction
     (across the projected normal). Attempts combine as value = prod_k (1 - darkness_k): where they
     overlap the line darkens. Per-attempt pressures are drawn from the node seed in
-    [1 - pressure_jitter, 1]."""
+    [1 - pressure_jitter, 1], the same for the whole sequence by default (`hold: N`: new ones every N
+    frames)."""
 
     version = "1"
     shaders = ("contour.glsl",)
-    context_keys = frozenset({"size", "seed", "scene", "camera"})
+    key_omits = frozenset({"hold"})  # covered by the held frame in the key
     inputs = {
         "edges": Input(Texture("R16F"), "Edge intensities, 1 = edge (edge_detect.out)."),
         "distortion": Input(TextureArray("RG16F"), "Offsets in pixels, one layer per attempt (distortion_map.out)."),
@@ -77,6 +78,15 @@ class Contour(Node):
                                   "in `color`.")
         paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
         graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")
+        hold: int = Field(0, ge=0, le=100_000, description="Frames per change of the per-attempt pressures: 0 "
+                          "keeps them for the whole sequence, N draws new ones every N frames.")
+
+    @property
+    def context_keys(self) -> frozenset[str]:  # type: ignore[override]
+        keys = {"size", "seed", "scene", "camera"}
+        if self.params.hold != 0:
+            keys.add("frame")
+        return frozenset(keys)
 
     def pressures(self, seed: int, layers: int) -> np.ndarray:
         u = np.random.default_rng(seed).random(layers)

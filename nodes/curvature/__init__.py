@@ -35,7 +35,9 @@ class Curvature(Node):
     Arrays with, per object i, o{i}_kmin, o{i}_kmax (n,), o{i}_dmin, o{i}_dmax, o{i}_normal (n, 3),
     o{i}_confidence (n,), o{i}_reason, o{i}_source (n,) uint8 codes, o{i}_key (a digest of the mesh and
     the params); n is the object's mesh vertex count, arrays are in object space. The key covers the mesh
-    contents and the params only, never the frame, size, camera or light."""
+    contents and the params only, never the frame, size, camera or light. A skinned or morphing mesh is
+    measured in its rest pose (`Mesh.rest`): the arrays are the rest pose's, the same for every frame, so
+    they are computed once for the whole animation."""
 
     version = "1"
     persist = "always"
@@ -64,7 +66,7 @@ class Curvature(Node):
         base = super().key(ctx, input_keys)
         if "scene" in input_keys or ctx.scene is None:
             return base
-        return digest([base, [o.mesh.content_hash() for o in ctx.scene.objects]])
+        return digest([base, [measured(o.mesh).content_hash() for o in ctx.scene.objects]])
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         scene = inputs.get("scene") or ctx.scene
@@ -73,10 +75,10 @@ class Curvature(Node):
         data: dict[str, np.ndarray] = {}
         done: dict[str, dict[str, np.ndarray]] = {}
         for index, obj in enumerate(scene.objects):
-            h = obj.mesh.content_hash()
+            mesh = measured(obj.mesh)
+            h = mesh.content_hash()
             if h not in done:
-                done[h] = self.measure(obj.mesh.vertices, obj.mesh.faces, weld=obj.mesh.weld() if self.params.weld
-                                       else None)
+                done[h] = self.measure(mesh.vertices, mesh.faces, weld=mesh.weld() if self.params.weld else None)
             for name, value in done[h].items():
                 data[object_field(index, name)] = value
         data["objects"] = np.array(len(scene.objects), dtype=np.int64)
@@ -127,6 +129,13 @@ class Curvature(Node):
         res["source"] = np.ascontiguousarray(source[wid], dtype=np.uint8)
         res["key"] = np.array(key)
         return res
+
+
+def measured(mesh: Any) -> Any:
+    """The mesh whose curvature is measured: a posed (skinned, morphed) mesh's rest pose, so the arrays (in
+    rest-pose object space) are the same at every frame and computed once; consumers carry the directions
+    with the skin (`Mesh.skin_linear`, pencil_shade)."""
+    return mesh.rest if getattr(mesh, "rest", None) is not None else mesh
 
 
 def smoothing_rounds(V: np.ndarray, F: np.ndarray, length: float, cap: int = 400) -> int:

@@ -21,7 +21,8 @@ class DistortionMap(Node):
     uniform in `frequency` (cycles per image) and phase c_k uniform in [0, 2 pi), all from the node seed.
     Every offset component is bounded by amplitude x height, so the strokes stay on the shape. The maps
     are smooth and low-frequency: locally each layer is a small shift and stretch, so contours come out
-    as several slightly different, roughly parallel attempts (the paper finds 3 to 5 layers best)."""
+    as several slightly different, roughly parallel attempts (the paper finds 3 to 5 layers best). The
+    coefficients stay for the whole sequence by default; `hold: N` draws new ones every N frames."""
 
     version = "1"
     persist = "never"  # ~10 ms to compute, cheaper than a disk read of 3 x 800 x 800 x 2 halves
@@ -37,7 +38,11 @@ class DistortionMap(Node):
                                      "`amplitude`.")
         frequency: tuple[float, float] = Field((0.5, 2.0), description="Range of frequencies in cycles per "
                                                "image width (u) or height (v).")
-        animate: bool = Field(False, description="Draw new coefficients every frame (boiling lines).")
+        animate: bool = Field(False, description="Draw new coefficients every frame (boiling lines); the older "
+                              "spelling of `hold: 1`.")
+        hold: int | None = Field(None, ge=0, le=100_000, description="Frames per change of the coefficients (the "
+                                 "boil rate of the lines): 0 keeps them for the whole sequence, N draws new ones "
+                                 "every N frames (frame // N * N). Default: 0, or 1 with `animate: true`.")
 
         @model_validator(mode="after")
         def _check(self) -> DistortionMap.Params:
@@ -46,9 +51,16 @@ class DistortionMap(Node):
                 raise ValueError(f"frequency needs 0 <= lo <= hi <= 64, got {list(self.frequency)}")
             return self
 
+    key_omits = frozenset({"hold"})  # covered by the held frame in the key
+
+    @property
+    def hold(self) -> int:  # type: ignore[override]
+        p = self.params
+        return p.hold if p.hold is not None else (1 if p.animate else 0)
+
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
-        return frozenset({"size", "seed", "frame"}) if self.params.animate else frozenset({"size", "seed"})
+        return frozenset({"size", "seed", "frame"}) if self.hold != 0 else frozenset({"size", "seed"})
 
     def coefficients(self, seed: int, height: int) -> np.ndarray:
         """(layers, 3) float64 rows (a in pixels, b in radians per texture unit, c in radians)."""

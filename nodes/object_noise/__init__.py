@@ -25,11 +25,13 @@ class ObjectNoise(Node):
     function per pixel instead (our choice): no resolution limit, no tiling, nothing to bake, and the
     GPU matches the float64 CPU reference at the same positions to ~1e-6. Where `position` has no
     coverage (beyond the enlarged geometry) the output is `background`. The seed comes from the pipeline
-    seed and the node id, never the frame."""
+    seed and the node id, and by default never the frame (`hold: 0`); `hold: N` draws a new noise domain
+    every N frames (a boil that still sticks to the surface between changes). For a skinned or morphing
+    mesh, rasterize writes rest-pose positions, so the noise follows the deforming surface."""
 
     version = "1"
     shaders = ("object_noise.glsl",)  # includes ../perlin_noise/improved_noise.glsl: hashed with it
-    context_keys = frozenset({"size", "seed", "scene"})
+    key_omits = frozenset({"hold"})  # covered by the held frame in the key
     inputs = {
         "position": Input(Texture("RGBA32F"), "Object-space position g(s,t), alpha = coverage "
                           "(rasterize.position, usually with `enlarge` > 0)."),
@@ -47,13 +49,22 @@ class ObjectNoise(Node):
             "turbulence", description="turbulence: sum of |noise| (>= 0, mean ~0.43, the paper's); fbm: signed, "
             "mean 0, so the maps are not shifted on average.")
         background: tuple[float, float] = Field((0.0, 0.0), description="Value where no geometry was rasterized.")
+        hold: int = Field(0, ge=0, le=100_000, description="Frames per change of the noise (the boil rate): 0 "
+                          "keeps it for the whole sequence, N draws a new noise domain every N frames.")
+
+    @property
+    def context_keys(self) -> frozenset[str]:  # type: ignore[override]
+        keys = {"size", "seed", "scene"}
+        if self.params.hold != 0:
+            keys.add("frame")
+        return frozenset(keys)
 
     def frequency(self, scene: Any) -> float:
         """Cycles per object-space unit."""
         p = self.params
         if p.unit == "absolute" or scene is None:
             return p.scale
-        lo, hi = scene.bounds()
+        lo, hi = scene.scale_bounds()  # fixed over an animation: the noise does not change scale per frame
         diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         return p.scale / diag if diag > 0 else p.scale
 

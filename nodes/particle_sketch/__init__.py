@@ -103,8 +103,7 @@ class ParticleSketch(Node):
 
     def seed_frame(self, frame: int) -> int:
         """The frame whose seed the particles use at `frame`."""
-        hold = self.params.hold
-        return 0 if hold == 0 else frame // hold * hold
+        return self.held_frame(frame)  # the engine's hold convention (nodegraph.node.held_frame)
 
     def hash_extra(self, ctx: HashContext) -> Any:
         return {"seed_frame": self.seed_frame(ctx.frame)}

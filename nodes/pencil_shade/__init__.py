@@ -224,11 +224,25 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         local = origin.mesh_origin(mesh)
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
         return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"), "in_normal": (ra.normals, "3f"),
-                           "in_dir": (dmin[src], "3f"), "in_trust": (trust, "1f")}, ra.indices,
+                           "in_dir": (skinned_directions(mesh, dmin, src), "3f"), "in_trust": (trust, "1f")},
+                          ra.indices,
                           meta={"origin": local})
 
     entry = gl.mesh_buffers(("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey), build)
     return entry.vao(prog), entry.meta["origin"]
+
+
+def skinned_directions(mesh: Any, directions: np.ndarray, src: np.ndarray) -> np.ndarray:
+    """(k, 3) float32 curvature directions of the render vertices `src`: as measured, or for a skinned mesh
+    (measured in its rest pose, see the curvature node) carried by each vertex's skin matrix, so hatching
+    follows the skin instead of swimming over it."""
+    d = directions[src]
+    linear = getattr(mesh, "skin_linear", None)
+    if linear is None:
+        return d
+    out = np.einsum("nij,nj->ni", linear[src], d.astype(np.float64))
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.divide(out, length, out=np.zeros_like(out), where=length > 1e-12).astype(np.float32)
 
 
 NODE = PencilShade

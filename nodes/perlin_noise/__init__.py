@@ -20,7 +20,8 @@ class PerlinNoise(Node):
     for roughened, chalk-like profiles (paper §3.4). The seed (from the pipeline seed and the node id)
     shifts the noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times
     `scale` (cycles per pixel). The paper creates the noise texture once, so by default the values do
-    not change with the frame (`animate: true` reseeds every frame: no coherence, the classic boil).
+    not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames (the boil rate:
+    `hold: 1` reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling).
     Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
     `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is
     in `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6."""
@@ -37,12 +38,23 @@ class PerlinNoise(Node):
         scale: float = Field(0.01, gt=0, le=1, description="Noise frequency in cycles per pixel (perlin).")
         octaves: int = Field(4, ge=1, le=12, description="Octaves summed, each at twice the frequency and half "
                                                          "the amplitude (perlin).")
-        animate: bool = Field(False, description="Reseed every frame (no frame-to-frame coherence).")
+        animate: bool = Field(False, description="Reseed every frame (no frame-to-frame coherence); the older "
+                              "spelling of `hold: 1`.")
+        hold: int | None = Field(None, ge=0, le=100_000, description="Frames per change of the noise (the boil "
+                                 "rate): 0 keeps it for the whole sequence, N draws new noise every N frames "
+                                 "(frame // N * N). Default: 0, or 1 with `animate: true`.")
+
+    key_omits = frozenset({"hold"})  # covered by the held frame in the key
+
+    @property
+    def hold(self) -> int:  # type: ignore[override]
+        p = self.params
+        return p.hold if p.hold is not None else (1 if p.animate else 0)
 
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
         keys = {"size", "seed"}
-        if self.params.animate:
+        if self.hold != 0:
             keys.add("frame")
         return frozenset(keys)
 
@@ -59,7 +71,7 @@ class PerlinNoise(Node):
                                     "u_seed_frac": tuple(float(f) for f in frac),
                                     "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
                                     "u_seed": seed & 0xFFFFFFFF,
-                                    "u_frame": (ctx.frame if p.animate else 0) & 0xFFFFFFFF,
+                                    "u_frame": ctx.noise_frame & 0xFFFFFFFF,
                                     "u_size": (float(w), float(h))})
         return {"out": out}
 

@@ -85,25 +85,24 @@ class Rasterize(Node):
             "sides; cull: never draw back faces.")
 
     def hash_extra(self, ctx: HashContext) -> Any:
-        return origin.hash_extra(ctx.scene, ctx.frame)
+        extra = origin.hash_extra(ctx.scene, ctx.frame)
+        if ctx.scene is not None and any(o.mesh.rest is not None for o in ctx.scene.objects):
+            from nodegraph.glsl import source_digest
+
+            # posed meshes: `position` is the rest pose's, drawn by a pass of its own
+            return {"origin": extra, "rest": source_digest(self.source_dir() / REST_SHADER)}
+        return extra
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         ports = [p for p in _OUTPUTS if p in needed]
-        defines: dict[str, Any] = {_OUTPUTS[p][1]: i for i, p in enumerate(ports)}
-        defines["LIT"] = int(self.params.lit)
-        prog = ctx.program("rasterize.glsl", defines)
         targets = {p: ctx.target(p, filter="nearest" if p == "object_id" else "linear") for p in ports}
+        objects = scene.select(self.params.select)
+        # posed (skinned, morphed) meshes write their rest-pose position, in a pass of its own
+        rest = "position" in ports and any(o.mesh.rest is not None for o in objects)
+        main = [p for p in ports if not (rest and p == "position")]
         w, h = ctx.size
-        depth_rb = gl.depth_buffer((w, h))
-        fbo = gl.framebuffer([targets[p] for p in ports], depth_rb)
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        for p in ports:  # buffers whose background is not zero get their own clear
-            if any(_OUTPUTS[p][0]):
-                gl.framebuffer([targets[p]]).clear(*_OUTPUTS[p][0])
-        fbo.use()
-        gl.ctx.viewport = (0, 0, w, h)
         cam = scene.camera_at(ctx.frame)
         _warn_depth_range_once(cam, "depth" in ports)
         origin.warn_once(scene, cam)
@@ -114,31 +113,73 @@ class Rasterize(Node):
         if scene.light_space == "world":
             light = view[:3, :3] @ light
         light = light / max(np.linalg.norm(light), 1e-12)
-        lo, hi = scene.bounds()
+        lo, hi = scene.scale_bounds()
         scene_diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
+        if main:
+            defines: dict[str, Any] = {_OUTPUTS[p][1]: i for i, p in enumerate(main)}
+            defines["LIT"] = int(self.params.lit)
+            prog = ctx.program("rasterize.glsl", defines)
+            depth_rb = gl.depth_buffer((w, h))
+            fbo = gl.framebuffer([targets[p] for p in main], depth_rb)
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            for p in main:  # buffers whose background is not zero get their own clear
+                if any(_OUTPUTS[p][0]):
+                    gl.framebuffer([targets[p]]).clear(*_OUTPUTS[p][0])
+            fbo.use()
+            gl.ctx.viewport = (0, 0, w, h)
+            with gl.depth_test() as state:
+                for obj in objects:
+                    if self.params.enlarge > 0:
+                        _warn_enlarge_once(obj.mesh)
+                    vao, diag, local = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
+                    model = np.asarray(obj.transform, dtype=np.float64)
+                    mv = view @ model
+                    normal_view = np.linalg.inv(mv[:3, :3]).T
+                    u_view, u_model = origin.relative_matrices(view, model, world, local)
+                    bind(prog, {}, {
+                        "u_model": u_model, "u_view": u_view, "u_proj": proj, "u_normal_view": normal_view,
+                        "u_enlarge": self._enlarge(diag, model, scene_diag),
+                        "u_color": tuple(float(c) for c in obj.color),
+                        "u_light": tuple(float(c) for c in light), "u_object_id": float(obj.index + 1),
+                        "u_ambient": float(self.params.ambient)})
+                    state.cull(_cull_face(obj, self.params.backfaces))
+                    vao.render(gl.ctx.TRIANGLES)
+        if rest:
+            self._rest_pass(ctx, targets["position"], objects, view, world, proj, scene_diag)
+        return targets
+
+    def _enlarge(self, diag: float, model: np.ndarray, scene_diag: float) -> float:
+        """The object-space distance of enlargement: a fraction of the object's diagonal or the scene's."""
+        if self.params.enlarge_unit == "scene":  # a world distance, in this object's units
+            diag = scene_diag / max(abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0), 1e-12)
+        return float(self.params.enlarge * diag)
+
+    def _rest_pass(self, ctx: RunContext, target: Any, objects: list[Any], view: np.ndarray, world: np.ndarray,
+                   proj: np.ndarray, scene_diag: float) -> None:
+        """`position` of a scene with posed meshes: the posed geometry drawn again (own depth buffer, the same
+        enlargement and culling), each fragment writing the rest-pose position of its surface point; meshes
+        without a rest pose write their own position, as the main pass would."""
+        gl = ctx.gl
+        prog = ctx.program(REST_SHADER)
+        w, h = ctx.size
+        fbo = gl.framebuffer([target], gl.depth_buffer((w, h)))
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        fbo.use()
+        gl.ctx.viewport = (0, 0, w, h)
+        crease = self.params.crease_angle
         with gl.depth_test() as state:
-            for index, obj in enumerate(scene.objects):
-                if self.params.select == "sketchy" and not obj.sketchy:
-                    continue
-                if self.params.select == "non_sketchy" and obj.sketchy:
-                    continue
-                if self.params.enlarge > 0:
-                    _warn_enlarge_once(obj.mesh)
-                vao, diag, local = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
+            for obj in objects:
                 model = np.asarray(obj.transform, dtype=np.float64)
-                mv = view @ model
-                normal_view = np.linalg.inv(mv[:3, :3]).T
+                vao, diag, rest_diag, local = _rest_geometry(gl, prog, obj.mesh, crease)
                 u_view, u_model = origin.relative_matrices(view, model, world, local)
-                if self.params.enlarge_unit == "scene":  # a world distance, in this object's units
-                    diag = scene_diag / max(abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0), 1e-12)
-                bind(prog, {}, {
-                    "u_model": u_model, "u_view": u_view, "u_proj": proj, "u_normal_view": normal_view,
-                    "u_enlarge": float(self.params.enlarge * diag), "u_color": tuple(float(c) for c in obj.color),
-                    "u_light": tuple(float(c) for c in light), "u_object_id": float(index + 1),
-                    "u_ambient": float(self.params.ambient)})
+                bind(prog, {}, {"u_model": u_model, "u_view": u_view, "u_proj": proj,
+                                "u_enlarge": self._enlarge(diag, model, scene_diag),
+                                "u_rest_enlarge": self._enlarge(rest_diag, model, scene_diag)})
                 state.cull(_cull_face(obj, self.params.backfaces))
                 vao.render(gl.ctx.TRIANGLES)
-        return targets
+
+
+REST_SHADER = "rest_position.glsl"
 
 
 # `auto` culls back faces when holes can show at most this share of the surface (Mesh.hole_share): closed
@@ -174,14 +215,39 @@ def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, 
     return entry.vao(prog), entry.meta["diag"], entry.meta["origin"]
 
 
-def enlarge_normals(mesh: Any, crease_angle: float = 40.0) -> np.ndarray:
+def _rest_geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, float, np.ndarray]:
+    """The rest pass's vertex array over a mesh (posed position and enlargement direction, and the rest
+    pose's), the posed and the rest diagonals, and the posed positions' origin."""
+
+    def build() -> MeshArrays:
+        ra = mesh.render_arrays(crease_angle)
+        local = origin.mesh_origin(mesh)
+        pos, smooth = origin.positions(mesh, ra, local), enlarge_normals(mesh, crease_angle)
+        rest = mesh.rest
+        if rest is None:
+            rest_pos, rest_smooth, rest_diag = pos, smooth, mesh.diagonal()
+        else:
+            rest_pos = (rest.vertices[ra.source_vertex] - origin.mesh_origin(rest)).astype(np.float32)
+            rest_smooth, rest_diag = enlarge_normals(rest, crease_angle, ra), rest.diagonal()
+        return MeshArrays({"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f"), "in_rest": (rest_pos, "3f"),
+                           "in_rest_smooth": (rest_smooth, "3f")}, ra.indices,
+                          meta={"diag": mesh.diagonal(), "rest_diag": rest_diag, "origin": local})
+
+    entry = gl.mesh_buffers(("rasterize.rest", mesh.content_hash(), float(crease_angle)), build)
+    return entry.vao(prog), entry.meta["diag"], entry.meta["rest_diag"], entry.meta["origin"]
+
+
+def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = None) -> np.ndarray:
     """(k, 3) direction of enlargement for each vertex of `mesh.render_arrays(crease_angle)`.
 
     The angle-weighted normal of the faces around the vertex's welded position that belong to the
     vertex's own connected component: every render vertex at one welded position of one component gets
     the same direction (no cracks where normals are split), and components that touch keep their own.
+
+    `render_arrays`: the render vertices to give directions for (default: the mesh's own); a posed mesh's,
+    to read the directions of its rest pose (`mesh` the rest mesh, same vertices and faces).
     """
-    ra = mesh.render_arrays(crease_angle)
+    ra = mesh.render_arrays(crease_angle) if render_arrays is None else render_arrays
     welded, _ = mesh.weld()
     faces = mesh.faces
     comp = mesh.face_components().astype(np.int64)

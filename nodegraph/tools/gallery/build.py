@@ -95,7 +95,7 @@ def plan_entry(entry: Entry, renderer: str, cell: int, root: Path) -> EntryPlan:
         "size": list(main.size),
         "seed": main.seed,
         "overrides": entry.overrides,
-        "params": {nid: node.params.model_dump(mode="json") for nid, node in main.nodes.items()},
+        "params": {nid: node.recorded_params() for nid, node in main.nodes.items()},
         "frames": frames,
         "wedge": {a.param: list(a.values) for a in entry.wedge} if entry.wedge else None,
         "outputs": {o: ".".join(main.outputs[o]) for o in outputs},
