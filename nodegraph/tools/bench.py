@@ -29,6 +29,7 @@ NAMED: dict[str, str] = {
     "curvature": "nodegraph.tools.bench_pencil:curvature_command",
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
+    "film": "nodegraph.tools.bench_film:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
