@@ -197,7 +197,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     finally:
         if manifest is not None:
             manifest.save()
-        ex.close()
+        ex.close(None if quiet else lambda text: click.echo(text, err=True))
     if many and not quiet:
         click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
                    f"in {time.perf_counter() - t0:.1f} s")

@@ -287,7 +287,9 @@ class Executor:
         meta = {"node": node.id, "type": node.type_name, "version": node.version,
                 "params": node.params.model_dump(mode="json"), "package": __version__}
         # the cache decides how (and whether: scenes and meshes are sources) a value is stored
-        self.cache.store_value(key, self._entry(node.id, port), value, meta, background=self.mode == "loop")
+        # written on the cache's writer thread (bounded), so the image is written as soon as it is ready;
+        # `close` waits for the writes
+        self.cache.store_value(key, self._entry(node.id, port), value, meta, background=True)
 
     def _upload(self, loaded: Any, nid: str, port: str) -> Any:
         """A value from a cache entry (`Cache.load`: host data and its stored kind): textures go to the GPU."""
@@ -303,11 +305,12 @@ class Executor:
             return self.gl.texture_array((data.shape[2], data.shape[1]), data.shape[0], fmt, data)
         return loaded.data
 
-    def close(self) -> None:
-        """Finish the background writes (reporting a failed one), prune the cache if anything was written or
-        discarded (frame loops too), and start the cache's next run."""
+    def close(self, progress: Any = None) -> None:
+        """Finish the background writes (reporting a failed one; `progress(text)` is told if that takes over
+        a second), prune the cache if anything was written or discarded (frame loops too), and start the
+        cache's next run."""
         if self.cache is not None:
-            self.cache.flush()
+            self.cache.flush(progress)
             if self.cache.writes or self.cache.recovered:
                 self.cache.prune()
             self.cache.new_run()

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SketchgraphError
+from .render import Bytes8
 
 # extension -> (container format, codec, pixel format, default quality as CRF; None: not applicable)
 FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
@@ -140,18 +141,6 @@ class FilmWriter:
 WRITER_THREADS = 2
 """Writer threads of an image sequence: PNG frames are compressed by zlib, which frees the interpreter, so
 two threads keep up with the render loop where one falls behind on a slow frame."""
-
-
-class Bytes8:
-    """A frame already converted to 8-bit file values on the GPU (`GL.read_uint8`: (H, W, 4), row 0 at the
-    top) and how many channels the texture has (1: grey; otherwise RGB is written)."""
-
-    def __init__(self, data: np.ndarray, channels: int):
-        self.data = data
-        self.channels = channels
-
-    def png(self) -> np.ndarray:
-        return self.data[:, :, :1] if self.channels == 1 else self.data[:, :, :3]
 
 
 class SequenceWriter:

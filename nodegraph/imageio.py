@@ -80,12 +80,9 @@ def write_png8(path: str | Path, img: np.ndarray, level: int = PNG_LEVEL) -> Pat
     colour = {1: 0, 3: 2, 4: 6}[c]
     data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(rows.data, level)) + chunk(b"IEND", b""))
-    with atomic_output(p) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-        if not _png_complete(Path(tmp).read_bytes()):
-            raise IncompleteWrite("the written PNG is incomplete")
-    return p
+    from .fsio import atomic_write_bytes
+
+    return atomic_write_bytes(p, data)
 
 
 def _verify(oiio: object, path: Path, w: int, h: int, c: int, problem: str = "") -> None:
