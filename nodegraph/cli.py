@@ -150,7 +150,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     ref = pipe.outputs[name]
     cache = open_cache(no_cache, cache_dir)
     ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 or film.is_film(out or "") else "single",
-                  requested=[ref])
+                  requested=[ref], background_writes=True)  # the image first; close() waits for the cache
     if explain:
         from .tools.explain import explain as explain_plan
 
