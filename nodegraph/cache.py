@@ -55,6 +55,7 @@ FORMAT_VERSION = "1"
 TEMP_PREFIX = ".tmp-"
 STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftover, whoever wrote it
 PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
+MAX_PENDING_WRITES = 6  # background writes queued at most; the next `store` waits for one to finish
 LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
 
 
@@ -218,6 +219,9 @@ class Cache:
         self.limit = default_limit() if limit is None else limit
         self._writer: ThreadPoolExecutor | None = None
         self._pending: list[Future] = []
+        self._pending_bytes = 0
+        self._inflight: dict[Path, Future] = {}  # entry base path -> its background write
+        self._room = threading.BoundedSemaphore(MAX_PENDING_WRITES)
         self._lock = threading.Lock()
         self.hits = 0
         self.misses = 0
@@ -243,6 +247,10 @@ class Cache:
 
     def find(self, key: str, port: str) -> Path | None:
         base = self._base(key, port)
+        with self._lock:
+            writing = self._inflight.get(base)
+        if writing is not None:  # written in the background by this process: wait for it (`_store_safe` never raises)
+            writing.result()
         for ext in (".exr", ".npz"):
             p = base.with_name(base.name + ext)
             if p.exists():
@@ -285,7 +293,10 @@ class Cache:
         kind = kind_of(value)
         if kind is None:
             return False
-        if kind in ("texture", "texture_array"):
+        if kind == "texture" and types.numpy_dtype(value.fmt) == np.float16:
+            # half textures are read and written as half: no conversion to float32 and back
+            self.store(key, port, kind, value.read_native(), meta, value.fmt, background=background)
+        elif kind in ("texture", "texture_array"):
             self.store(key, port, kind, value.read(), meta, value.fmt, background=background)
         else:
             self.store(key, port, kind, value, meta, background=background)
@@ -297,13 +308,33 @@ class Cache:
         never raises: it loses this entry and is reported once (`CacheWarning`)."""
         self.report_write_errors()
         if background:
+            size = int(getattr(data, "nbytes", 0))
+            self._room.acquire()  # bounded: a loop faster than the disk waits here instead of growing memory
             with self._lock:
                 if self._writer is None:
                     self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sketchgraph-cache")
-                self._pending.append(self._writer.submit(self._store_safe, key, port, kind, data, meta, fmt))
+                self._pending_bytes += size
+                fut = self._writer.submit(self._store_safe, key, port, kind, data, meta, fmt)
+                self._pending.append(fut)
+                base = self._base(key, port)
+                self._inflight[base] = fut
+            fut.add_done_callback(lambda f, n=size, b=base: self._done(f, n, b))
         else:
             self._store_safe(key, port, kind, data, meta, fmt)
             self.report_write_errors()
+
+    def _done(self, fut: Future, size: int, base: Path) -> None:
+        with self._lock:
+            self._pending_bytes -= size
+            if self._inflight.get(base) is fut:
+                del self._inflight[base]
+        self._room.release()
+
+    @property
+    def pending(self) -> int:
+        """Background writes queued or running."""
+        with self._lock:
+            return sum(1 for f in self._pending if not f.done())
 
     def _store_safe(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None) -> None:
         try:
@@ -347,11 +378,23 @@ class Cache:
         with self._lock:
             self._write_warned = False
 
-    def flush(self) -> None:
+    def flush(self, progress: Any = None) -> None:
+        """Wait for the background writes. `progress(text)`: told once if that takes over a second."""
         with self._lock:
             pending, self._pending = self._pending, []
-        for fut in pending:
-            fut.result()  # `_store_safe` never raises
+        t0 = time.monotonic()
+        told = False
+        for i, fut in enumerate(pending):
+            while True:
+                try:
+                    fut.result(timeout=0.25)  # `_store_safe` never raises
+                    break
+                except TimeoutError:
+                    if progress is not None and not told and time.monotonic() - t0 > 1.0:
+                        told = True
+                        left = len(pending) - i
+                        progress(f"finishing {left} cache write{'s' if left != 1 else ''} "
+                                 f"({self._pending_bytes / 1024**2:.0f} MB) in {self.root}")
         self.report_write_errors()
 
     def close(self) -> None:
@@ -364,6 +407,10 @@ class Cache:
     # -- maintenance -----------------------------------------------------------------------
     def _scan(self) -> tuple[list[Entry], list[Entry]]:
         """(entries, temporary files) under the root; unreadable folders count as empty."""
+        with self._lock:
+            writing = list(self._inflight.values())
+        for fut in writing:  # this process's background writes count as written (`_store_safe` never raises)
+            fut.result()
         ents: list[Entry] = []
         temps: list[Entry] = []
         try:
@@ -540,9 +587,11 @@ def _int_or_none(value: Any) -> int | None:
 def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: dict[str, Any]) -> None:
     import OpenImageIO as oiio
 
-    arr = np.ascontiguousarray(arr[::-1], dtype=np.float32)  # EXR rows run top-down
+    half = types.precision(fmt) < 2
+    # EXR rows run top-down; half pixels handed over as half (when read so) are not converted
+    arr = np.ascontiguousarray(arr[::-1], dtype=np.float16 if half and arr.dtype == np.float16 else np.float32)
     h, w, c = arr.shape
-    pixel = oiio.FLOAT if types.precision(fmt) >= 2 else oiio.HALF
+    pixel = oiio.HALF if half else oiio.FLOAT
     spec = oiio.ImageSpec(w, h, c, pixel)
     spec.channelnames = tuple("RGBA"[:c]) if c != 2 else ("R", "G")
     spec.attribute("compression", "zip" if c * w * h > 0 else "none")

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from .errors import SketchgraphError
-from .render import frame_path, open_cache, open_pipeline, parse_frames, write_value
+from .render import frame_path, is_sequence, open_cache, open_pipeline, parse_frames, write_frame, write_value
 
 if TYPE_CHECKING:
     pass
@@ -92,13 +92,15 @@ def cache_options(f: Any) -> Any:
               "lower is better; default 18 / 32).")
 @click.option("--resume", is_flag=True, help="Image sequences: skip frames an earlier (killed) run finished: the "
               "sidecar manifest beside the pattern says which, checked against keys and file hashes.")
+@click.option("--png-level", type=click.IntRange(0, 9), default=None, metavar="0-9", help="zlib level of PNG "
+              "frame sequences (default 1: fastest measured at nearly the size of 6; docs/performance.md).")
 @pipeline_options
 @cache_options
 @out_dir_options
 @scheduler_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
-        overrides: tuple[str, ...], size: str | None, scene: str | None,
+        png_level: int | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
         no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
         chunk: int | None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
@@ -148,7 +150,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     ref = pipe.outputs[name]
     cache = open_cache(no_cache, cache_dir)
     ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 or film.is_film(out or "") else "single",
-                  requested=[ref])
+                  requested=[ref], background_writes=True)  # the image first; close() waits for the cache
     if explain:
         from .tools.explain import explain as explain_plan
 
@@ -159,7 +161,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     if film.is_film(pattern) or many:
         try:
             done = film.render_frames(ex, ref, frame_list, pattern, fps=fps, crf=crf, resume=resume,
-                                      bar=lambda fl: _progress(fl, quiet, "frames"))
+                                      bar=lambda fl: _progress(fl, quiet, "frames"), png_level=png_level)
         finally:
             ex.close()
         if not quiet:
@@ -183,7 +185,10 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
                 if manifest.done(frame, digest, target):
                     continue
             result = ex.run(frame)
-            path = write_value(result.values[ref], target)
+            if is_sequence(pattern, many):
+                path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
+            else:
+                path = write_value(result.values[ref], target)
             if manifest is not None:
                 manifest.record(frame, digest, file_sha256(path))
                 manifest.save(every=1.0)
@@ -192,7 +197,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     finally:
         if manifest is not None:
             manifest.save()
-        ex.close()
+        ex.close(None if quiet else lambda text: click.echo(text, err=True))
     if many and not quiet:
         click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
                    f"in {time.perf_counter() - t0:.1f} s")

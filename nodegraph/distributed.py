@@ -298,7 +298,9 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         for frame in frames:
             t1 = time.perf_counter()
             result = ex.run(frame)
-            path = render.write_value(result.values[ref], render.frame_path(pattern, frame, many))
+            target = render.frame_path(pattern, frame, many)
+            path = (render.write_frame(result.values[ref], target, lambda: ex.gl) if render.is_sequence(pattern, many)
+                    else render.write_value(result.values[ref], target))
             out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
                         "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
                         "ms": (time.perf_counter() - t1) * 1000})

@@ -49,9 +49,13 @@ class Executor:
 
     def __init__(self, pipeline: Pipeline, cache: Cache | None = None, *, mode: str = "single",
                  requested: list[PortRef] | None = None, gl: Any = None, timing: bool = False,
-                 memory_limit: int = 1024**3, persist_all: bool = False, like: Plan | None = None):
+                 memory_limit: int = 1024**3, persist_all: bool = False, like: Plan | None = None,
+                 background_writes: bool | None = None):
         """`like`: allocate every texture as that plan does (inspecting intermediates must not raise their
-        precision and so change what the next node sees)."""
+        precision and so change what the next node sees). `background_writes`: disk-cache writes happen on the
+        cache's writer thread and `close` waits for them (default: in frame loops only; a single run's entries
+        are then on disk when `run` returns)."""
+        self.background_writes = mode == "loop" if background_writes is None else background_writes
         self.pipeline = pipeline
         self._cache = cache
         self.mode = mode
@@ -296,7 +300,9 @@ class Executor:
         meta = {"node": node.id, "type": node.type_name, "version": node.version,
                 "params": node.params.model_dump(mode="json"), "package": __version__}
         # the cache decides how (and whether: scenes and meshes are sources) a value is stored
-        self.cache.store_value(key, self._entry(node.id, port), value, meta, background=self.mode == "loop")
+        # with background_writes, written on the cache's writer thread (bounded), so the image is written
+        # as soon as it is ready; `close` waits for the writes
+        self.cache.store_value(key, self._entry(node.id, port), value, meta, background=self.background_writes)
 
     def _upload(self, loaded: Any, nid: str, port: str) -> Any:
         """A value from a cache entry (`Cache.load`: host data and its stored kind): textures go to the GPU."""
@@ -312,11 +318,12 @@ class Executor:
             return self.gl.texture_array((data.shape[2], data.shape[1]), data.shape[0], fmt, data)
         return loaded.data
 
-    def close(self) -> None:
-        """Finish the background writes (reporting a failed one), prune the cache if anything was written or
-        discarded (frame loops too), and start the cache's next run."""
+    def close(self, progress: Any = None) -> None:
+        """Finish the background writes (reporting a failed one; `progress(text)` is told if that takes over
+        a second), prune the cache if anything was written or discarded (frame loops too), and start the
+        cache's next run."""
         if self._cache is not None:
-            self._cache.flush()
+            self._cache.flush(progress)
             if self._cache.writes or self._cache.recovered:
                 self._cache.prune()
             self._cache.new_run()

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SketchgraphError
+from .render import Bytes8
 
 # extension -> (container format, codec, pixel format, default quality as CRF; None: not applicable)
 FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
@@ -38,14 +39,17 @@ def is_film(path: str | Path) -> bool:
 
 
 class _Worker:
-    """One thread consuming a bounded queue; an exception there is raised in the caller at the next put."""
+    """Threads consuming a bounded queue (one by default: a film's frames must stay in order); an exception
+    there is raised in the caller at the next put."""
 
-    def __init__(self, consume: Callable[[Any], None], depth: int = 8):
+    def __init__(self, consume: Callable[[Any], None], depth: int = 8, threads: int = 1):
         self._q: queue.Queue[Any] = queue.Queue(maxsize=depth)
         self._consume = consume
         self.error: BaseException | None = None
-        self._thread = threading.Thread(target=self._run, name="sketchgraph-film", daemon=True)
-        self._thread.start()
+        self._threads = [threading.Thread(target=self._run, name=f"sketchgraph-film-{i}", daemon=True)
+                         for i in range(threads)]
+        for t in self._threads:
+            t.start()
 
     def _run(self) -> None:
         while True:
@@ -63,8 +67,10 @@ class _Worker:
         self._q.put(item)
 
     def finish(self) -> None:
-        self._q.put(None)
-        self._thread.join()
+        for _ in self._threads:
+            self._q.put(None)
+        for t in self._threads:
+            t.join()
         self._check()
 
     def _check(self) -> None:
@@ -73,7 +79,7 @@ class _Worker:
 
 
 class FilmWriter:
-    """Frames (uint8 RGB, row 0 at the top) into a film, encoded on a worker thread."""
+    """Frames (uint8 RGB with row 0 at the top, or `Bytes8`) into a film, encoded on a worker thread."""
 
     def __init__(self, path: str | Path, fps: float, size: tuple[int, int], crf: int | None = None):
         import av
@@ -103,6 +109,7 @@ class FilmWriter:
         import av
 
         h, w = self.stream.height, self.stream.width
+        rgb = _rgb(rgb)
         if rgb.shape[0] != h or rgb.shape[1] != w:
             rgb = np.pad(rgb, ((0, h - rgb.shape[0]), (0, w - rgb.shape[1]), (0, 0)), mode="edge")
         frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
@@ -131,26 +138,42 @@ class FilmWriter:
         self.tmp.unlink(missing_ok=True)
 
 
-class SequenceWriter:
-    """One image file per frame (PNG, EXR, ...), written on a worker thread; with `resume`, the frames
-    manifest (`nodegraph.frames_manifest`, shared with distributed runs) records each frame's digest and
-    file hash as it is written, so a later `--resume` skips what is done."""
+WRITER_THREADS = 2
+"""Writer threads of an image sequence: PNG frames are compressed by zlib, which frees the interpreter, so
+two threads keep up with the render loop where one falls behind on a slow frame."""
 
-    def __init__(self, pattern: str, resume: bool):
+
+class SequenceWriter:
+    """One image file per frame (PNG, EXR, ...), written on worker threads; with `resume`, the frames
+    manifest (`nodegraph.frames_manifest`, shared with distributed runs) records each frame's digest and
+    file hash as it is written, so a later `--resume` skips what is done. PNG frames read back as 8-bit
+    (`Bytes8`) are compressed at `png_level`."""
+
+    def __init__(self, pattern: str, resume: bool, png_level: int | None = None):
         from .frames_manifest import FramesManifest
+        from .imageio import PNG_LEVEL
 
         self.manifest = FramesManifest.load(pattern) if resume else None
-        self._worker = _Worker(self._write)
+        self.png_level = PNG_LEVEL if png_level is None else png_level
+        self._lock = threading.Lock()
+        self._worker = _Worker(self._write, threads=WRITER_THREADS)
 
     def _write(self, item: tuple[Path, Any, int, str]) -> None:
         from .frames_manifest import file_sha256
         from .render import write_value
 
         path, value, frame, digest = item
-        written = write_value(value, path)
+        if isinstance(value, Bytes8):
+            from .imageio import write_png8
+
+            written = write_png8(path, value.png(), self.png_level)
+        else:
+            written = write_value(value, path)
         if self.manifest is not None:
-            self.manifest.record(frame, digest, file_sha256(written))
-            self.manifest.save(every=1.0)
+            sha = file_sha256(written)
+            with self._lock:
+                self.manifest.record(frame, digest, sha)
+                self.manifest.save(every=1.0)
 
     def up_to_date(self, frame: int, digest: str, path: Path) -> bool:
         return self.manifest is not None and self.manifest.done(frame, digest, path)
@@ -167,11 +190,13 @@ class SequenceWriter:
 
 
 def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,
-                  crf: int | None = None, resume: bool = False, bar: Callable[[list[int]], Any] | None = None
-                  ) -> dict[str, Any]:
+                  crf: int | None = None, resume: bool = False, bar: Callable[[list[int]], Any] | None = None,
+                  png_level: int | None = None) -> dict[str, Any]:
     """Render `frames` of `ref` with executor `ex` into a film or an image sequence (by `pattern`'s extension).
-    Returns {"path", "frames", "skipped"}. The output key per frame is the node's key and the port."""
-    from .render import frame_path, to_image
+    Returns {"path", "frames", "skipped"}. The output key per frame is the node's key and the port.
+    Textures bound for 8-bit files (films, PNG) are converted on the GPU and read back at 1 byte a channel;
+    everything else about the file happens on the writer threads."""
+    from .render import frame_path, is_sequence
 
     frame_list = list(frames)
     loop = bar(frame_list) if bar is not None else frame_list
@@ -179,8 +204,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
         film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
         try:
             for frame in loop:
-                img = to_image(ex.run(frame).values[ref])[::-1]
-                film.write(_rgb8(img))
+                film.write(_bytes8(ex, ex.run(frame).values[ref]))
             path = film.close()
         except BaseException:
             film.abort()
@@ -189,7 +213,8 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     many = len(frame_list) > 1
     from .frames_manifest import frame_digest
 
-    seq = SequenceWriter(pattern, resume and many)
+    seq = SequenceWriter(pattern, resume and many, png_level)
+    sequence = is_sequence(pattern, many)
     skipped = 0
     try:
         for frame in loop:
@@ -199,7 +224,8 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
                 skipped += 1
                 continue
             value = ex.run(frame).values[ref]
-            seq.write(path, _host(value), frame, key)
+            seq.write(path, _bytes8(ex, value) if sequence and path.suffix.lower() == ".png" else _host(value), frame,
+                      key)
     finally:
         seq.close()
     return {"path": frame_path(pattern, frame_list[0], many) if frame_list else Path(pattern),
@@ -217,13 +243,22 @@ def _host(value: Any) -> Any:
     return value
 
 
-def _rgb8(img: np.ndarray) -> np.ndarray:
-    from .imageio import to_uint8
+def _bytes8(ex: Any, value: Any) -> Any:
+    """A texture as `Bytes8` (converted on the GPU); anything else read back as `_host` does."""
+    from . import types
+    from .values import Tex
 
-    a = to_uint8(np.asarray(img, dtype=np.float32))
-    if a.shape[2] == 1:
-        a = np.repeat(a, 3, axis=2)
-    return np.ascontiguousarray(a[:, :, :3])
+    if isinstance(value, Tex):
+        return Bytes8(ex.gl.read_uint8(value), types.components(value.fmt))
+    return _host(value)
+
+
+def _rgb(frame: Any) -> np.ndarray:
+    """A frame (`Bytes8`, or uint8 RGB with row 0 at the top) as contiguous uint8 RGB (on the writer thread)."""
+    if isinstance(frame, Bytes8):
+        a = frame.data
+        return np.ascontiguousarray(np.repeat(a[:, :, :1], 3, axis=2) if frame.channels == 1 else a[:, :, :3])
+    return np.ascontiguousarray(frame)
 
 
 def prepare(pipe: Any, out: str | None, frames: str | None, fps: float | None, camera: str | None

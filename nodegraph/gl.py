@@ -36,6 +36,7 @@ class GL:
         self._scratch: Any = None
         self.resources: dict[Any, Any] = {}  # per-context caches of nodes (samplers, lookup textures)
         self._meshes: OrderedDict[Any, MeshBuffers] = OrderedDict()  # vertex/index buffers, least recent first
+        self.draws = DrawCount()  # full-screen passes and geometry draws issued through this wrapper
 
     @property
     def renderer(self) -> str:
@@ -163,6 +164,38 @@ class GL:
             vao = self.ctx.vertex_array(program, [])
             self._empty_vao[id(program)] = vao
         vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+        self.draws.fullscreen += 1
+
+    def read_uint8(self, tex: Tex) -> np.ndarray:
+        """A texture as 8-bit file values (H, W, 4) uint8, row 0 at the top: exactly
+        `imageio.to_uint8(tex.read())` flipped to file order, padded to four channels as GL samples a texture
+        (missing colour channels 0, missing alpha 255). 8-bit textures are read as they are; others go
+        through one full-screen pass into an 8-bit integer texture, so the read-back is 1 byte a channel."""
+        w, h = tex.size
+        c = types.components(tex.fmt)
+        if types.numpy_dtype(tex.fmt) == np.uint8:
+            raw = tex.read_native()[::-1]
+            if c == 4:
+                return np.ascontiguousarray(raw)
+            out = np.zeros((h, w, 4), np.uint8)
+            out[:, :, 3] = 255
+            out[:, :, :c] = raw
+            return out
+        key = ("pack8", (w, h))
+        target = self.resources.get(key)
+        if target is None:
+            target = self.resources[key] = self.ctx.texture((w, h), 4, dtype="u1")
+        fbo_key = ("pack8_fbo", (w, h))
+        fbo = self.resources.get(fbo_key)
+        if fbo is None:
+            fbo = self.resources[fbo_key] = self.ctx.framebuffer(color_attachments=[target])
+        from .glsl import ENGINE_GLSL
+
+        prog = self.program(ENGINE_GLSL / "pack8.glsl", node="engine")
+        self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h}, fbo=fbo)
+        out = np.empty((h, w, 4), np.uint8)
+        target.read_into(out, alignment=1)
+        return out
 
     # -- geometry ---------------------------------------------------------------------------
     def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays]) -> MeshBuffers:
@@ -173,7 +206,7 @@ class GL:
         if entry is not None:
             self._meshes.move_to_end(key)
             return entry
-        entry = self._meshes[key] = MeshBuffers(self.ctx, build())
+        entry = self._meshes[key] = MeshBuffers(self.ctx, build(), self.draws)
         while len(self._meshes) > MESH_CACHE_ENTRIES:
             _, old = self._meshes.popitem(last=False)
             old.release()
@@ -227,8 +260,9 @@ class MeshArrays:
 class MeshBuffers:
     """A mesh's vertex buffers and index buffer on the GPU, with one vertex array per program using them."""
 
-    def __init__(self, ctx: Any, arrays: MeshArrays):
+    def __init__(self, ctx: Any, arrays: MeshArrays, draws: DrawCount | None = None):
         self.ctx = ctx
+        self._draws = draws if draws is not None else DrawCount()
         self.meta = arrays.meta
         self.buffers = {name: (ctx.buffer(np.ascontiguousarray(a, dtype=_ATTRIBUTE_DTYPES[fmt[-1]]).tobytes()), fmt)
                         for name, (a, fmt) in arrays.attributes.items()}
@@ -241,7 +275,8 @@ class MeshBuffers:
         entry = self._vaos.get(id(program))
         if entry is None:
             content = [(buf, fmt, name) for name, (buf, fmt) in self.buffers.items() if name in program]
-            vao = self.ctx.vertex_array(program, content, index_buffer=self.index_buffer, index_element_size=4)
+            vao = _CountedVertexArray(self.ctx.vertex_array(program, content, index_buffer=self.index_buffer,
+                                                            index_element_size=4), self._draws)
             entry = self._vaos[id(program)] = (program, vao)
         return entry[1]
 
@@ -253,6 +288,36 @@ class MeshBuffers:
             buf.release()
         self.buffers = {}
         self.index_buffer.release()
+
+
+@dataclass
+class DrawCount:
+    """Draws issued through the wrapper (`GL.fullscreen` and vertex arrays of `GL.mesh_buffers`)."""
+
+    fullscreen: int = 0
+    geometry: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.fullscreen + self.geometry
+
+
+class _CountedVertexArray:
+    """A moderngl vertex array whose `render` calls are counted as geometry draws."""
+
+    def __init__(self, vao: Any, draws: DrawCount):
+        self._vao = vao
+        self._draws = draws
+
+    def render(self, *args: Any, **kwargs: Any) -> None:
+        self._vao.render(*args, **kwargs)
+        self._draws.geometry += 1
+
+    def release(self) -> None:
+        self._vao.release()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._vao, name)
 
 
 class DepthState:

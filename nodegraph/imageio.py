@@ -53,6 +53,43 @@ def write(path: str | Path, arr: np.ndarray, attributes: dict[str, str] | None =
     return p
 
 
+PNG_LEVEL = 1
+"""Default zlib level of `write_png8` (frame sequences): 3 ms an 800x800 frame here against 20 ms for OIIO's
+default (level 6 with adaptive row filters), files about 10% larger (docs/performance.md)."""
+
+
+def write_png8(path: str | Path, img: np.ndarray, level: int = PNG_LEVEL) -> Path:
+    """Write 8-bit file values (H, W, C) uint8, row 0 at the top (file order), as a PNG: C = 1 grey, 3 RGB,
+    4 RGBA. Encoded here with zlib at `level` (no row filters), which frees the interpreter while it
+    compresses, so writer threads overlap the render loop. Atomic, checked like `write`.
+
+    Why not a library: OpenImageIO's PNG writer holds the interpreter lock while it encodes (the render loop
+    stalls behind the writer threads), and Pillow always applies adaptive row filters: on the default
+    pipeline's 800x800 image, Pillow level 1 took 17.6 ms (165,900 bytes) against 6.9 ms (140,377 bytes)
+    here. zlib does the compression; this only frames its output in the PNG chunks (IHDR, IDAT, IEND)."""
+    import struct
+    import zlib
+
+    p = Path(path)
+    a = np.asarray(img)
+    if a.dtype != np.uint8 or a.ndim != 3 or a.shape[2] not in (1, 3, 4):
+        raise SketchgraphError(f"{p}: write_png8 takes (H, W, 1|3|4) uint8, got {a.dtype} {a.shape}")
+    h, w, c = a.shape
+    rows = np.empty((h, 1 + w * c), np.uint8)
+    rows[:, 0] = 0  # filter type 0 (none) on every row
+    rows[:, 1:] = a.reshape(h, w * c)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    colour = {1: 0, 3: 2, 4: 6}[c]
+    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows.data, level)) + chunk(b"IEND", b""))
+    from .fsio import atomic_write_bytes
+
+    return atomic_write_bytes(p, data)
+
+
 def _verify(oiio: object, path: Path, w: int, h: int, c: int, problem: str = "") -> None:
     """Check the written file is whole: some writers (PNG) lose a failed final flush (a file size limit, a
     full disk) and report success. PNG and JPEG are checked by structure (chunks up to IEND, the end

@@ -106,3 +106,37 @@ def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> P
     if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
         arr = arr[:, :, :3]
     return imageio.write(path, arr, meta, half=False)
+
+
+class Bytes8:
+    """A frame already converted to 8-bit file values on the GPU (`GL.read_uint8`: (H, W, 4), row 0 at the
+    top) and how many channels the texture has (1: grey; otherwise RGB is written)."""
+
+    def __init__(self, data: Any, channels: int):  # np.ndarray
+        self.data = data
+        self.channels = channels
+
+    def png(self) -> Any:
+        return self.data[:, :, :1] if self.channels == 1 else self.data[:, :, :3]
+
+
+def is_sequence(pattern: str, many: bool) -> bool:
+    """Whether frames go to a sequence of files (several frames, or a `####` pattern): those PNGs are written
+    by `write_frame`; a single named image keeps `write_value` (OpenImageIO's PNG writer)."""
+    return many or "#" in pattern
+
+
+def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:
+    """One frame of a sequence: a texture bound for a PNG is converted to 8 bits on the GPU and written by
+    `imageio.write_png8` (as `film.SequenceWriter` does), anything else by `write_value`; serial and
+    distributed sequences give the same bytes. `gl`: the GL wrapper, or a function giving it (called only
+    for a texture)."""
+    from . import imageio
+    from .values import Tex
+
+    if isinstance(value, Tex) and path.suffix.lower() == ".png":
+        from .types import components
+
+        frame = Bytes8((gl() if callable(gl) else gl).read_uint8(value), components(value.fmt))
+        return imageio.write_png8(path, frame.png(), imageio.PNG_LEVEL if png_level is None else png_level)
+    return write_value(value, path)

@@ -3,7 +3,9 @@
 `sketchgraph bench PIPELINE` renders frames back to back along the scene's orbit with no readback and
 no disk cache, and reports fps, the median frame time, the median time of every node, the time of a
 plain full-screen RGBA16F copy pass measured in the same run (the floor for one pass), and the time
-of the image-space stages in their float64 NumPy references on the same G-buffer.
+of the image-space stages in their float64 NumPy references on the same G-buffer. `draws` counts the
+full-screen passes and geometry draws of one frame as the GL wrapper issued them (`GL.draws`), and
+`floor_ratio` is ms per frame / (draws x copy pass): 1.0 would mean every draw costs a plain copy.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ NAMED: dict[str, str] = {
     "curvature": "nodegraph.tools.bench_pencil:curvature_command",
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
+    "film": "nodegraph.tools.bench_film:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
@@ -90,11 +93,14 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
         ex.run(f)
     gl.finish()
     frame_ms = []
+    fs0, geo0 = gl.draws.fullscreen, gl.draws.geometry
     for f in _bar(range(frames), "frames"):
         t0 = time.perf_counter()
         ex.run(f)
         gl.finish()
         frame_ms.append((time.perf_counter() - t0) * 1000)
+    draws = {"fullscreen": (gl.draws.fullscreen - fs0) / frames, "geometry": (gl.draws.geometry - geo0) / frames}
+    draws["total"] = draws["fullscreen"] + draws["geometry"]
     # per-node times: a second pass that waits for the GPU after every node
     ex.timing = True
     per_node: dict[str, list[float]] = {nid: [] for nid in ex.plan.order}
@@ -119,6 +125,8 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
         "nodes": nodes_ms,
         "copy_pass_ms": copy_ms,
         "ms_per_frame_over_copy_pass": median / copy_ms,
+        "draws": draws,
+        "floor_ratio": median / (draws["total"] * copy_ms) if draws["total"] else None,
     }
     if numpy_ms is not None:
         out.update(numpy_reference_ms=numpy_ms, image_space_gpu_ms=gpu_ms, speedup_vs_numpy=numpy_ms / gpu_ms)

@@ -82,8 +82,9 @@ def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = N
     return ex
 
 
-def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -> Inspection:
-    """Run (unless given the result) and describe every planned output."""
+def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None, stats: bool = True) -> Inspection:
+    """Run (unless given the result) and describe every planned output (`stats`: with per-channel
+    statistics; the gallery's sheets do not show them)."""
     result = result if result is not None else ex.run(frame)
     pipe = ex.pipeline
     g = pipe.graph().subgraph(ex.plan.order)
@@ -100,7 +101,7 @@ def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None) -
                 continue
             doc = pipe.nodes[nid].outputs[port].doc
             view.ports.append(PortView(nid, port, value, st.outputs.get(port) or describe(value),
-                                       viz.visualize(value, port, doc), value_stats(value)))
+                                       viz.visualize(value, port, doc), value_stats(value) if stats else []))
         nodes.append(view)
     return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
                       dict(pipe.outputs))

@@ -139,7 +139,7 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
     ex = debug_executor(main.pipe, cache)
     prev: Executor = ex
     try:
-        insp = inspect_run(ex, main.frame)
+        insp = inspect_run(ex, main.frame, stats=inspect_dir is not None)
         for n in insp.nodes:
             res.node_ms[n.node] = round(n.ms, 3)
             res.node_status[n.node] = n.status

@@ -1,0 +1,107 @@
+"""`sketchgraph bench film`: the cost of writing frames, measured three ways in one run.
+
+The same frames of a pipeline are rendered (no disk cache, as `--frames` in a loop):
+- `frames`: rendered only (the GPU is waited for after each frame; nothing is read back);
+- `png`: through `film.render_frames` into an image sequence `f_####.png` (the `run --frames` path);
+- `mp4`: through `film.render_frames` into an H.264 film.
+
+and the JSON gives each rate and the ratios png/frames and mp4/frames (targets 0.85 and 0.8).
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..fsio import atomic_write_text
+
+DEFAULT_PIPELINE = str(Path(__file__).resolve().parents[2] / "pipelines" / "nienhaus_sketchy.yaml")
+TARGETS = {"png": 0.85, "mp4": 0.8}
+
+
+def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, frames: int = 60,
+               size: str | None = None, png_level: int | None = None, repeat: int = 1) -> dict[str, Any]:
+    from .. import film
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
+
+    pipe = pl.load(pipeline, size=pl.parse_size(size) if size else None, scene=scene)
+    ref = pipe.outputs[next(iter(pipe.outputs))]
+    gl = glmod.get()
+    frame_list = list(range(frames))
+
+    def executor() -> Executor:
+        ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl, memory_limit=256 * 1024**2)
+        for f in range(-3, 0):  # warm up: programs, textures in the pool, the noise texture
+            ex.run(f)
+        gl.finish()
+        return ex
+
+    def frames_only() -> float:
+        ex = executor()
+        t0 = time.perf_counter()
+        for f in frame_list:
+            ex.run(f)
+            gl.finish()
+        dt = time.perf_counter() - t0
+        ex.clear_memory()
+        return dt
+
+    def written(pattern: str, **kw: Any) -> float:
+        ex = executor()
+        t0 = time.perf_counter()
+        film.render_frames(ex, ref, frame_list, pattern, **kw)
+        dt = time.perf_counter() - t0
+        ex.clear_memory()
+        return dt
+
+    times: dict[str, list[float]] = {"frames": [], "png": [], "mp4": []}
+    sizes: dict[str, int] = {}
+    with tempfile.TemporaryDirectory(prefix="sketchgraph-bench-film-") as tmp:
+        for r in range(repeat):  # interleaved, so drift in the machine's speed hits all three alike
+            times["frames"].append(frames_only())
+            seq = Path(tmp) / f"png{r}"
+            times["png"].append(written(str(seq / "f_####.png"), png_level=png_level))
+            sizes["png_bytes_per_frame"] = sum(p.stat().st_size for p in seq.glob("*.png")) // max(1, frames)
+            mp4 = Path(tmp) / f"film{r}.mp4"
+            times["mp4"].append(written(str(mp4)))
+            sizes["mp4_bytes"] = mp4.stat().st_size
+    best = {k: min(v) for k, v in times.items()}
+    fps = {k: frames / v for k, v in best.items()}
+    out: dict[str, Any] = {
+        "pipeline": pipeline, "scene": pipe.scene_spec, "size": list(pipe.size), "frames": frames,
+        "repeat": repeat, "renderer": gl.renderer, "png_level": png_level,
+        "fps": fps, "seconds": times,
+        "ratio": {"png": fps["png"] / fps["frames"], "mp4": fps["mp4"] / fps["frames"]},
+        "targets": TARGETS, **sizes,
+    }
+    out["met"] = {k: out["ratio"][k] >= t for k, t in TARGETS.items()}
+    return out
+
+
+@click.command()
+@click.option("--pipeline", default=DEFAULT_PIPELINE, show_default="pipelines/nienhaus_sketchy.yaml")
+@click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
+@click.option("--frames", default=60, show_default=True, help="Frames per way.")
+@click.option("--size", default=None, help="WxH (default: the pipeline's).")
+@click.option("--png-level", type=click.IntRange(0, 9), default=None,
+              help="PNG compression level (default: run's default).")
+@click.option("--repeat", default=1, show_default=True, help="Rounds of the three ways (best of each kept).")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+def command(pipeline: str, scene: str | None, frames: int, size: str | None, png_level: int | None, repeat: int,
+            json_path: Path | None) -> None:
+    """Frames only, a PNG sequence and an MP4 of the same frames, in one run."""
+    from .bench import print_result
+
+    result = bench_film(pipeline, scene=scene, frames=frames, size=size, png_level=png_level, repeat=repeat)
+    print_result(result)
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
+        click.echo(f"wrote {json_path}")
