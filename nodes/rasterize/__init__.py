@@ -6,13 +6,20 @@ import warnings
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from nodegraph import origin
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
+
+# tone_bands -> (N.L thresholds (dark | middle | light), colour factors (dark, middle, light)); N.L with the
+# scene light in view space, the normal two-sided as the G-buffer has it. 2 bands: no middle band.
+TONE_BANDS: dict[int, tuple[tuple[float, float], tuple[float, float, float]]] = {
+    2: ((0.35, 0.35), (0.70, 0.70, 1.0)),
+    3: ((0.25, 0.65), (0.60, 0.80, 1.0)),
+}
 
 # output port -> (clear value, shader define)
 _OUTPUTS = {
@@ -83,6 +90,23 @@ class Rasterize(Node):
             "meshes; ogre.obj, where culling changes 1 pixel of 800x800 and makes the G-buffer 2.5x faster), "
             "draw both sides otherwise (teapot.obj: culling would change 0.5% of its pixels); draw: always both "
             "sides; cull: never draw back faces.")
+        tone_bands: Literal[0, 2, 3] = Field(
+            0, description="Colour patches on the shade map from the light: 0: flat colour; 2: the colour times "
+            "0.7 where N.L < 0.35, else the colour; 3: times 0.6 where N.L < 0.25, 0.8 up to 0.65, else the "
+            "colour (N.L with the scene light in view space). For one-colour meshes, so the sketch's shifted "
+            "colour patches read (not with `lit`).")
+
+        @model_validator(mode="after")
+        def _bands_unlit(self) -> Rasterize.Params:
+            if self.tone_bands and self.lit:
+                raise ValueError("tone_bands bands the unlit shade map; with lit: true give tone_bands: 0")
+            return self
+
+    def key_params(self) -> Any:
+        """tone_bands came later: at its default it stays out of the key, so older keys hold."""
+        if self.params.tone_bands == 0:
+            return self.params.model_dump(mode="json", exclude={"tone_bands"})
+        return self.params
 
     def hash_extra(self, ctx: HashContext) -> Any:
         return origin.hash_extra(ctx.scene, ctx.frame)
@@ -90,11 +114,19 @@ class Rasterize(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
-        ports = [p for p in _OUTPUTS if p in needed]
+        bands = self.params.tone_bands if "color" in needed else 0
+        # bands: the colour and an exact (float32) normal go to scratch textures, then a pass bands the colour
+        ports = [p for p in _OUTPUTS if p in needed or (bands and p == "normal")]
         defines: dict[str, Any] = {_OUTPUTS[p][1]: i for i, p in enumerate(ports)}
         defines["LIT"] = int(self.params.lit)
         prog = ctx.program("rasterize.glsl", defines)
         targets = {p: ctx.target(p, filter="nearest" if p == "object_id" else "linear") for p in ports}
+        scratch = {}
+        if bands:
+            scratch = {"color": targets["color"], "normal": ctx.gl.texture(ctx.size, "RGBA32F", filter="nearest")}
+            if "normal" in needed:
+                scratch["normal_out"] = targets["normal"]
+            targets["normal"] = scratch["normal"]
         w, h = ctx.size
         depth_rb = gl.depth_buffer((w, h))
         fbo = gl.framebuffer([targets[p] for p in ports], depth_rb)
@@ -138,6 +170,22 @@ class Rasterize(Node):
                     "u_ambient": float(self.params.ambient)})
                 state.cull(_cull_face(obj, self.params.backfaces))
                 vao.render(gl.ctx.TRIANGLES)
+        if bands:
+            (lo_t, hi_t), factors = TONE_BANDS[bands]
+            banded = ctx.target("color")
+            gl.fullscreen(ctx.program("tone_bands.glsl"), [banded],
+                          textures={"t_color": scratch["color"], "t_normal": scratch["normal"]},
+                          uniforms={"u_light": tuple(float(c) for c in light), "u_thresholds": (lo_t, hi_t),
+                                    "u_factors": factors})
+            gl.release(scratch["color"])
+            targets["color"] = banded
+            if "normal_out" in scratch:  # the port's own format, from the exact normal
+                gl.fullscreen(ctx.program("copy.glsl"), [scratch["normal_out"]],
+                              textures={"t_in": scratch["normal"]})
+                targets["normal"] = scratch["normal_out"]
+            else:
+                targets.pop("normal")
+            gl.release(scratch["normal"])
         return targets
 
 
