@@ -129,10 +129,6 @@ class Node:
         """Anything else the output depends on (override; must be cheap)."""
         return None
 
-    def key_params(self) -> Any:
-        """The params as the key covers them (override to leave a later param out at its default)."""
-        return self.params
-
     def key(self, ctx: HashContext, input_keys: dict[str, str]) -> str:
         from .glsl import source_digest
 
@@ -141,7 +137,7 @@ class Node:
             "type": self.type_name,
             "version": self.version,
             "glsl": [source_digest(self.source_dir() / s) for s in self.shaders],
-            "params": self.key_params(),
+            "params": self.params,
             "inputs": input_keys,
             "context": ctx_values,
             "extra": self.hash_extra(ctx),

@@ -59,7 +59,7 @@ def key_parts(node: Node, hctx: HashContext, input_keys: dict[str, str]) -> dict
         "type": node.type_name,
         "version": node.version,
         "glsl": [source_digest(node.source_dir() / s) for s in node.shaders],
-        "params": node.key_params(),
+        "params": node.params,
         "inputs": input_keys,
         "context": {k: hctx.value(k, node.id) for k in sorted(node.context_keys)},
         "extra": node.hash_extra(hctx),
@@ -117,7 +117,7 @@ def _reasons(a: Pipeline, b: Pipeline, nid: str, pa: dict[str, Any], pb: dict[st
         reasons.append(f"code version {pa['version']} → {pb['version']}")
     if pa["glsl"] != pb["glsl"]:
         reasons.append("GLSL source changed")
-    da, db = (p if isinstance(p, dict) else p.model_dump(mode="json") for p in (pa["params"], pb["params"]))
+    da, db = pa["params"].model_dump(mode="json"), pb["params"].model_dump(mode="json")
     for name in sorted(set(da) | set(db)):
         if da.get(name) != db.get(name):
             reasons.append(f"param {name}: {_short(da.get(name))} → {_short(db.get(name))}")

@@ -6,7 +6,7 @@ import warnings
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Field, model_serializer, model_validator
 
 from nodegraph import origin
 from nodegraph.gl import MeshArrays, bind
@@ -102,11 +102,14 @@ class Rasterize(Node):
                 raise ValueError("tone_bands bands the unlit shade map; with lit: true give tone_bands: 0")
             return self
 
-    def key_params(self) -> Any:
-        """tone_bands came later: at its default it stays out of the key, so older keys hold."""
-        if self.params.tone_bands == 0:
-            return self.params.model_dump(mode="json", exclude={"tone_bands"})
-        return self.params
+        @model_serializer(mode="wrap")
+        def _dump(self, handler: Any) -> Any:
+            """tone_bands came later: at its default 0 it stays out of the params' dump, so the keys (and the
+            gallery's records) of every pipeline written before it hold."""
+            out = handler(self)
+            if isinstance(out, dict) and out.get("tone_bands") == 0:
+                out.pop("tone_bands")
+            return out
 
     def hash_extra(self, ctx: HashContext) -> Any:
         return origin.hash_extra(ctx.scene, ctx.frame)
