@@ -46,6 +46,9 @@ def pipeline_options(f: Any) -> Any:
     f = click.option("--set", "overrides", multiple=True, metavar="NODE.PARAM=VALUE",
                      help="Override a node parameter (YAML value; repeatable).")(f)
     f = click.option("--size", metavar="WxH", help="Output size, e.g. 1200x900.")(f)
+    from .framing import click_options as framing_options
+
+    f = framing_options(f)
     f = click.option("--scene", metavar="SCENE", help="builtin:NAME, a scene YAML or a mesh file.")(f)
     return f
 
@@ -102,7 +105,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
         png_level: int | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
         no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
-        chunk: int | None) -> None:
+        chunk: int | None, view: str | None = None, up: str | None = None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
 
@@ -112,7 +115,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         from . import distributed as dist
         from . import film
 
-        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up)
         opened = spec.open()
         dist.ref_of(opened, output_name)  # load-time errors before a cluster starts
         frame_list, rate = film.prepare(opened, out, frames, None, None)  # the scene's own animation and fps
@@ -136,11 +139,12 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
 
         watcher = watchmod.Watcher(pipeline, out, output_name, overrides, size, scene,
                                    open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0],
-                                   out_dir=out_dir, allow_outside=allow_outside)
+                                   out_dir=out_dir, allow_outside=allow_outside, view=view, up=up)
         click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
         watchmod.watch(watcher, interval, echo=click.echo)
         return
-    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside)
+    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
+                         up=up)
     from . import film
 
     frame_list, fps = film.prepare(pipe, out, frames, fps, camera)
@@ -241,11 +245,12 @@ def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
 @out_dir_options
 def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, overrides: tuple[str, ...],
             size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None, out_dir: Path | None,
-            allow_outside: bool) -> None:
+            allow_outside: bool, view: str | None = None, up: str | None = None) -> None:
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
-    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside)
+    pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
+                         up=up)
     if all_:
         if port is not None:
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
@@ -350,7 +355,8 @@ def _node_info(cls: Any) -> dict[str, Any]:
 @main.command()
 @click.argument("pipeline", type=click.Path())
 @pipeline_options
-def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None) -> None:
+def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None, view: str | None = None,
+          up: str | None = None) -> None:
     """Print the DAG as Graphviz DOT text (pipe into `dot -Tsvg`)."""
     from .tools.dot import to_dot
 
@@ -462,14 +468,14 @@ def bench(ctx: click.Context, target: str | None) -> None:
 @cache_options
 def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], out: str, frame: int,
          keys_only: bool, overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-         cache_dir: Path | None) -> None:
+         cache_dir: Path | None, view: str | None = None, up: str | None = None) -> None:
     """Which nodes differ between two pipelines (or one pipeline with --set-a/--set-b) and why; max and
     mean absolute difference and a difference image per differing output. Exit 1 if anything differs."""
     from .tools.diff import diff as diff_pipelines
     from .tools.diff import format_report
 
-    pipe_a = open_pipeline(a, overrides + set_a, size, scene)
-    pipe_b = open_pipeline(b or a, overrides + set_b, size, scene)
+    pipe_a = open_pipeline(a, overrides + set_a, size, scene, view=view, up=up)
+    pipe_b = open_pipeline(b or a, overrides + set_b, size, scene, view=view, up=up)
     report = diff_pipelines(pipe_a, pipe_b, frame, open_cache(no_cache, cache_dir),
                             None if keys_only else Path(out), pixels=not keys_only)
     click.echo(f"A: {a}" + "".join(f" --set {s}" for s in overrides + set_a))
@@ -495,7 +501,8 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
 @scheduler_options
 def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: str | None, cell: int, frame: int,
           overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-          cache_dir: Path | None, scheduler: str | None, chunk: int | None) -> None:
+          cache_dir: Path | None, scheduler: str | None, chunk: int | None, view: str | None = None,
+          up: str | None = None) -> None:
     """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
     from .tools import viz
     from .tools import wedge as wedgemod
@@ -506,7 +513,7 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
     if scheduler is not None:
         from . import distributed as dist
 
-        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name)
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up)
         spec.open()  # load-time errors before a cluster starts
         root: Any = False if no_cache else cache_dir
         with dist.connect(scheduler, cache_root=root) as client:
@@ -515,7 +522,8 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
     elif chunk is not None:
         raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
     else:
-        cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene), axes,
+        cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene, view=view,
+                                                         up=up), axes,
                              output_name, frame, open_cache(no_cache, cache_dir),
                              progress=lambda it: _progress(list(it), n < 2, "cells"))
     path = Path(out or f"out/{Path(pipeline).stem}.wedge.png")

@@ -119,7 +119,8 @@ class Pipeline:
 
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
-         out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipeline:
+         out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
+         up: str | None = None) -> Pipeline:
     """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
     PipelineError (one line, file:line:col). Files that nodes write (`Node.file_params`) resolve against
     `out_dir` (default: the current directory) and must stay inside it unless `allow_outside`."""
@@ -127,7 +128,8 @@ def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] |
     file = str(path) if found == Path(path) else str(found)  # messages name the file as the user wrote it
     data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
-                 load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside)
+                 load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside,
+                 view=view, up=up)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -136,7 +138,9 @@ def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
 
 def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
           scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
-          base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False) -> Pipeline:
+          base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False,
+          view: str | None = None, up: str | None = None) -> Pipeline:
+    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene)."""
     reg = registry or default()
     if not isinstance(data, dict):
         raise PipelineError(f"expected a mapping with keys pipeline, nodes, outputs; found {type(data).__name__}",
@@ -221,7 +225,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
             where = loc.at(["scene"])
             base = base_dir or Path.cwd()
         try:
-            pipe.scene = _load_scene(pipe.scene_spec, base)
+            pipe.scene = _load_scene(pipe.scene_spec, base, view=view, up=up)
         except PipelineError as exc:
             if exc.location is not None:
                 raise

@@ -31,7 +31,7 @@ from pydantic import (
     model_validator,
 )
 
-from . import keyframes, primitives, yamlio
+from . import framing, keyframes, primitives, yamlio
 from .animation import DEFAULT_FPS, Animator, CameraAnim, ObjectAnim
 from .errors import Location, MeshError, PipelineError
 from .fsio import show_path
@@ -466,6 +466,10 @@ class ObjectSpec(_Spec):
     color: Color = Field(DEFAULT_MESH_COLOR, description="Flat, unlit color [r, g, b] in [0, 1] (the shade "
                          "map).")
     sketchy: bool = Field(True, description="Draw sketchily (false: plain 3D geometry composed by depth).")
+    up: Literal["x", "y", "z", "auto"] | None = Field(None, description="With 'mesh': the file's up axis, "
+                                                      "turned to +Y before 'transform' (auto: guessed from the "
+                                                      "format and the shape, as for a bare mesh file); default: "
+                                                      "as written.")
 
     @model_validator(mode="after")
     def _one_source(self) -> ObjectSpec:
@@ -475,12 +479,18 @@ class ObjectSpec(_Spec):
             raise ValueError("'animation' picks an animation of a 'gltf' file")
         if self.gltf is not None and self.animate is not None:
             raise ValueError("'animate' keyframes are for meshes and primitives; a glTF file plays its own animation")
+        if self.up is not None and self.mesh is None:
+            raise ValueError("'up' stands a mesh file up (primitives are +Y up, glTF files are Y-up)")
         return self
 
 
 class CameraSpec(_Spec):
-    eye: Vec3 = Field(description="Camera position [x, y, z] in world space.")
-    target: Vec3 = Field(description="Point the camera looks at.")
+    eye: Vec3 | None = Field(None, description="Camera position [x, y, z] in world space (with 'target'; or "
+                             "give 'view').")
+    target: Vec3 | None = Field(None, description="Point the camera looks at.")
+    view: Literal["three-quarter", "front", "back", "left", "right", "top"] | None = Field(
+        None, description="Instead of eye and target: frame the scene's bounding box from this side, the "
+        "front being +Z (three-quarter: from [0.55, 0.45, 1.0]).")
     up: Dir3 = Field((0.0, 1.0, 0.0), description="Up direction; must not be parallel to target - eye.")
     fov: float = Field(35.0, gt=0.0, lt=180.0, description="Vertical field of view in degrees.")
     near: float | None = Field(None, gt=0.0, description="Near plane distance (default: hug the scene's "
@@ -489,6 +499,14 @@ class CameraSpec(_Spec):
                               "bounding sphere).")
     animate: keyframes.CameraAnimateSpec | None = Field(None, description="Keyframes of eye, target, up and fov "
                                                         "(each replaces that value).")
+
+    @model_validator(mode="after")
+    def _placed(self) -> CameraSpec:
+        if self.view is None and (self.eye is None or self.target is None):
+            raise ValueError("give 'eye' and 'target', or a 'view' (front, back, left, right, top, three-quarter)")
+        if self.view is not None and (self.eye is not None or self.target is not None):
+            raise ValueError("'view' frames the scene itself: give it or 'eye' and 'target', not both")
+        return self
 
 
 class LightSpec(_Spec):
@@ -620,6 +638,9 @@ def json_schema() -> dict[str, Any]:
     sources = ("mesh", "primitive", "gltf")
     obj["oneOf"] = [{"required": [k], "not": {"anyOf": [{"required": [o]} for o in sources if o != k]}}
                     for k in sources]
+    defs["CameraSpec"]["oneOf"] = [{"required": ["eye", "target"], "not": {"required": ["view"]}},
+                                   {"required": ["view"], "not": {"anyOf": [{"required": ["eye"]},
+                                                                            {"required": ["target"]}]}}]
     cam = schema["properties"]["camera"]  # `camera: NAME | INDEX` picks a glTF camera (scene_from_yaml)
     cam["anyOf"] = [c for c in cam["anyOf"] if c.get("type") != "null"] + [
         {"type": "string", "description": "a camera of the scene's glTF objects, by name"},
@@ -651,9 +672,10 @@ def _build_primitive(data: Any, file: str, path: tuple[Any, ...], root: Any) -> 
     return primitive_mesh(spec)
 
 
-def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None) -> Scene:
+def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, view: str | None = None) -> Scene:
     """Load a scene YAML file; every error is a one-line PipelineError with file:line:col. `camera_choice`
-    (`--camera`) picks a camera of the scene's glTF objects instead of its `camera:`."""
+    (`--camera`) picks a camera of the scene's glTF objects instead of its `camera:`; `view` (`--view`)
+    frames a scene without `camera:` from that side (as `camera: {view: ...}`)."""
     p = Path(path)
     file = str(path)
     data = yamlio.load(p)
@@ -694,6 +716,8 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None) ->
                 mesh = load_any_mesh(mesh_path)
             except MeshError as exc:
                 raise PipelineError(str(exc), loc) from None
+            if obj.up is not None:
+                mesh, _ = stand_up(mesh, obj.up, str(mesh_path))
             default_name = mesh_path.stem
         else:
             mesh = _build_primitive(data["objects"][i]["primitive"], file, (*where, "primitive"), data)
@@ -713,8 +737,28 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None) ->
             camera = moving.gltf_camera(choice, center, radius)
         except (MeshError, PipelineError, ValueError) as exc:
             raise PipelineError(f"camera: {exc}", yamlio.locate(data, ("camera",), file)) from None
+    elif view is not None and view != "widest" and spec.camera is None:
+        direction, cam_up = framing.view_direction(view, (0.0, 0.0, 1.0))
+        camera = frame_camera(lo, hi, direction=direction, up=cam_up)
+    elif view is not None:
+        raise PipelineError(f"--view {view}: frames a scene without a camera (or give camera: {{view: ...}})"
+                            if view != "widest" else "--view widest frames a mesh file, not a scene file",
+                            yamlio.locate(data, ("camera",), file) if spec.camera is not None else Location(file, 1, 1))
     elif spec.camera is None:
         camera = frame_camera(lo, hi)
+    elif spec.camera.view is not None:
+        c = spec.camera
+        direction, cam_up = framing.view_direction(c.view, (0.0, 0.0, 1.0))
+        try:
+            camera = frame_camera(lo, hi, fov_y_deg=c.fov, direction=direction,
+                                  up=c.up if "up" in c.model_fields_set else cam_up)
+            if c.near is not None or c.far is not None:
+                near = c.near if c.near is not None else camera.near
+                camera = replace(camera, near=near, far=c.far if c.far is not None else max(camera.far, near * 1.001))
+            if c.animate is not None:
+                moving.add_camera_keyframes(camera, c.animate)
+        except ValueError as exc:
+            raise PipelineError(f"camera: {exc}", yamlio.locate(data, ("camera",), file)) from None
     else:
         c = spec.camera
         near, far = near_far_for(c.eye, center, radius)
@@ -761,18 +805,38 @@ def best_view_direction(mesh: Mesh, elevation_deg: float = 25.0, azimuths: int =
     return dirs[int(np.argmax(visible))]
 
 
-def scene_for_mesh(mesh: Mesh, source: str | None = None) -> Scene:
-    """One sketchy object, seen from its most revealing side (best_view_direction), framed, with a
-    6 degrees/frame orbit about +Y."""
+def stand_up(mesh: Mesh, up: str | None, source: str | None = None) -> tuple[Mesh, str]:
+    """The mesh turned so that its up axis (`up`: x, y, z; None or 'auto': framing.detect_up from the
+    file's format and the mesh's shape) is +Y, and the axis used. A Y-up mesh is returned as it is."""
+    axis = framing.check_up(up) or framing.detect_up(mesh.vertices, mesh.faces,
+                                                    framing.suffix_of(source or mesh.source))
+    if axis == "y":
+        return mesh, axis
+    return mesh.transformed(framing.up_rotation(axis)), axis
+
+
+def mesh_camera(mesh: Mesh, view: str | None = None) -> Camera:
+    """The camera of a bare (Y-up) mesh: a named view (framing.VIEWS; default three-quarter) of the side
+    framing.detect_front finds, framed from the bounding box."""
+    view = framing.check_view(view) or "three-quarter"
     lo, hi = mesh.bounds()
-    camera = frame_camera(lo, hi, direction=best_view_direction(mesh))
+    if view == "widest":
+        return frame_camera(lo, hi, direction=best_view_direction(mesh))
+    direction, up = framing.view_direction(view, framing.detect_front(mesh.vertices, mesh.faces))
+    return frame_camera(lo, hi, direction=direction, up=up)
+
+
+def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = None, up: str | None = None) -> Scene:
+    """One sketchy object, stood up (`stand_up`), seen from `view` (default: three-quarter front; see
+    nodegraph/framing.py), framed, with a 6 degrees/frame orbit about +Y."""
+    mesh, _ = stand_up(mesh, up, source)
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
-                 camera=camera, orbit=Orbit(), source=source or mesh.source)
+                 camera=mesh_camera(mesh, view), orbit=Orbit(), source=source or mesh.source)
 
 
-def mesh_scene(path: str | Path) -> Scene:
+def mesh_scene(path: str | Path, view: str | None = None, up: str | None = None) -> Scene:
     """A mesh file as a one-object scene (scene_for_mesh)."""
-    return scene_for_mesh(load_mesh(path), str(path))
+    return scene_for_mesh(load_mesh(path), str(path), view=view, up=up)
 
 
 # --- built-in scenes ----------------------------------------------------------------------------
@@ -966,11 +1030,18 @@ def builtin_scene(name: str) -> Scene:
     return BUILTIN_SCENES[name]()
 
 
-def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
+def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None) -> Scene:
     """`builtin:NAME`, a scene YAML (.yaml/.yml) or a mesh file (.obj/.ply/.off/.stl); relative paths
-    start at `base_dir` (default: the current directory)."""
+    start at `base_dir` (default: the current directory). `view` and `up` (`--view`, `--up`; see
+    nodegraph/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera."""
     spec = str(spec).strip()
+    try:
+        view, up = framing.check_view(view), framing.check_up(up)
+    except ValueError as exc:
+        raise PipelineError(str(exc)) from None
     if spec.startswith("builtin:"):
+        if view is not None or up is not None:
+            raise PipelineError(f"--view/--up frame a mesh file; {spec} has its own camera")
         return builtin_scene(spec.removeprefix("builtin:"))
     path = Path(spec).expanduser()
     if not path.is_absolute() and base_dir is not None:
@@ -980,7 +1051,7 @@ def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
         if not path.exists():
             raise PipelineError(f"scene file not found: {path.absolute()}")
         try:
-            return scene_from_gltf(path)
+            return scene_from_gltf(path, view=view, up=up)
         except MeshError as exc:
             raise PipelineError(str(exc)) from None
     if ext not in SCENE_EXTENSIONS + SUPPORTED_EXTENSIONS:
@@ -994,8 +1065,10 @@ def load_scene(spec: str, base_dir: Path | None = None) -> Scene:
     except (OSError, ValueError):
         pass  # the loaders check the file and say what is wrong with it
     if ext in SCENE_EXTENSIONS:
-        return scene_from_yaml(path)
-    return mesh_scene(path)
+        if up is not None:
+            raise PipelineError(f"--up stands a mesh file up; in a scene file give 'up:' per mesh object ({spec})")
+        return scene_from_yaml(path, view=view)
+    return mesh_scene(path, view=view, up=up)
 
 
 # --- animated scenes ------------------------------------------------------------------------------------
@@ -1109,26 +1182,34 @@ class _Moving:
 
 
 def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation: str | int | None = None,
-                    fps: float = DEFAULT_FPS) -> Scene:
+                    fps: float = DEFAULT_FPS, view: str | None = None, up: str | None = None) -> Scene:
     """A glTF file as a scene: its objects (colour from the material), seen through its first perspective
     camera (or `camera`, by name or index), playing its first animation (or `animation`). Without a camera
     the scene is framed over the whole animation; a still file without a camera gets a mesh file's view and
-    orbit."""
+    orbit. `up` (x, y, z) turns the file so that axis is +Y (glTF is Y-up: nothing is guessed); `view`
+    (framing.VIEWS) picks the side a still file without a camera is seen from, the front being +Z as glTF
+    has it."""
     p = Path(path).expanduser().absolute()
     spec = ObjectSpec(gltf=str(p), animation=animation)
     moving = _Moving(fps)
     objects: list[SceneObject] = []
-    moving.add_gltf(objects, spec, p, np.eye(4), False, prefix=False)
+    moving.add_gltf(objects, spec, p, framing.up_rotation(framing.check_up(up) or "y"), False, prefix=False)
     lo, hi = moving.bounds(objects)
     center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
     cam = moving.gltf_camera(camera, center, radius)
+    if cam is not None and view is not None:
+        raise PipelineError(f"--view frames a file without a camera; {p.name} looks through its own camera")
     anim = moving.animator()
     orbit = None
     if cam is None:
         still = anim is None
-        direction = best_view_direction(merge_meshes([o.mesh.transformed(o.transform) for o in objects], p.stem)) \
-            if still else (0.55, 0.45, 1.0)
-        cam = frame_camera(lo, hi, direction=direction)
+        if view is not None and view != "widest":
+            direction, cam_up = framing.view_direction(view, (0.0, 0.0, 1.0))
+            cam = frame_camera(lo, hi, direction=direction, up=cam_up)
+        else:
+            direction = best_view_direction(merge_meshes([o.mesh.transformed(o.transform) for o in objects],
+                                                         p.stem)) if still else (0.55, 0.45, 1.0)
+            cam = frame_camera(lo, hi, direction=direction)
         orbit = Orbit() if still else None
     return Scene(name=p.stem, objects=tuple(objects), camera=cam, orbit=orbit, source=str(p), animation=anim)
 

@@ -48,15 +48,18 @@ def command_for(target: str) -> click.Command:
 
 
 def _pipeline_command(path: str) -> click.Command:
+    from ..framing import click_options as framing_options
+
     @click.command()
     @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
+    @framing_options
     @click.option("--frames", default=60, show_default=True, help="Frames to render along the orbit.")
     @click.option("--size", default=None, help="WxH (default: the pipeline's).")
     @click.option("--set", "overrides", multiple=True, help="NODE.PARAM=VALUE")
     @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
     def cmd(scene: str | None, frames: int, size: str | None, overrides: tuple[str, ...],
-            json_path: Path | None) -> None:
-        result = bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides)
+            json_path: Path | None, view: str | None = None, up: str | None = None) -> None:
+        result = bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides, view=view, up=up)
         print_result(result)
         if json_path:
             json_path.parent.mkdir(parents=True, exist_ok=True)
@@ -81,12 +84,14 @@ def _fmt(v: Any) -> str:
 
 
 def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, size: str | None = None,
-                   overrides: tuple[str, ...] = (), warmup: int = 3) -> dict[str, Any]:
+                   overrides: tuple[str, ...] = (), warmup: int = 3, view: str | None = None,
+                   up: str | None = None) -> dict[str, Any]:
     from .. import gl as glmod
     from .. import pipeline as pl
     from ..executor import Executor
 
-    pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene)
+    pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
+                   view=view, up=up)
     gl = glmod.get()
     ex = Executor(pipe, None, mode="loop", memory_limit=256 * 1024**2)
     for f in range(-warmup, 0):

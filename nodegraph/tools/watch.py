@@ -91,8 +91,10 @@ class Watcher:
     def __init__(self, pipeline: str | Path, out: str | Path | None = None, output_name: str | None = None,
                  overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
                  cache: Any = None, frame: int = 0, load: Callable[..., Pipeline] | None = None,
-                 out_dir: str | Path | None = None, allow_outside: bool = False):
+                 out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
+                 up: str | None = None):
         self.pipeline_path = _watched_file(pipeline)
+        self.view, self.up = view, up
         self.out = Path(out) if out else Path("out") / f"{self.pipeline_path.stem}.png"
         self.output_name = output_name
         self.overrides = tuple(overrides)
@@ -122,7 +124,7 @@ class Watcher:
         from ..render import open_pipeline
 
         return open_pipeline(str(self.pipeline_path), self.overrides, self.size, self.scene, out_dir=self.out_dir,
-                             allow_outside=self.allow_outside)
+                             allow_outside=self.allow_outside, view=self.view, up=self.up)
 
     def step(self, force: bool = False) -> WatchEvent | None:
         """Re-run if any watched file changed since the last step (or on the first step); else None."""

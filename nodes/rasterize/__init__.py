@@ -6,13 +6,20 @@ import warnings
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_serializer, model_validator
 
 from nodegraph import origin
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
+
+# tone_bands -> (N.L thresholds (dark | middle | light), colour factors (dark, middle, light)); N.L with the
+# scene light in view space, the normal two-sided as the G-buffer has it. 2 bands: no middle band.
+TONE_BANDS: dict[int, tuple[tuple[float, float], tuple[float, float, float]]] = {
+    2: ((0.35, 0.35), (0.70, 0.70, 1.0)),
+    3: ((0.25, 0.65), (0.60, 0.80, 1.0)),
+}
 
 # output port -> (clear value, shader define)
 _OUTPUTS = {
@@ -83,6 +90,26 @@ class Rasterize(Node):
             "meshes; ogre.obj, where culling changes 1 pixel of 800x800 and makes the G-buffer 2.5x faster), "
             "draw both sides otherwise (teapot.obj: culling would change 0.5% of its pixels); draw: always both "
             "sides; cull: never draw back faces.")
+        tone_bands: Literal[0, 2, 3] = Field(
+            0, description="Colour patches on the shade map from the light: 0: flat colour; 2: the colour times "
+            "0.7 where N.L < 0.35, else the colour; 3: times 0.6 where N.L < 0.25, 0.8 up to 0.65, else the "
+            "colour (N.L with the scene light in view space). For one-colour meshes, so the sketch's shifted "
+            "colour patches read (not with `lit`).")
+
+        @model_validator(mode="after")
+        def _bands_unlit(self) -> Rasterize.Params:
+            if self.tone_bands and self.lit:
+                raise ValueError("tone_bands bands the unlit shade map; with lit: true give tone_bands: 0")
+            return self
+
+        @model_serializer(mode="wrap")
+        def _dump(self, handler: Any) -> Any:
+            """tone_bands came later: at its default 0 it stays out of the params' dump, so the keys (and the
+            gallery's records) of every pipeline written before it hold."""
+            out = handler(self)
+            if isinstance(out, dict) and out.get("tone_bands") == 0:
+                out.pop("tone_bands")
+            return out
 
     def hash_extra(self, ctx: HashContext) -> Any:
         extra = origin.hash_extra(ctx.scene, ctx.frame)
@@ -96,8 +123,16 @@ class Rasterize(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
-        ports = [p for p in _OUTPUTS if p in needed]
+        bands = self.params.tone_bands if "color" in needed else 0
+        # bands: the colour and an exact (float32) normal go to scratch textures, then a pass bands the colour
+        ports = [p for p in _OUTPUTS if p in needed or (bands and p == "normal")]
         targets = {p: ctx.target(p, filter="nearest" if p == "object_id" else "linear") for p in ports}
+        scratch = {}
+        if bands:
+            scratch = {"color": targets["color"], "normal": ctx.gl.texture(ctx.size, "RGBA32F", filter="nearest")}
+            if "normal" in needed:
+                scratch["normal_out"] = targets["normal"]
+            targets["normal"] = scratch["normal"]
         objects = scene.select(self.params.select)
         # posed (skinned, morphed) meshes write their rest-pose position, in a pass of its own
         rest = "position" in ports and any(o.mesh.rest is not None for o in objects)
@@ -146,6 +181,22 @@ class Rasterize(Node):
                     vao.render(gl.ctx.TRIANGLES)
         if rest:
             self._rest_pass(ctx, targets["position"], objects, view, world, proj, scene_diag)
+        if bands:
+            (lo_t, hi_t), factors = TONE_BANDS[bands]
+            banded = ctx.target("color")
+            gl.fullscreen(ctx.program("tone_bands.glsl"), [banded],
+                          textures={"t_color": scratch["color"], "t_normal": scratch["normal"]},
+                          uniforms={"u_light": tuple(float(c) for c in light), "u_thresholds": (lo_t, hi_t),
+                                    "u_factors": factors})
+            gl.release(scratch["color"])
+            targets["color"] = banded
+            if "normal_out" in scratch:  # the port's own format, from the exact normal
+                gl.fullscreen(ctx.program("copy.glsl"), [scratch["normal_out"]],
+                              textures={"t_in": scratch["normal"]})
+                targets["normal"] = scratch["normal_out"]
+            else:
+                targets.pop("normal")
+            gl.release(scratch["normal"])
         return targets
 
     def _enlarge(self, diag: float, model: np.ndarray, scene_diag: float) -> float:

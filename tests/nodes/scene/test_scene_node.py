@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from nodegraph import framing
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from tests.helpers import RASTER, assert_outputs_as_planned, render_normal_depth, run_minimal
@@ -37,8 +38,9 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 
 
 def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
-    """Against the file written here: one object, its vertices and faces as written, identity transform,
-    and every vertex inside the camera's view (projected with the camera matrices in float64)."""
+    """Against the file written here: one object, its faces as written, its vertices stood up (a pyramid on
+    a flat base at z = 0 reads as Z-up: +Z turned to +Y, nodegraph/framing.py), identity transform, and
+    every vertex inside the camera's view (projected with the camera matrices in float64)."""
     verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
     faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
     f = tmp_path / "m.obj"
@@ -48,9 +50,10 @@ def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
                           size=(48, 40), load_scene=False)
     scene = res.values[("s", "out")]
     (obj,) = scene.objects
-    assert np.array_equal(obj.mesh.vertices, verts) and np.array_equal(obj.mesh.faces, faces)
+    stood = verts @ framing.up_rotation("z")[:3, :3].T
+    assert np.array_equal(obj.mesh.vertices, stood) and np.array_equal(obj.mesh.faces, faces)
     assert np.array_equal(np.asarray(obj.transform), np.eye(4))
     cam = scene.camera_at(0)
-    clip = np.c_[verts, np.ones(len(verts))] @ (cam.projection_matrix(48 / 40) @ cam.view_matrix()).T
+    clip = np.c_[stood, np.ones(len(verts))] @ (cam.projection_matrix(48 / 40) @ cam.view_matrix()).T
     ndc = clip[:, :3] / clip[:, 3:]
     assert np.all(clip[:, 3] > 0) and np.all(np.abs(ndc) < 1.0)
