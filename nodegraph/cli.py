@@ -173,38 +173,18 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
             where = done["path"] if film.is_film(pattern) else done["path"].parent
             click.echo(f"wrote {done['frames']} frames{skipped} to {where} in {time.perf_counter() - t0:.1f} s")
         return
-    bar = _progress(frame_list, quiet or not many, "frames")
-    manifest = None
-    if resume and many:
-        from .frames_manifest import FramesManifest
-
-        manifest = FramesManifest.load(pattern)
+    frame = frame_list[0]  # one frame: sequences and films went through film.render_frames above
+    target = frame_path(pattern, frame, False)
     try:
-        for frame in bar:
-            target = frame_path(pattern, frame, many)
-            if manifest is not None:
-                from .frames_manifest import file_sha256, frame_digest
-
-                digest = frame_digest(ex.keys(frame)[ref[0]], ref[1], target.suffix)
-                if manifest.done(frame, digest, target):
-                    continue
-            result = ex.run(frame)
-            if is_sequence(pattern, many):
-                path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
-            else:
-                path = write_value(result.values[ref], target)
-            if manifest is not None:
-                manifest.record(frame, digest, file_sha256(path))
-                manifest.save(every=1.0)
-            if not quiet and not many:
-                click.echo(f"wrote {path}  ({summary(result)})")
+        result = ex.run(frame)
+        if is_sequence(pattern, False):
+            path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
+        else:
+            path = write_value(result.values[ref], target)
+        if not quiet:
+            click.echo(f"wrote {path}  ({summary(result)})")
     finally:
-        if manifest is not None:
-            manifest.save()
         ex.close(None if quiet else lambda text: click.echo(text, err=True))
-    if many and not quiet:
-        click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent} "
-                   f"in {time.perf_counter() - t0:.1f} s")
 
 
 def summary(result: Any) -> str:

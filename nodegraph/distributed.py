@@ -678,13 +678,13 @@ class FrameRun:
 
 
 def prune_shared(cache_root: Any, renderers: set[str]) -> None:
-    """Prune each namespace the workers wrote into (the client's job; workers never prune)."""
-    if cache_root is False:
+    """Prune the shared cache after the workers wrote into it (the client's job; workers never prune). One
+    prune covers every renderer's namespace under the root (`Cache.prune` scans them all)."""
+    if cache_root is False or not renderers:
         return
     root = _root_arg(cache_root)
-    for r in renderers:
-        with contextlib.suppress(Exception):
-            namespaced_cache(root if isinstance(root, str) else None, r).prune()
+    with contextlib.suppress(Exception):
+        Cache(Path(root) if isinstance(root, str) else None).prune()
 
 
 def worker_renderers(client: Any) -> dict[str, str]:

@@ -219,7 +219,8 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     try:
         for frame in loop:
             path = frame_path(pattern, frame, many)
-            key = frame_digest(ex.keys(frame)[ref[0]], ref[1], path.suffix)
+            # the resume digest needs this frame's keys; without a manifest the run computes them once, itself
+            key = frame_digest(ex.keys(frame)[ref[0]], ref[1], path.suffix) if seq.manifest is not None else ""
             if seq.up_to_date(frame, key, path):
                 skipped += 1
                 continue

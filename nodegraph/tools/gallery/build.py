@@ -346,12 +346,7 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
                                    gallery.out / "inspect" if inspect else None)
                 records[entry.name] = {**ep.record, "build_key": ep.build_key, "files": res.files}
         except Exception as exc:  # noqa: BLE001 - one broken entry must not stop the others
-            if not isinstance(exc, SketchgraphError):
-                exc = SketchgraphError(f"{type(exc).__name__}: {exc}")
-            res = EntryResult(entry.name, "failed", note=str(exc))
-            failed.append(entry.name)
-            if entry.name in old.get("entries", {}):
-                records[entry.name] = old["entries"][entry.name]
+            res = _failed(entry.name, exc, old, records, failed)
         res.ms = (time.perf_counter() - t1) * 1000
         results.append(res)
         if res.status != "submitted":
@@ -365,12 +360,7 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
             res = _entry_result(fut)
             records[res.name] = {**ep.record, "build_key": ep.build_key, "files": res.files}
         except Exception as exc:  # noqa: BLE001 - one broken entry must not stop the others
-            if not isinstance(exc, SketchgraphError):
-                exc = SketchgraphError(f"{type(exc).__name__}: {exc}")
-            res = EntryResult(res.name, "failed", note=str(exc))
-            failed.append(res.name)
-            if res.name in old.get("entries", {}):
-                records[res.name] = old["entries"][res.name]
+            res = _failed(res.name, exc, old, records, failed)
         results[i] = res
         _echo_line(echo, bar, res)
     if remote:
@@ -460,3 +450,14 @@ def format_build(report: BuildReport) -> str:
     if report.failed:
         lines.append(f"failed: {', '.join(report.failed)}")
     return "\n".join(lines)
+
+
+def _failed(name: str, exc: BaseException, old: dict[str, Any], records: dict[str, Any],
+            failed: list[str]) -> EntryResult:
+    """A failed entry: one line of why, and its old manifest record kept."""
+    if not isinstance(exc, SketchgraphError):
+        exc = SketchgraphError(f"{type(exc).__name__}: {exc}")
+    failed.append(name)
+    if name in old.get("entries", {}):
+        records[name] = old["entries"][name]
+    return EntryResult(name, "failed", note=str(exc))
