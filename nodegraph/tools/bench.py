@@ -32,6 +32,8 @@ NAMED: dict[str, str] = {
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
     "film": "nodegraph.tools.bench_film:command",
+    "uncertainty-cost": "nodegraph.tools.bench_lines:uncertainty_command",
+    "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -102,8 +102,10 @@ def pair_metric(depth0: np.ndarray, off0: np.ndarray, cam0: Any, depth1: np.ndar
 
 
 def measure(pipeline: str | Path, scene: str, frames: int, size: tuple[int, int] = (400, 400),
-            degrees_per_frame: float | None = None, depth_tol: float = 0.01, gl: Any = None) -> dict[str, Any]:
-    """The shower-door metric of one pipeline along the scene's orbit (see the module doc)."""
+            degrees_per_frame: float | None = None, depth_tol: float = 0.01, gl: Any = None,
+            overrides: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
+    """The shower-door metric of one pipeline along the scene's orbit (see the module doc); `overrides` are
+    NODE.PARAM=VALUE settings as `--set` takes them."""
     from .. import gl as glmod
     from .. import pipeline as pl
     from ..executor import Executor
@@ -111,7 +113,7 @@ def measure(pipeline: str | Path, scene: str, frames: int, size: tuple[int, int]
 
     if frames < 2:
         raise SketchgraphError(f"--frames: the metric compares consecutive frames, so at least 2 (got {frames})")
-    pipe = pl.load(pipeline, size=size, scene=scene)
+    pipe = pl.load(pipeline, size=size, scene=scene, overrides=list(overrides))
     sc = pipe.scene
     if degrees_per_frame is not None:
         orbit = sc.orbit or Orbit()

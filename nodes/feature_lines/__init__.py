@@ -60,6 +60,14 @@ class FeatureLines(Node):
                                        "intensity 10 degrees beyond).")
         ridge_threshold: float = Field(20.0, ge=0, le=1e4, description="Ridges and valleys need |k| x "
                                        "bounding-box diagonal above this (full intensity at twice it).")
+        curvature_smoothing: float = Field(0.01, ge=0, le=0.2, description="k1 and k2 are diffused over this "
+                                           "fraction of the bounding-box diagonal (RMS radius) before the lines "
+                                           "are extracted, whatever the mesh density: averages out scanner noise.")
+        min_length: float = Field(0.03, ge=0, le=1, description="Chains of segments (connected across mesh "
+                                  "edges) shorter than this fraction of the bounding-box diagonal are dropped: "
+                                  "curvature noise on scanned meshes gives many short fragments.")
+        chain_strength: float = Field(0.5, ge=0, le=1, description="Hysteresis: a chain is kept only where its "
+                                      "strongest point reaches this intensity; its weaker parts stay with it.")
         width: float = Field(2.0, ge=1, le=8, description="Line width in pixels.")
         depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A line is hidden where the G-buffer "
                                        "is nearer by more than this fraction of its depth.")
@@ -84,25 +92,33 @@ class FeatureLines(Node):
                             self.type_name)
         ckey = str(curv.data.get(object_field(index, "key"), ""))
         cache = ctx.gl.resources.setdefault("feature_lines.ops", {})
-        base = (mesh.content_hash(), ckey)
+        base = (mesh.content_hash(), ckey, p.curvature_smoothing)
         entry = cache.get(base)
         if entry is None:
             if len(cache) >= 8:
                 cache.pop(next(iter(cache)))
             arr = {k: curv.data[object_field(index, k)] for k in ("kmin", "kmax", "dmin", "dmax", "normal",
                                                                   "confidence")}
+            weld = mesh.weld()[0]
             ops = lines.mesh_ops(mesh.vertices, mesh.faces, **arr)
-            entry = cache[base] = {"ops": ops, "ext": lines.extrema_data(ops, mesh.weld()[0])}
-        ops = entry["ops"]
+            ops = lines.smooth_curvature(ops, p.curvature_smoothing * ops.diag, weld)
+            entry = cache[base] = {"ops": ops, "ext": lines.extrema_data(ops, weld), "weld": weld}
+        ops, weld = entry["ops"], entry["weld"]
+        min_len = p.min_length * ops.diag
+
+        def filtered(seg: lines.Segments) -> lines.Segments:
+            return lines.filter_chains(seg, min_len, weld, p.chain_strength)
+
         out: dict[str, lines.Segments] = {}
         if "suggestive" in kinds:
-            out["suggestive"] = lines.suggestive_contours(ops, eye_object, p.derivative_threshold, p.angle_threshold)
+            out["suggestive"] = filtered(lines.suggestive_contours(ops, eye_object, p.derivative_threshold,
+                                                                   p.angle_threshold))
         for kind, label in (("ridges", "ridge"), ("valleys", "valley")):
             if kind not in kinds:
                 continue
-            rkey = (kind, p.ridge_threshold)
+            rkey = (kind, p.ridge_threshold, min_len, p.chain_strength)
             if rkey not in entry:
-                entry[rkey] = lines.ridges(ops, entry["ext"], p.ridge_threshold, label)
+                entry[rkey] = filtered(lines.ridges(ops, entry["ext"], p.ridge_threshold, label))
             seg = entry[rkey]
             out[kind] = seg.select(lines.front_facing(ops, seg.face, eye_object))
         return out

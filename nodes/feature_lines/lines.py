@@ -44,22 +44,26 @@ class MeshOps:
 
 @dataclass(frozen=True, eq=False)
 class Segments:
-    """Line segments on the surface: endpoints (s, 2, 3) in object space, intensity (s, 2) in [0, 1] and
-    the face (index into MeshOps.F) each lies in."""
+    """Line segments on the surface: endpoints (s, 2, 3) in object space, intensity (s, 2) in [0, 1], the
+    face (index into MeshOps.F) each lies in and, when known, the mesh edge each endpoint lies on as its two
+    vertex ids (s, 2, 2): segments of neighbouring faces that meet on an edge form one chain."""
 
     points: np.ndarray
     intensity: np.ndarray
     face: np.ndarray
+    edge: np.ndarray | None = None
 
     @staticmethod
     def empty() -> Segments:
-        return Segments(np.zeros((0, 2, 3)), np.zeros((0, 2)), np.zeros(0, dtype=np.int64))
+        return Segments(np.zeros((0, 2, 3)), np.zeros((0, 2)), np.zeros(0, dtype=np.int64),
+                        np.zeros((0, 2, 2), dtype=np.int64))
 
     def __len__(self) -> int:
         return len(self.face)
 
     def select(self, keep: np.ndarray) -> Segments:
-        return Segments(self.points[keep], self.intensity[keep], self.face[keep])
+        return Segments(self.points[keep], self.intensity[keep], self.face[keep],
+                        None if self.edge is None else self.edge[keep])
 
     def length(self) -> float:
         return float(np.linalg.norm(self.points[:, 1] - self.points[:, 0], axis=1).sum())
@@ -95,6 +99,44 @@ def mesh_ops(V: np.ndarray, F: np.ndarray, kmin: np.ndarray, kmax: np.ndarray, d
     return MeshOps(V=V, F=F, face_index=np.flatnonzero(keep), grad=grad, face_normal=nf, centroid=p.mean(axis=1),
                    k1=k1, k2=k2, e1=e1, e2=e2, normal=np.asarray(normal, np.float64),
                    confidence=np.asarray(confidence, np.float64), diag=diag)
+
+
+def smooth_curvature(ops: MeshOps, length: float, weld: np.ndarray | None = None,
+                     max_steps: int = 400) -> MeshOps:
+    """`ops` with k1 and k2 diffused over about `length` (object-space units): steps of k <- k + 1/2 (mean of
+    the 1-ring - k) on the welded mesh. Each step widens the kernel's mean squared radius by about h^2 / 2
+    (h: the mean edge length), so n = 2 (length / h)^2 steps give an RMS radius of `length` whatever the
+    mesh density; scanner noise in the curvature averages out, features wider than `length` stay. A
+    uniform average never swaps k1 >= k2. The directions are left as measured."""
+    from dataclasses import replace
+
+    from scipy.sparse import coo_matrix, diags
+
+    n = len(ops.V)
+    if length <= 0.0 or n == 0 or len(ops.F) == 0:
+        return ops
+    ids = np.arange(n) if weld is None else np.asarray(weld, dtype=np.int64)
+    _, wid = np.unique(ids, return_inverse=True)
+    nu = int(wid.max()) + 1
+    e = np.concatenate([ops.F[:, [0, 1]], ops.F[:, [1, 2]], ops.F[:, [2, 0]]])
+    h = float(np.linalg.norm(ops.V[e[:, 0]] - ops.V[e[:, 1]], axis=1).mean())
+    if h <= 0.0:
+        return ops
+    steps = int(min(max_steps, np.ceil(2.0 * (length / h) ** 2)))
+    we = np.unique(np.sort(wid[e], axis=1), axis=0)
+    we = we[we[:, 0] != we[:, 1]]
+    adj = coo_matrix((np.ones(2 * len(we)), (np.r_[we[:, 0], we[:, 1]], np.r_[we[:, 1], we[:, 0]])),
+                     shape=(nu, nu)).tocsr()
+    deg = np.asarray(adj.sum(axis=1)).ravel()
+    mean = diags(1.0 / np.maximum(deg, 1.0)) @ adj
+    # vertex values on the welded mesh: the mean over the copies of a welded vertex
+    count = np.bincount(wid, minlength=nu)
+    k = np.stack([np.bincount(wid, weights=ops.k1, minlength=nu), np.bincount(wid, weights=ops.k2, minlength=nu)],
+                 axis=1) / count[:, None]
+    lonely = deg == 0
+    for _ in range(steps):
+        k = np.where(lonely[:, None], k, 0.5 * k + 0.5 * (mean @ k))
+    return replace(ops, k1=k[wid, 0], k2=k[wid, 1])
 
 
 def face_gradient(ops: MeshOps, f: np.ndarray) -> np.ndarray:
@@ -144,6 +186,52 @@ def zero_crossings(F: np.ndarray, V: np.ndarray, f: np.ndarray) -> tuple[np.ndar
     p2 = V[ia] + t2[:, None] * (V[i2] - V[ia])
     edges = np.stack([np.stack([a, b1, t1], axis=1), np.stack([a, b2, t2], axis=1)], axis=1)
     return faces, np.stack([p1, p2], axis=1), edges
+
+
+def _edge_vertices(F: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The vertex ids (k, 2, 2) of the mesh edge each crossing endpoint lies on."""
+    corners = edges[..., :2].astype(np.int64)  # (k, 2, 2) corner indices in the face
+    return np.take_along_axis(F[faces][:, None, :], corners, axis=2)
+
+
+def chains(seg: Segments, weld: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """Connected chains of segments: two segments belong to one chain where they end on the same mesh edge
+    (vertex ids mapped through `weld`, so chains cross UV and normal seams). Returns each segment's chain
+    label (s,) and the number of chains."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(seg)
+    if n == 0 or seg.edge is None:
+        return np.arange(n), n
+    ids = seg.edge if weld is None else np.asarray(weld, dtype=np.int64)[seg.edge]
+    lo, hi = ids.min(axis=2), ids.max(axis=2)  # (s, 2) an undirected edge per endpoint
+    _, node = np.unique(np.stack([lo.ravel(), hi.ravel()], axis=1), axis=0, return_inverse=True)
+    node = node.reshape(n, 2)
+    # a bipartite graph of segments and edge points: segment i is joined to both of its endpoints' edges
+    m = int(node.max()) + 1
+    rows = np.repeat(np.arange(n), 2)
+    graph = coo_matrix((np.ones(2 * n), (rows, n + node.ravel())), shape=(n + m, n + m))
+    count, labels = connected_components(graph, directed=False)
+    lab = labels[:n]
+    _, lab = np.unique(lab, return_inverse=True)
+    return lab, int(lab.max()) + 1
+
+
+def filter_chains(seg: Segments, min_length: float, weld: np.ndarray | None = None,
+                  strong: float = 0.0) -> Segments:
+    """The segments of the chains (see `chains`) at least `min_length` long (object-space units) whose
+    strongest point reaches `strong` (hysteresis: weak parts survive where they continue a strong line).
+    Curvature noise on scanned meshes gives many short, isolated fragments; real features are long."""
+    if len(seg) == 0 or (min_length <= 0.0 and strong <= 0.0):
+        return seg
+    lab, count = chains(seg, weld)
+    length = np.linalg.norm(seg.points[:, 1] - seg.points[:, 0], axis=1)
+    total = np.bincount(lab, weights=length, minlength=count)
+    peak = np.zeros(count)
+    np.maximum.at(peak, lab, seg.intensity.max(axis=1))
+    keep = (total >= min_length) & (peak >= strong)
+    return seg.select(keep[lab])
 
 
 def _interp(values: np.ndarray, faces: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -204,7 +292,7 @@ def ridges(ops: MeshOps, ext: ExtremaData, threshold: float, kind: str = "ridge"
     strength = _smoothstep(threshold, 2.0 * threshold, kk * ops.diag) * np.clip(conf, 0.0, 1.0)
     strength = np.where(kk > oo, strength, 0.0)
     keep = ok & (strength.max(axis=1) > 0.02)
-    return Segments(pts[keep], strength[keep], faces[keep])
+    return Segments(pts[keep], strength[keep], faces[keep], _edge_vertices(ops.F, faces, edges)[keep])
 
 
 def radial(ops: MeshOps, eye: np.ndarray) -> np.ndarray:
@@ -223,7 +311,7 @@ def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: flo
     if len(ops.F) == 0:
         return Segments.empty()
     f = radial(ops, np.asarray(eye, dtype=np.float64))
-    faces, pts, _ = zero_crossings(ops.F, ops.V, f[ops.F])
+    faces, pts, edges = zero_crossings(ops.F, ops.V, f[ops.F])
     if faces.size == 0:
         return Segments.empty()
     nf, cen = ops.face_normal[faces], ops.centroid[faces]
@@ -240,7 +328,7 @@ def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: flo
                 * _smoothstep(angle_threshold_deg, angle_threshold_deg + 10.0, theta))
     keep = (cos_t > 0.0) & (dwk > derivative_threshold) & (theta > angle_threshold_deg) & (strength > 0.02)
     s = strength[keep]
-    return Segments(pts[keep], np.stack([s, s], axis=1), faces[keep])
+    return Segments(pts[keep], np.stack([s, s], axis=1), faces[keep], _edge_vertices(ops.F, faces, edges)[keep])
 
 
 def front_facing(ops: MeshOps, faces: np.ndarray, eye: np.ndarray) -> np.ndarray:
