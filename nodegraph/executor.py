@@ -50,11 +50,12 @@ class Executor:
     def __init__(self, pipeline: Pipeline, cache: Cache | None = None, *, mode: str = "single",
                  requested: list[PortRef] | None = None, gl: Any = None, timing: bool = False,
                  memory_limit: int = 1024**3, persist_all: bool = False, like: Plan | None = None,
-                 background_writes: bool | None = None):
+                 background_writes: bool | None = None, keep_host: bool = False):
         """`like`: allocate every texture as that plan does (inspecting intermediates must not raise their
         precision and so change what the next node sees). `background_writes`: disk-cache writes happen on the
         cache's writer thread and `close` waits for them (default: in frame loops only; a single run's entries
-        are then on disk when `run` returns)."""
+        are then on disk when `run` returns). `keep_host`: textures loaded from the disk cache keep the host
+        copy they were uploaded from (`host_copy`), so a tool that looks at them needs no read-back."""
         self.background_writes = mode == "loop" if background_writes is None else background_writes
         self.pipeline = pipeline
         self._cache = cache
@@ -72,6 +73,8 @@ class Executor:
         self.memory_limit = memory_limit
         self.compute_counts: dict[str, int] = {}
         self._unstorable: set[tuple[str, str]] = set()  # outputs already reported as not cacheable
+        self.keep_host = keep_host
+        self._host: dict[int, tuple[Any, Any]] = {}  # id(value) -> (value, its host copy), with keep_host
 
     @property
     def cache(self) -> Cache | None:
@@ -103,6 +106,7 @@ class Executor:
 
     # -- run -------------------------------------------------------------------------------
     def run(self, frame: int = 0) -> RunResult:
+        self._host.clear()
         keys = self.keys(frame)
         stats = {nid: NodeStat(nid, self.pipeline.nodes[nid].type_name, keys[nid]) for nid in self.plan.order}
         pinned: set[tuple[str, str]] = set()
@@ -139,6 +143,8 @@ class Executor:
                                      self._expect(nid, port))
             if loaded is not None:
                 value = self._upload(loaded, nid, port)
+                if self.keep_host and isinstance(value, (Tex, TexArray)):
+                    self._host[id(value)] = (value, as_read(loaded.data, value.fmt))
                 self._remember(mkey, value, pinned)
                 if stats[nid].status in ("skipped", "memory"):
                     stats[nid].status = "disk"
@@ -250,7 +256,14 @@ class Executor:
         old._memory_bytes = 0
         return adopted
 
+    def host_copy(self, value: Any) -> Any:
+        """What `value.read()` gives, without reading back: the host copy of a texture loaded from the disk
+        cache (`keep_host`), else None."""
+        held = self._host.get(id(value))
+        return held[1] if held is not None and held[0] is value else None
+
     def clear_memory(self) -> None:
+        self._host.clear()
         for value in self._memory.values():
             self._release(value)
         self._memory.clear()
@@ -327,6 +340,24 @@ class Executor:
             if self._cache.writes or self._cache.recovered:
                 self._cache.prune()
             self._cache.new_run()
+
+
+def as_read(data: Any, fmt: str) -> Any:
+    """Host data as a texture of `fmt` made from it reads back (`Tex.read`): converted to the format's dtype
+    the way an upload converts it (`gl._to_bytes`), then to float32 the way a read-back does."""
+    import numpy as np
+
+    dt = types.numpy_dtype(fmt)
+    arr = np.asarray(data)
+    if dt == np.uint8 and arr.dtype != np.uint8:
+        arr = np.clip(np.rint(arr * 255.0), 0, 255)
+    raw = arr.astype(dt, copy=False)
+    if dt == np.float32:
+        return np.ascontiguousarray(raw)
+    out = raw.astype(np.float32)
+    if dt == np.uint8:
+        out /= 255.0
+    return out
 
 
 def describe(value: Any) -> str:

@@ -29,8 +29,14 @@ class PortView:
     port: str
     value: Any
     fmt: str
-    panel: viz.Panel
+    panel: viz.Panel  # the picture at full size where asked for, else `thumb`
     stats: list[dict[str, Any]]
+    thumb: viz.Panel | None = None  # the picture at the size a contact sheet cell shows it
+    host: Any = None  # texture data, read back (or loaded) once: (H, W, C) or (L, H, W, C) float32, GL order
+
+    @property
+    def sheet_panel(self) -> viz.Panel:
+        return self.thumb if self.thumb is not None else self.panel
 
 
 @dataclass
@@ -74,17 +80,21 @@ def all_ports(pipe: Pipeline) -> list[PortRef]:
             if port in base.needed[nid] or (nid, port) in used]
 
 
-def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = None) -> Executor:
+def debug_executor(pipe: Pipeline, cache: Any, mode: str = "single", gl: Any = None,
+                   keep_host: bool = False) -> Executor:
     """An executor that keeps every planned output, each in the format the ordinary run allocates."""
     base = plan(pipe)
-    ex = Executor(pipe, cache, mode=mode, requested=all_ports(pipe), gl=gl, like=base)
+    ex = Executor(pipe, cache, mode=mode, requested=all_ports(pipe), gl=gl, like=base, keep_host=keep_host)
     assert ex.plan.order == base.order, "requesting intermediates must not change the plan"
     return ex
 
 
-def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None, stats: bool = True) -> Inspection:
-    """Run (unless given the result) and describe every planned output (`stats`: with per-channel
-    statistics; the gallery's sheets do not show them)."""
+def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None, stats: bool = True,
+                full: bool | set[PortRef] = True, box: int = 192) -> Inspection:
+    """Run (unless given the result) and describe every planned output: each texture is read back once (or
+    taken from the host copy it was loaded from, `Executor(keep_host=True)`), drawn at the size a `box` contact
+    sheet cell shows it (`shown`), and at full size where `full` says so (True: every port; a set: those
+    ports). `stats`: with per-channel statistics (the gallery's sheets do not show them)."""
     result = result if result is not None else ex.run(frame)
     pipe = ex.pipeline
     g = pipe.graph().subgraph(ex.plan.order)
@@ -100,8 +110,12 @@ def inspect_run(ex: Executor, frame: int = 0, result: RunResult | None = None, s
             if value is None:
                 continue
             doc = pipe.nodes[nid].outputs[port].doc
-            view.ports.append(PortView(nid, port, value, st.outputs.get(port) or describe(value),
-                                       viz.visualize(value, port, doc), value_stats(value) if stats else []))
+            host = read_once(ex, value)
+            thumb = shown(value, host, port, doc, box)
+            whole = full is True or (full is not False and (nid, port) in full)
+            panel = viz.visualize(host if host is not None else value, port, doc) if whole else thumb
+            view.ports.append(PortView(nid, port, value, st.outputs.get(port) or describe(value), panel,
+                                       value_stats(value, host) if stats else [], thumb, host))
         nodes.append(view)
     return Inspection(pipe, frame, nodes, generation, [n for n in pipe.nodes if n not in ex.plan.order],
                       dict(pipe.outputs))
@@ -111,12 +125,24 @@ def pipe_params(pipe: Pipeline) -> dict[str, dict[str, Any]]:
     return {nid: node.params.model_dump(mode="json") for nid, node in pipe.nodes.items()}
 
 
-def value_stats(value: Any) -> list[dict[str, Any]]:
-    """Per-channel min/max/mean/NaN of textures and arrays (named arrays by name)."""
+def read_once(ex: Executor, value: Any) -> Any:
+    """A texture's data as `read()` gives it: the executor's host copy where it loaded the value from the disk
+    cache, else one read-back. None for values that are not textures."""
+    from ..values import Tex, TexArray
+
+    if not isinstance(value, (Tex, TexArray)):
+        return None
+    host = ex.host_copy(value)
+    return host if host is not None else value.read()
+
+
+def value_stats(value: Any, host: Any = None) -> list[dict[str, Any]]:
+    """Per-channel min/max/mean/NaN of textures (`host`: their data, read once) and arrays (named arrays by
+    name)."""
     from ..values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)):
-        return [s.as_dict() for s in viz.channel_stats(value.read())]
+        return [s.as_dict() for s in channel_stats(host if host is not None else value.read())]
     if isinstance(value, Arrays):
         out = []
         for name, arr in value.data.items():
@@ -136,17 +162,166 @@ def value_stats(value: Any) -> list[dict[str, Any]]:
     return []
 
 
+def channel_stats(arr: np.ndarray) -> list[viz.ChannelStats]:
+    """`viz.channel_stats` of a texture's (..., C) data, the same figures without its float64 copy where every
+    value is finite: min and max are exact in float32, the mean is summed in float64."""
+    a = np.asarray(arr)
+    if a.dtype != np.float32 or not np.isfinite(a).all():
+        return viz.channel_stats(a)
+    flat = a.reshape(-1, a.shape[-1])
+    names = list("RGBA"[:flat.shape[1]]) if flat.shape[1] <= 4 else [str(i) for i in range(flat.shape[1])]
+    out = []
+    for i in range(flat.shape[1]):
+        ch = np.ascontiguousarray(flat[:, i])
+        if ch.size == 0:
+            out.append(viz.ChannelStats(names[i], float("nan"), float("nan"), float("nan"), 0, 0))
+            continue
+        out.append(viz.ChannelStats(names[i], float(ch.min()), float(ch.max()),
+                                    float(ch.sum(dtype=np.float64) / ch.size), 0, 0))
+    return out
+
+
+# -- visualising at the size it is shown ------------------------------------------------------------------
+VIEW_VERSION = "1"  # bump when the reduced pictures change (gallery build keys include it)
+
+
+def _spans(n: int, m: int) -> np.ndarray:
+    """Start of each of `m` integer spans tiling `n` pixels (the spans of `viz.resize_area`)."""
+    return np.arange(m) * n // m
+
+
+def box_sum(a: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Float64 sums of (H, W, ...) over the spans of a (height, width) grid (shrinking only)."""
+    h, w = a.shape[:2]
+    s = np.add.reduceat(a, _spans(h, height), axis=0, dtype=np.float64) if height < h else a.astype(np.float64)
+    return np.add.reduceat(s, _spans(w, width), axis=1) if width < w else s
+
+
+def box_area(h: int, w: int, height: int, width: int) -> np.ndarray:
+    """Pixels per span of the (height, width) grid over (h, w), float64 (height, width)."""
+    ys, xs = _spans(h, height), _spans(w, width)
+    return np.outer(np.diff(np.append(ys, h)), np.diff(np.append(xs, w))).astype(np.float64)
+
+
+def shown_size(h: int, w: int, box: int, kind: str = "") -> tuple[int, int]:
+    """(height, width) a buffer is reduced to so that its picture fits `box` (never enlarged): the picture of
+    a `vector2` buffer is two of it side by side."""
+    wide = 2 * w + max(1, w // 100) if kind == "vector2" else w
+    s = min(1.0, box / max(h, wide))
+    return max(1, round(h * s)), max(1, round(w * s))
+
+
+def reduce_and_colour(d: np.ndarray, kind: str, height: int, width: int) -> tuple[np.ndarray, str]:
+    """A display-order (H, W, C) buffer drawn as `kind` at (height, width): each shown pixel is the area average
+    of the buffer pixels it covers, colourised afterwards. Pixels that are not finite, and for `depth` the
+    background (exactly 0 or 1) and for `position` the uncovered pixels, are averaged apart and mixed in by the
+    share of the pixel they cover, so a silhouette is neither a false depth nor a false position. Object ids
+    are not averaged: each shown pixel takes the id at the centre of its span."""
+    h, w, c = d.shape
+    if kind == "ids":
+        ys = (_spans(h, height) + np.append(_spans(h, height)[1:], h)) // 2
+        xs = (_spans(w, width) + np.append(_spans(w, width)[1:], w)) // 2
+        return viz._ids(np.ascontiguousarray(d[ys][:, xs]))
+    finite = np.isfinite(d)
+    all_finite = bool(finite.all())
+    ok = None if all_finite else finite.all(axis=2)  # pixels with every channel finite
+    fg = ok
+    if kind == "depth":
+        ch = d[:, :, 0]
+        surface = (ch != 0.0) & (ch != 1.0) if all_finite else ok & (ch != 0.0) & (ch != 1.0)
+        if surface.any():
+            fg = surface
+    elif kind == "position" and c == 4:
+        fg = d[:, :, 3] > 0 if all_finite else ok & (d[:, :, 3] > 0)
+    area = box_area(h, w, height, width)
+    if fg is None:  # every pixel counts: the plain area average
+        mean = box_sum(d, height, width) / area[:, :, None]
+        share = np.ones((height, width))
+    else:
+        n = box_sum(fg.astype(np.float32), height, width)
+        share = n / area
+        mean = box_sum(np.where(fg[:, :, None], d, np.float32(0)), height, width) / np.maximum(n, 1)[:, :, None]
+    bad = np.zeros((height, width)) if ok is None else 1.0 - box_sum(ok.astype(np.float32), height, width) / area
+    m32 = mean.astype(np.float32)
+    if kind == "depth":
+        vals = m32[:, :, 0][share > 0]
+        lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
+        g = (0.12 + 0.88 * (1.0 - viz._normalize(m32[:, :, 0], lo, hi))).astype(np.float64)
+        back = np.clip(1.0 - share - bad, 0.0, 1.0)
+        img = g[:, :, None] * share[:, :, None] + back[:, :, None] * viz.BACKGROUND
+        note = f"depth {lo:.4g}..{hi:.4g}, near bright"
+    elif kind == "position":
+        img, note = viz._position(np.concatenate([m32[:, :, :3], share[:, :, None].astype(np.float32)], axis=2)
+                                  if c == 4 else m32)
+        img = img * share[:, :, None]
+    else:
+        img, note = viz._DRAW[kind](m32)
+        if kind == "vector2":  # both halves share the pixels' shares
+            gap = img.shape[1] - 2 * width
+            share = np.concatenate([share, np.ones((height, gap)), share], axis=1)
+            bad = np.concatenate([bad, np.zeros((height, gap)), bad], axis=1)
+        img = img * share[:, :, None] if fg is not None else img
+    if ok is not None:
+        img = img + bad[:, :, None] * viz.NONFINITE
+    return np.clip(img, 0.0, 1.0).astype(np.float32), note
+
+
+def shown_texture(arr: np.ndarray, port: str, doc: str = "", box: int = 192) -> viz.Panel:
+    """An (H, W, C) texture in GL order, drawn at the size it is shown in a `box` cell (`reduce_and_colour`)."""
+    a = np.asarray(arr, np.float32)
+    kind = viz.classify(port, a.shape[2], doc)
+    height, width = shown_size(a.shape[0], a.shape[1], box, kind)
+    img, note = reduce_and_colour(a[::-1], kind, height, width)
+    return viz.Panel(img, kind, note)
+
+
+def shown_array(arr: np.ndarray, port: str, doc: str = "", box: int = 192, per_row: int = 16,
+                gap: int = 2) -> viz.Panel:
+    """A texture array (L, H, W, C) as `viz.visualize_array`'s strip of layers, each layer reduced to the size
+    its tile is shown at in a `box` cell."""
+    n, h, w, c = arr.shape
+    cols, rows = min(n, per_row), -(-n // per_row)
+    full_w, full_h = cols * (w + gap) - gap, rows * (h + gap) - gap
+    s = min(1.0, box / max(full_w, full_h))
+    th, tw, g = max(1, round(h * s)), max(1, round(w * s)), max(1, round(gap * s))
+    kind = viz.classify(port, c, doc)
+    out = np.empty((rows * (th + g) - g, cols * (tw + g) - g, 3), np.float32)
+    out[:] = viz.SHEET_BG
+    for i, layer in enumerate(np.asarray(arr, np.float32)):
+        r, k = divmod(i, per_row)
+        img, _ = reduce_and_colour(layer[::-1], "grey" if kind == "vector2" else kind, th, tw)
+        out[r * (th + g):r * (th + g) + th, k * (tw + g):k * (tw + g) + tw] = img[:, :tw]
+    return viz.Panel(out, "strip", f"{n} layers ({kind})")
+
+
+def shown(value: Any, host: Any, port: str, doc: str = "", box: int = 192) -> viz.Panel:
+    """Any node value as it is shown in a `box` cell of a contact sheet; `host`: its texture data, read once."""
+    from ..values import Strokes, Tex, TexArray
+
+    if isinstance(value, Tex):
+        return shown_texture(host, port, doc, box)
+    if isinstance(value, TexArray):
+        return shown_array(host, port, doc, box)
+    if isinstance(value, Strokes):  # drawn at full size (points are splatted), then area-averaged
+        panel = viz.visualize(value, port, doc)
+        return viz.Panel(viz.fit(panel.image, box), panel.kind, panel.note)
+    return viz.visualize(value, port, doc)
+
+
 # -- writing ---------------------------------------------------------------------------------------------
-def write_exact(value: Any, base: Path, attrs: dict[str, str]) -> Path | None:
-    """The exact value: textures (and arrays, layers side by side) as float EXR, strokes as SVG, arrays as npz."""
+def write_exact(value: Any, base: Path, attrs: dict[str, str], host: Any = None) -> Path | None:
+    """The exact value: textures (and arrays, layers side by side) as float EXR, strokes as SVG, arrays as npz.
+    `host`: a texture's data, read once."""
     from .. import imageio
     from ..strokes import to_svg
     from ..values import Arrays, Strokes, Tex, TexArray
 
+    if isinstance(value, (Tex, TexArray)) and host is None:
+        host = value.read()
     if isinstance(value, Tex):
-        return imageio.write(base.with_name(base.name + ".exr"), value.read(), attrs, half=False)
+        return imageio.write(base.with_name(base.name + ".exr"), host, attrs, half=False)
     if isinstance(value, TexArray):
-        return imageio.write(base.with_name(base.name + ".exr"), np.concatenate(list(value.read()), axis=1), attrs,
+        return imageio.write(base.with_name(base.name + ".exr"), np.concatenate(list(host), axis=1), attrs,
                              half=False)
     if isinstance(value, Strokes):
         p = base.with_name(base.name + ".svg")
@@ -163,7 +338,8 @@ def write_exact(value: Any, base: Path, attrs: dict[str, str]) -> Path | None:
 def sheet(insp: Inspection, cell: int = 192, title: str | None = None) -> np.ndarray:
     """One contact sheet of every planned output, in topological order. Labels hold nothing that changes
     between runs (no timings, no cache status), so the sheet of a pipeline is always the same bytes."""
-    cells = [viz.Cell(p.panel.image, [f"{p.node}.{p.port}", f"{p.fmt} {p.panel.kind}"]) for p in insp.ports()]
+    cells = [viz.Cell(p.sheet_panel.image, [f"{p.node}.{p.port}", f"{p.fmt} {p.sheet_panel.kind}"])
+             for p in insp.ports()]
     w, h = insp.pipeline.size
     return viz.contact_sheet(cells, cell=cell, title=title if title is not None else
                              f"{insp.pipeline.name} {w}x{h} frame {insp.frame}")
@@ -177,18 +353,33 @@ def write_inspection(insp: Inspection, out: Path, exact: bool = True, cell: int 
     for p in insp.ports():
         base = out / f"{p.node}.{p.port}"
         if p.panel.image is not None:
-            viz.write_png(base.with_name(base.name + ".png"), p.panel.image)
+            write_png(base.with_name(base.name + ".png"), p.panel.image)
             images[(p.node, p.port)] = base.name + ".png"
         if exact:
             written = write_exact(p.value, base, {"sketchgraph:port": f"{p.node}.{p.port}",
-                                                   "sketchgraph:format": p.fmt})
+                                                   "sketchgraph:format": p.fmt}, p.host)
             if written is not None:
                 exacts[(p.node, p.port)] = written.name
-    viz.write_png(out / "contact_sheet.png", sheet(insp, cell))
+    write_png(out / "contact_sheet.png", sheet(insp, cell))
     summary = summarize(insp, images, exacts)
     atomic_write_text(out / "stats.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
     atomic_write_text(out / "index.html", html_page(insp, images, exacts, "contact_sheet.png"))
     return summary
+
+
+PNG_LEVEL = 6
+"""zlib level of the pictures `inspect --all` and the gallery write (`write_png`)."""
+
+
+def write_png(path: Path, img: np.ndarray) -> np.ndarray:
+    """A display-order float RGB picture in [0, 1] as an 8-bit PNG through `imageio.write_png8` (zlib, no row
+    filters: several times faster than OIIO's writer, and the same bytes for the same pixels with the same
+    zlib). Returns the 8-bit pixels written."""
+    from .. import imageio
+
+    img8 = viz.to_uint8(img)
+    imageio.write_png8(path, img8, PNG_LEVEL)
+    return img8
 
 
 def summarize(insp: Inspection, images: dict[PortRef, str] | None = None,
@@ -327,7 +518,7 @@ def html_page(insp: Inspection, images: dict[PortRef, str], exacts: dict[PortRef
 
 def inspect_all(pipe: Pipeline, out: Path, frame: int, cache: Any, exact: bool = True) -> tuple[Inspection, Path]:
     """What `inspect --all` does: run with every intermediate kept, write it all, return where the page is."""
-    ex = debug_executor(pipe, cache)
+    ex = debug_executor(pipe, cache, keep_host=True)
     try:
         insp = inspect_run(ex, frame)
         write_inspection(insp, out, exact=exact)

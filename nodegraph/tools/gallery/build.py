@@ -25,6 +25,7 @@ from .. import viz
 from .. import wedge as wedgemod
 from .model import FORMAT, VERSIONED, Entry, EntryResult, Gallery, _rel
 from .page import write_index
+from .views import Views
 
 
 # -- planning: keys without rendering --------------------------------------------------------------------
@@ -37,6 +38,7 @@ class Variant:
     label: str = ""
     row: int = 0
     col: int = 0
+    keys: dict[str, str] = field(default_factory=dict)  # content key of every node its outputs need
 
 
 @dataclass
@@ -84,7 +86,8 @@ def plan_entry(entry: Entry, renderer: str, cell: int, root: Path) -> EntryPlan:
     keys = []
     for v in variants:
         ex = Executor(v.pipe, None, requested=[v.pipe.outputs[o] for o in outputs])
-        keys.append({"kind": v.kind, "frame": v.frame, "overrides": v.overrides, "keys": ex.keys(v.frame)})
+        v.keys = ex.keys(v.frame)
+        keys.append({"kind": v.kind, "frame": v.frame, "overrides": v.overrides, "keys": v.keys})
     scene_files = [p for p in entry.scene_files() if p.exists()]
     record = {
         "pipeline": entry.pipeline_rel,
@@ -102,8 +105,10 @@ def plan_entry(entry: Entry, renderer: str, cell: int, root: Path) -> EntryPlan:
         "shared": entry.uses_shared(),
         "keys": keys[0]["keys"],  # content keys of the main render's nodes (verify names the ones that changed)
     }
-    build_key = digest({"format": FORMAT, "viz": viz.VERSION, "renderer": renderer, "cell": cell,
-                        "variants": keys, "record": record})
+    from ..inspect_all import PNG_LEVEL, VIEW_VERSION
+
+    build_key = digest({"format": FORMAT, "viz": viz.VERSION, "view": VIEW_VERSION, "png": f"zlib{PNG_LEVEL}",
+                        "renderer": renderer, "cell": cell, "variants": keys, "record": record})
     return EntryPlan(entry, main, variants, outputs, build_key, record)
 
 
@@ -115,17 +120,90 @@ def pixels_sha256(img8: np.ndarray) -> str:
 
 
 def _write(img: np.ndarray, dest: Path, rel: str, what: str, files: dict[str, dict[str, Any]]) -> None:
+    from ..inspect_all import write_png
+
     path = dest / rel
-    viz.write_png(path, img)
-    img8 = viz.to_uint8(img)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    img8 = write_png(path, img)
     files[rel] = {"sha256": file_sha256(path), "pixels_sha256": pixels_sha256(img8),
                   "size": [int(img8.shape[1]), int(img8.shape[0])], "what": what}
 
 
+def _record(data: bytes, pixels: str, size: list[int], dest: Path, rel: str, what: str,
+            files: dict[str, dict[str, Any]]) -> None:
+    """Write a picture's PNG bytes (drawn now or kept in the view cache) and describe the file."""
+    from ...fsio import atomic_write_bytes
+
+    path = dest / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, data)
+    files[rel] = {"sha256": hashlib.sha256(data).hexdigest(), "pixels_sha256": pixels, "size": size, "what": what}
+
+
+def _draw_png(panel_image: np.ndarray, folder: Path) -> tuple[bytes, str, list[int]]:
+    """A full-size picture as the gallery's PNG bytes, with its pixels' SHA-256 and size."""
+    from ..inspect_all import write_png
+
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / ".draw.png"
+    img8 = write_png(tmp, panel_image)
+    data = tmp.read_bytes()
+    tmp.unlink()
+    return data, pixels_sha256(img8), [int(img8.shape[1]), int(img8.shape[0])]
+
+
+class _Pictures:
+    """The pictures of some ports of one render (one variant): the contact-sheet view of each and the PNG of
+    each output, from the view cache where it has them; the rest is rendered (with the node cache) and drawn
+    once, and the view cache keeps it."""
+
+    def __init__(self, views: Views, pipe: Pipeline, keys: dict[str, str], formats: dict[Any, str],
+                 refs: list[Any], outputs: set[Any], cell: int):
+        self.views, self.pipe, self.keys, self.formats = views, pipe, keys, formats
+        self.refs, self.outputs, self.cell = refs, outputs, cell
+        self.view: dict[Any, Any] = {}
+        self.png: dict[Any, tuple[bytes, str, list[int]] | None] = {}
+        for ref in refs:
+            v = views.view(keys[ref[0]], ref[1], formats.get(ref))
+            if v is not None:
+                self.view[ref] = v
+            if ref in outputs and (v is None or v.panel.image is not None):
+                self.png[ref] = views.png(keys[ref[0]], ref[1], formats.get(ref))
+
+    def missing(self) -> list[Any]:
+        return [r for r in self.refs if r not in self.view or (r in self.png and self.png[r] is None)]
+
+    def draw(self, ex: Executor, result: Any, folder: Path) -> None:
+        from ...executor import describe
+        from ..inspect_all import read_once, shown
+        from .views import View
+
+        for ref in self.missing():
+            value = result.values[ref]
+            host = read_once(ex, value)
+            doc = self.pipe.nodes[ref[0]].outputs[ref[1]].doc
+            key, fmt = self.keys[ref[0]], self.formats.get(ref)
+            if ref not in self.view:
+                got = result.stats[ref[0]].outputs.get(ref[1]) if ref[0] in result.stats else None
+                self.view[ref] = View(shown(value, host, ref[1], doc, self.cell), got or describe(value))
+                self.views.put_view(key, ref[1], fmt, self.view[ref])
+            if ref in self.outputs and self.png.get(ref) is None:
+                full = viz.visualize(host if host is not None else value, ref[1], doc)
+                self.png[ref] = _draw_png(full.image, folder) if full.image is not None else None
+                if self.png[ref] is not None:
+                    self.views.put_png(key, ref[1], fmt, *self.png[ref])
+
+
 def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: Path | None = None) -> EntryResult:
-    """Render every variant of an entry into `dest`/images/<entry>/ and describe the files written."""
-    from ..inspect_all import debug_executor, inspect_run, sheet, write_inspection
+    """Render every variant of an entry into `dest`/images/<entry>/ and describe the files written.
+
+    Each buffer is read back (or loaded) once and drawn at the size its contact-sheet cell shows it; outputs are
+    drawn at full size too. Pictures of outputs whose node keys the view cache holds (`views`) are not drawn
+    again, and where it holds every picture of a variant, nothing is rendered or loaded for it."""
+    from ...plan import plan
+    from ..inspect_all import all_ports, inspect_run, write_inspection
     from ..watch import adopt_memory
+    from .views import View
 
     entry = ep.entry
     res = EntryResult(entry.name, "rendered")
@@ -136,50 +214,83 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
         shutil.rmtree(folder)
     many = len(ep.variants) > 1 and any(v.kind == "frame" for v in ep.variants)
     main = ep.variants[0]
-    ex = debug_executor(main.pipe, cache)
-    prev: Executor = ex
+    views = Views(cache if inspect_dir is None else None, cell)
+    base_plan = plan(main.pipe)
+    formats = dict(base_plan.formats)
+    prev: Executor | None = None
     try:
-        insp = inspect_run(ex, main.frame, stats=inspect_dir is not None)
-        for n in insp.nodes:
-            res.node_ms[n.node] = round(n.ms, 3)
-            res.node_status[n.node] = n.status
-        by_ref = {(p.node, p.port): p for p in insp.ports()}
+        refs = all_ports(main.pipe)
+        out_refs = [main.pipe.outputs[o] for o in ep.outputs]
+        if cache is not None:  # the view records live in the renderer's folder of the node cache
+            Executor(main.pipe, cache).cache  # noqa: B018 - binds the cache to the GL renderer
+        keys = Executor(main.pipe, None, requested=refs, like=base_plan).keys(main.frame)
+        pics = _Pictures(views, main.pipe, keys, formats, refs, set(out_refs), cell)
+        need = pics.missing()
+        passing = {n for n, _ in base_plan.aliases}
+        for nid in base_plan.order:
+            res.node_status[nid], res.node_ms[nid] = "pass-through" if nid in passing else "view", 0.0
+        if inspect_dir is not None:  # every buffer at full size too, with statistics and exact values
+            from ..inspect_all import debug_executor
+
+            prev = debug_executor(main.pipe, cache, keep_host=True)
+            insp = inspect_run(prev, main.frame, stats=True, full=True, box=cell)
+            write_inspection(insp, inspect_dir / entry.name, exact=True)
+            for p in insp.ports():
+                pics.view[(p.node, p.port)] = View(p.thumb, p.fmt)
+                if (p.node, p.port) in pics.png and p.panel.image is not None:
+                    pics.png[(p.node, p.port)] = _draw_png(p.panel.image, folder)
+            for n in insp.nodes:
+                res.node_status[n.node], res.node_ms[n.node] = n.status, round(n.ms, 3)
+        elif need:
+            prev = Executor(main.pipe, cache, requested=need, like=base_plan, keep_host=True)
+            result = prev.run(main.frame)
+            pics.draw(prev, result, folder)
+            for nid, st in result.stats.items():
+                if st.status != "skipped":  # skipped: its pictures came from the view cache
+                    res.node_status[nid], res.node_ms[nid] = st.status, round(st.ms, 3)
         frame_cells: list[viz.Cell] = []
-        for o in ep.outputs:
-            panel = by_ref[main.pipe.outputs[o]].panel
-            if panel.image is None:
+        for o, ref in zip(ep.outputs, out_refs, strict=True):
+            png = pics.png.get(ref)
+            if png is None:
                 continue
             suffix = f"_f{main.frame:04d}" if many else ""
-            _write(panel.image, dest, f"{base}/{o}{suffix}.png", f"output {o}, frame {main.frame}", res.files)
+            _record(*png, dest, f"{base}/{o}{suffix}.png", f"output {o}, frame {main.frame}", res.files)
             if o == ep.outputs[0]:
-                frame_cells.append(viz.Cell(panel.image, [f"frame {main.frame}"]))
+                frame_cells.append(viz.Cell(pics.view[ref].panel.image, [f"frame {main.frame}"]))
         w, h = main.pipe.size
-        _write(sheet(insp, cell, f"{entry.name}: intermediates, {w}x{h}, frame {main.frame}"), dest,
-               f"{base}/intermediates.png", "contact sheet of intermediates", res.files)
-        if inspect_dir is not None:
-            write_inspection(insp, inspect_dir / entry.name, exact=True)
+        sheet_cells = [viz.Cell(pics.view[r].panel.image, [f"{r[0]}.{r[1]}", f"{pics.view[r].fmt} "
+                                                           f"{pics.view[r].panel.kind}"]) for r in refs]
+        _write(viz.contact_sheet(sheet_cells, cell=cell, title=f"{entry.name}: intermediates, {w}x{h}, frame "
+                                 f"{main.frame}"), dest, f"{base}/intermediates.png", "contact sheet of intermediates",
+               res.files)
         cells: list[wedgemod.Cell] = []
         for v in ep.variants[1:]:
-            refs = [v.pipe.outputs[o] for o in ep.outputs]
-            vex = Executor(v.pipe, cache, requested=refs)
-            adopt_memory(vex, prev, v.frame)
-            prev.close()
-            prev = vex
-            result = vex.run(v.frame)
-            for o, ref in zip(ep.outputs, refs, strict=True):
-                panel = viz.visualize(result.values[ref], ref[1], v.pipe.nodes[ref[0]].outputs[ref[1]].doc)
-                if panel.image is None:
+            vrefs = [v.pipe.outputs[o] for o in ep.outputs]
+            vplan = plan(v.pipe, vrefs)
+            vpics = _Pictures(views, v.pipe, v.keys, dict(vplan.formats), vrefs, set(vrefs), cell)
+            vneed = vpics.missing()
+            computed: list[str] = []
+            if vneed:
+                vex = Executor(v.pipe, cache, requested=vneed, keep_host=True)
+                if prev is not None:
+                    adopt_memory(vex, prev, v.frame)
+                    prev.close()
+                prev = vex
+                result = vex.run(v.frame)
+                vpics.draw(vex, result, folder)
+                computed = result.computed()
+            for o, ref in zip(ep.outputs, vrefs, strict=True):
+                png = vpics.png.get(ref)
+                if png is None:
                     continue
+                thumb = vpics.view[ref].panel.image
                 if v.kind == "frame":
-                    _write(panel.image, dest, f"{base}/{o}_f{v.frame:04d}.png", f"output {o}, frame {v.frame}",
-                           res.files)
+                    _record(*png, dest, f"{base}/{o}_f{v.frame:04d}.png", f"output {o}, frame {v.frame}", res.files)
                     if o == ep.outputs[0]:
-                        frame_cells.append(viz.Cell(panel.image, [f"frame {v.frame}"]))
+                        frame_cells.append(viz.Cell(thumb, [f"frame {v.frame}"]))
                 elif o == ep.outputs[0]:
-                    _write(panel.image, dest, f"{base}/wedge_r{v.row}c{v.col}.png", f"wedge cell {v.label}",
-                           res.files)
-                    cells.append(wedgemod.Cell(v.row, v.col, v.overrides, v.label, panel.image,
-                                               result.computed(), 0.0))
+                    _record(*png, dest, f"{base}/wedge_r{v.row}c{v.col}.png", f"wedge cell {v.label}", res.files)
+                    cells.append(wedgemod.Cell(v.row, v.col, v.overrides, v.label, thumb, computed, 0.0))
         if len(frame_cells) > 1:
             _write(viz.contact_sheet(frame_cells, cell=cell, columns=min(len(frame_cells), 6),
                                      title=f"{entry.name}: {ep.outputs[0]} by frame"),
@@ -188,8 +299,11 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
             _write(wedgemod.sheet(cells, entry.wedge, entry.name, cell), dest, f"{base}/wedge.png",
                    "wedge contact sheet", res.files)
     finally:
-        prev.close()
-        prev.clear_memory()  # give the textures back to the pool for the next entry
+        if prev is not None:
+            prev.close()
+            prev.clear_memory()  # give the textures back to the pool for the next entry
+        if cache is not None:
+            cache.flush()
     res.ms = (time.perf_counter() - t0) * 1000
     return res
 
@@ -437,7 +551,7 @@ def format_build(report: BuildReport) -> str:
     counts: dict[str, int] = {}
     for r in report.results:
         counts[r.status] = counts.get(r.status, 0) + 1
-    hits = sum(1 for r in report.results for s in r.node_status.values() if s in ("disk", "memory"))
+    hits = sum(1 for r in report.results for s in r.node_status.values() if s in ("disk", "memory", "view"))
     nodes = sum(1 for r in report.results for s in r.node_status.values() if s != "pass-through")
     lines.append(f"total {report.total_s:.2f} s ({report.kind} build: "
                  + ", ".join(f"{n} {s}" for s, n in counts.items())

@@ -42,18 +42,28 @@ class Entry:
     auto: bool = False  # made for a pipeline that no entry names
     shared: bool = False  # uses ../shared (marked in gallery.yaml, or found from the scene's files)
     spec: dict[str, Any] = field(default_factory=dict)
+    _files: tuple[Any, list[Path]] | None = field(default=None, repr=False, compare=False)
 
     def scene_files(self) -> list[Path]:
+        """The scene's files (the scene YAML and its meshes); remembered while the pipeline file and the scene
+        file stay as they are (a build asks several times per entry)."""
         from ..watch import scene_files
 
+        stamp = (self.scene, self.pipeline, Path.cwd(), _stamp(self.pipeline),
+                 _stamp(Path(self.scene)) if self.scene is not None and not self.scene.startswith("builtin:") else None)
+        if self._files is not None and self._files[0] == stamp:
+            return list(self._files[1])
         if self.scene is not None:
-            return scene_files(self.scene, Path.cwd())
-        try:
-            data = yaml.safe_load(self.pipeline.read_text())
-        except (OSError, yaml.YAMLError):
-            return []
-        spec = data.get("scene", "builtin:cloister") if isinstance(data, dict) else "builtin:cloister"
-        return scene_files(str(spec), self.pipeline.parent)
+            files = scene_files(self.scene, Path.cwd())
+        else:
+            try:
+                data = yaml.safe_load(self.pipeline.read_text())
+            except (OSError, yaml.YAMLError):
+                return []
+            spec = data.get("scene", "builtin:cloister") if isinstance(data, dict) else "builtin:cloister"
+            files = scene_files(str(spec), self.pipeline.parent)
+        self._files = (stamp, files)
+        return list(files)
 
     def uses_shared(self) -> bool:
         return self.shared or any(_inside(p, SHARED) for p in self.scene_files())
@@ -62,6 +72,14 @@ class Entry:
         """Scene files from ../shared that are absent here (also for a `shared: true` entry whose files are
         elsewhere, as when the gallery file is used with an installed package)."""
         return [p for p in self.scene_files() if (self.shared or _inside(p, SHARED)) and not p.exists()]
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -227,10 +245,25 @@ def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None 
         return None
     root = Path(cache_dir) if cache_dir else gallery.out / "cache"
     if cold:
-        if cache_dir and root.exists() and any(p.suffix not in (".exr", ".npz") for p in root.glob("*/*")):
+        if cache_dir and root.exists() and not _only_entries(root):
             raise SketchgraphError(f"--cold would empty {root}, which holds files that are not cache entries")
         shutil.rmtree(root, ignore_errors=True)
     return Cache(root)
+
+
+def _only_entries(root: Path) -> bool:
+    """Whether a folder holds nothing but node cache entries (`KEY[:2]/ENTRY.exr|npz`, also within the
+    renderers' folders `renderer-*/`), so that --cold may empty it."""
+    from ...cache import NAMESPACE_PREFIX
+
+    for p in root.iterdir():
+        if p.is_dir() and p.name.startswith(NAMESPACE_PREFIX):
+            if not _only_entries(p):
+                return False
+        elif not p.is_dir() or any(f.suffix not in (".exr", ".npz") and not f.name.startswith(".")
+                                   for f in p.iterdir()):
+            return False
+    return True
 
 
 class TemporaryCache:

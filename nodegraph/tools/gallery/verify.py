@@ -80,7 +80,8 @@ def verify(gallery: Gallery, cache: Any, *, only: list[str] | None = None, echo:
             old_keys, new_keys = rec.get("keys", {}), ep.record["keys"]
             nodes = [n for n in new_keys if old_keys.get(n) != new_keys[n]]
             what = changed + ([f"keys of {', '.join(nodes)}"] if nodes else [])
-            check.note = "inputs changed since the manifest was built: " + (", ".join(what) or "frames or wedge cells")
+            check.note = "inputs changed since the manifest was built: " + (", ".join(what) or "frames, wedge cells or "
+                                                                             "the visualisation and PNG versions")
         for rel in sorted(set(rec.get("files", {})) | set(res.files)):
             want, got = rec.get("files", {}).get(rel), res.files.get(rel)
             committed = gallery.root / rel

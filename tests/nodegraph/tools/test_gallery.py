@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from nodegraph.cache import Cache
+from nodegraph.errors import SketchgraphError
 from nodegraph.tools import gallery as gal
 from nodegraph.tools import viz
 
@@ -96,9 +97,21 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     cache = Cache(tmp_path / "cache")
     again = build(tiny, cache, force=True)  # everything rendered again (a second cold cache)
     assert tiny.manifest_path.read_bytes() == first
+    hits, misses = cache.hits, cache.misses
     warm = build(tiny, cache, force=True)  # rendered again from a warm node cache
     assert tiny.manifest_path.read_bytes() == first
-    assert all(s in ("disk", "memory", "pass-through") for r in warm.results for s in r.node_status.values())
+    # every picture from the view cache: no node runs or loads, nothing misses
+    assert all(s in ("view", "pass-through") for r in warm.results for s in r.node_status.values())
+    assert cache.misses == misses and cache.hits > hits
+    # without the view records (a node cache of node entries only) the same bytes again, nodes from the cache
+    for f in cache.root.glob("*/*.npz"):
+        if ".view-" in f.name or ".png-" in f.name:
+            f.unlink()
+    nodes_only = build(tiny, cache, force=True)
+    assert tiny.manifest_path.read_bytes() == first
+    # (an entry's pictures that an earlier entry's render drew again, same keys, come from the view cache)
+    got = [s for r in nodes_only.results for s in r.node_status.values()]
+    assert set(got) <= {"disk", "memory", "pass-through", "view"} and got.count("disk") > got.count("view")
     assert statuses(again) == statuses(warm) == statuses(cold)
     (tiny.root / "images" / "gone").mkdir()  # an entry that was removed from gallery.yaml
     incremental = build(tiny, cache)
@@ -262,3 +275,17 @@ def test_wedge_cli(gl, tmp_path, cache_dir):
     assert "gbuf" in lines[0] and "gbuf" not in lines[1]  # upstream of the swept params runs once
     sheet = viz.read_png(out)
     assert sheet.shape[1] > 2 * 24 and sheet.shape[0] > 2 * 24
+
+
+def test_cold_empties_a_cache_dir_of_renderer_folders(tiny, tmp_path):
+    root = tmp_path / "gc"
+    (root / "renderer-0123456789abcdef" / "ab").mkdir(parents=True)
+    (root / "renderer-0123456789abcdef" / "ab" / "abcd.out.RGBA8.exr").write_bytes(b"x")
+    (root / "renderer-0123456789abcdef" / "ab" / ".tmp-1.exr").write_bytes(b"x")
+    gal.node_cache(tiny, cache_dir=root, cold=True)  # a second --cold into the same folder works
+    assert not (root / "renderer-0123456789abcdef").exists()
+    (root / "notes").mkdir(parents=True)
+    (root / "notes" / "todo.txt").write_text("mine")
+    with pytest.raises(SketchgraphError, match="not cache entries"):
+        gal.node_cache(tiny, cache_dir=root, cold=True)
+    assert (root / "notes" / "todo.txt").exists()

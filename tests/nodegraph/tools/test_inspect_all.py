@@ -148,3 +148,135 @@ def test_inspect_all_exr_is_exact(inspected, cache_dir, tmp_path):
 def test_inspect_all_rejects_a_port(gl, tmp_path):
     r = CliRunner().invoke(main, ["inspect", str(NIENHAUS), "edges.out", "--all", "-o", str(tmp_path)])
     assert r.exit_code == 2 and "--all" in r.output
+
+
+# -- drawn at the size it is shown (no GL) ---------------------------------------------------------------
+def _area_means(d: np.ndarray, height: int, width: int, weight: np.ndarray | None = None):
+    """float64 reference: per shown pixel, the mean over its integer span (of the weighted pixels) and the
+    weighted share, by explicit loops."""
+    h, w = d.shape[:2]
+    mean = np.zeros((height, width, d.shape[2]))
+    share = np.zeros((height, width))
+    for i in range(height):
+        for j in range(width):
+            y0, y1 = i * h // height, (i + 1) * h // height
+            x0, x1 = j * w // width, (j + 1) * w // width
+            block = d[y0:y1, x0:x1].astype(np.float64).reshape(-1, d.shape[2])
+            wt = (np.ones(len(block), bool) if weight is None else weight[y0:y1, x0:x1].reshape(-1))
+            share[i, j] = wt.mean()
+            if wt.any():
+                mean[i, j] = block[wt].mean(axis=0)
+    return mean, share
+
+
+def test_shown_grey_and_colour_are_area_average_then_colourise(rng):
+    from nodegraph.tools.inspect_all import shown_texture
+
+    a = (rng.random((30, 45, 1)) * 6.0 - 2.0).astype(np.float32)  # beyond 0..1: normalised
+    panel = shown_texture(a, "out", box=10)  # 45 wide -> 10 x round(30 * 10 / 45) = 7
+    mean, _ = _area_means(a[::-1], 7, 10)
+    g = (mean[:, :, 0] - mean.min()) / (mean.max() - mean.min())
+    assert panel.kind == "grey" and panel.image.shape == (7, 10, 3)
+    np.testing.assert_allclose(panel.image, np.repeat(g[:, :, None], 3, axis=2), atol=2e-6)
+
+    c = rng.random((20, 20, 4)).astype(np.float32)
+    panel = shown_texture(c, "color", box=6)  # 20 -> 6: spans of 3 and 4 pixels
+    mean, _ = _area_means(c[::-1], 6, 6)
+    np.testing.assert_allclose(panel.image, mean[:, :, :3], atol=2e-6)
+
+
+def test_shown_vector_wheel_on_averaged_vectors(rng):
+    import colorsys
+
+    from nodegraph.tools.inspect_all import shown_texture
+
+    v = (rng.random((16, 24, 2)) * 2 - 1).astype(np.float32)
+    panel = shown_texture(v, "offset", box=8)
+    mean, _ = _area_means(v[::-1], 5, 8)
+    mag = np.hypot(mean[:, :, 0], mean[:, :, 1])
+    want = np.array([[colorsys.hsv_to_rgb((np.arctan2(y, x) / (2 * np.pi)) % 1.0, 1.0, m / mag.max())
+                      for (x, y), m in zip(row, mrow, strict=True)] for row, mrow in zip(mean, mag, strict=True)])
+    assert panel.kind == "vector"
+    np.testing.assert_allclose(panel.image, want, atol=1e-5)
+
+
+def test_shown_depth_mixes_background_and_nonfinite_by_share():
+    from nodegraph.tools.inspect_all import shown_texture
+
+    d = np.ones((8, 8, 1), np.float32)  # background everywhere ...
+    d[0:4, 0:4, 0] = np.linspace(0.2, 0.6, 16).reshape(4, 4)  # ... but a surface in one corner
+    d[5, 6, 0] = np.nan
+    panel = shown_texture(d, "depth", box=4)  # 2x2 spans
+    disp = d[::-1]
+    finite = np.isfinite(disp[:, :, 0])
+    surface = finite & (disp[:, :, 0] != 0) & (disp[:, :, 0] != 1)
+    mean, s_share = _area_means(np.where(surface[:, :, None], disp, 0), 4, 4, surface)
+    _, f_share = _area_means(disp, 4, 4, finite)
+    vals = mean[:, :, 0][s_share > 0]
+    lo, hi = vals.min(), vals.max()
+    g = 0.12 + 0.88 * (1 - np.clip((mean[:, :, 0] - lo) / (hi - lo), 0, 1))
+    bg = f_share - s_share
+    want = (g[:, :, None] * s_share[:, :, None] + bg[:, :, None] * viz.BACKGROUND
+            + (1 - f_share)[:, :, None] * viz.NONFINITE)
+    assert panel.kind == "depth"
+    np.testing.assert_allclose(panel.image, want, atol=2e-6)
+    assert np.allclose(panel.image[0, 3], viz.BACKGROUND)  # top right: background only
+
+
+def test_shown_ids_are_sampled_not_averaged():
+    from nodegraph.tools.inspect_all import shown_texture
+
+    ids = np.zeros((6, 6, 1), np.float32)
+    ids[:, 3:] = 7.0
+    panel = shown_texture(ids, "ids", box=2)
+    assert panel.kind == "ids" and panel.image.shape == (2, 2, 3)
+    assert np.all(panel.image[:, 0] == 0) and np.all(panel.image[:, 1] > 0)  # id 0 black, id 7 a colour
+
+
+def test_fast_channel_stats_match_float64(rng):
+    from nodegraph.tools.inspect_all import channel_stats
+
+    a = (rng.random((17, 23, 3)) * 100 - 50).astype(np.float32)
+    fast, ref = channel_stats(a), viz.channel_stats(a)
+    for f, r in zip(fast, ref, strict=True):
+        assert (f.name, f.min, f.max, f.nan, f.inf) == (r.name, r.min, r.max, r.nan, r.inf)
+        assert abs(f.mean - r.mean) <= 1e-12 * max(1.0, abs(r.mean))
+    a[3, 4, 1] = np.nan
+    assert channel_stats(a)[1].nan == 1  # not finite: the float64 path
+
+
+def test_host_copy_is_what_a_read_back_gives(gl):
+    from nodegraph.executor import as_read
+
+    rng = np.random.default_rng(3)
+    data = rng.random((5, 7, 4)).astype(np.float32) * 1.5 - 0.25
+    data[0, 0] = [0.5 / 255, 1.5 / 255, 2.5 / 255, 1.0]  # exact ties of the 8-bit conversion
+    for fmt, c in (("R8", 1), ("RGBA8", 4), ("R16F", 1), ("RGBA16F", 4), ("RG32F", 2), ("RGBA32F", 4)):
+        arr = np.ascontiguousarray(data[:, :, :c])
+        tex = gl.upload(arr, fmt)
+        try:
+            assert np.array_equal(as_read(arr, fmt), tex.read()), fmt
+        finally:
+            gl.release(tex)
+
+
+def test_inspect_all_from_the_cache_writes_the_same_files(gl, tmp_path, cache_dir):
+    """The second run loads every output from the disk cache and uses the copies it loaded (no read-back):
+    the same exact values and the same pictures as the run that computed them."""
+    outs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        r = CliRunner().invoke(main, ["inspect", str(NIENHAUS), "--all", "-o", str(out), "--size", "40x32"])
+        assert r.exit_code == 0, r.output
+        outs.append(out)
+    stats = json.loads((outs[1] / "stats.json").read_text())
+    assert {n["status"] for n in stats["nodes"]} <= {"disk", "pass-through"}
+    files = sorted(p.name for p in outs[0].iterdir() if p.suffix in (".png", ".exr"))
+    assert files and files == sorted(p.name for p in outs[1].iterdir() if p.suffix in (".png", ".exr"))
+    from nodegraph import imageio
+
+    for f in files:
+        if f.endswith(".png"):
+            assert (outs[0] / f).read_bytes() == (outs[1] / f).read_bytes(), f
+        else:
+            assert np.array_equal(imageio.read(outs[0] / f), imageio.read(outs[1] / f)), f
