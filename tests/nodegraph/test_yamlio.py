@@ -171,3 +171,23 @@ def test_cli_one_line_for_each(tmp_path: Path, make: str) -> None:
     else:
         p.write_text("a: " + "{b: " * 5000 + "1" + "}" * 5000)
     assert_one_line_error(cli("run", p, "-o", tmp_path / "o.png"))
+
+
+def test_load_memo_gives_own_copies_and_sees_edits(tmp_path) -> None:
+    """Parsed files are remembered by path, inode, size and mtime: each caller gets its own copy (editing it
+    changes nothing for the next), and an edited file is parsed again."""
+    import os
+
+    from nodegraph import yamlio
+
+    f = tmp_path / "p.yaml"
+    f.write_text("a: {b: [1, 2]}\n")
+    first = yamlio.load(f)
+    first["a"]["b"].append(3)
+    second = yamlio.load(f)
+    assert second == {"a": {"b": [1, 2]}}
+    assert yamlio.locate(second, ["a", "b", 1], "p.yaml").line == 1  # marks survive the copy
+    st = os.stat(f)
+    f.write_text("a: {b: [7, 8]}\n")  # same size
+    os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    assert yamlio.load(f) == {"a": {"b": [7, 8]}}
