@@ -415,3 +415,23 @@ def draw_all(result: dict[str, Any], out: Path) -> list[Path]:
                chart_stability):
         paths += fn(result, Path(out))
     return paths
+
+
+def main(argv: list[str] | None = None) -> int:
+    """python -m nodegraph.tools.accuracy_charts field FIGURES.json OUTDIR: draws one chart family from a
+    JSON of figures (field: nodes/curvature/field_figures.py's --json)."""
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("chart", choices=["field"])
+    ap.add_argument("figures", type=Path)
+    ap.add_argument("out", type=Path)
+    a = ap.parse_args(argv)
+    for p in {"field": chart_field}[a.chart](json.loads(a.figures.read_text()), a.out):
+        print(f"wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

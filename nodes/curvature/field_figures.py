@@ -1,8 +1,8 @@
 """Figures for docs/pencil.md and docs/charts/field.png: the hatching field's smoothness, its alignment with
 the measured principal directions and the node's time, for both `field` methods over a sweep of `smoothing`.
 
-    python -m nodegraph_nodes.curvature.field_figures ../shared/meshes/{spot,cow,...}.obj \\
-        --json docs/charts/field.json --charts docs/charts
+    python -m nodegraph_nodes.curvature.field_figures ../shared/meshes/{spot,cow,...}.obj --json docs/charts/field.json
+    python -m nodegraph.tools.accuracy_charts field docs/charts/field.json docs/charts   # the charts
 
 Smoothness: the mean angle between neighbouring vertices' lines after transport into a common frame (0 to
 90 degrees; lower is smoother). Alignment: the mean angle to libigl's measured dmin over the measured
@@ -90,8 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("meshes", nargs="*")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", type=Path, help="write the figures here")
-    ap.add_argument("--charts", type=Path, help="draw field.png/.svg and field_alignment.png/.svg here")
-    ap.add_argument("--from-json", action="store_true", help="only redraw the charts from --json")
+    ap.add_argument("--from-json", action="store_true", help="only print the table from --json")
     a = ap.parse_args(argv)
     if a.from_json:
         result = json.loads(a.json.read_text())
@@ -107,11 +106,6 @@ def main(argv: list[str] | None = None) -> int:
             a.json.write_text(json.dumps(result, indent=1) + "\n")
     defaults = Curvature.Params()
     print(table(result["field"], {"spread": 0.05, "smooth": defaults.smoothing}))
-    if a.charts:
-        from nodegraph.tools.accuracy_charts import chart_field
-
-        for p in chart_field(result, a.charts):
-            print(f"wrote {p}")
     return 0
 
 
