@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from nodegraph.fsio import atomic_write_text
 from nodegraph.meshes import load_mesh
 
 from . import Curvature
@@ -103,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
                   "command": "python -m nodegraph_nodes.curvature.field_figures " + " ".join(sys.argv[1:])}
         if a.json:
             a.json.parent.mkdir(parents=True, exist_ok=True)
-            a.json.write_text(json.dumps(result, indent=1) + "\n")
+            atomic_write_text(a.json, json.dumps(result, indent=1) + "\n")
     defaults = Curvature.Params()
     print(table(result["field"], {"spread": 0.05, "smooth": defaults.smoothing}))
     return 0
