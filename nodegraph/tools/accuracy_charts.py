@@ -356,9 +356,82 @@ def chart_stability(result: dict[str, Any], out: Path) -> list[Path]:
     return _save(fig, out, "stability")
 
 
+# -- hatching field (nodes/curvature/field_figures.py) --------------------------------------------
+FIELD_COLORS = {"spread": "#d1495b", "smooth": "#1b6ca8"}
+
+
+def chart_field(result: dict[str, Any], out: Path) -> list[Path]:
+    """Per mesh: node seconds against the field's smoothness (field.png) and the alignment with strong
+    principal directions against smoothness (field_alignment.png), one line per `field` method through
+    its `smoothing` values (labels)."""
+    plt = _plt()
+    meshes = result.get("field") or []
+    if not meshes:
+        return []
+    cols = min(4, len(meshes))
+    nrows = int(np.ceil(len(meshes) / cols))
+    paths: list[Path] = []
+    for name, xkey, ykey, xlabel, ylabel, title in (
+            ("field", "s", "smooth_deg", "node seconds (median; libigl included: dotted)",
+             "neighbour angle (deg, lower: smoother)",
+             "Hatching field: curvature node time against smoothness"),
+            ("field_alignment", "smooth_deg", "align_deg", "neighbour angle (deg, lower: smoother)",
+             "angle to strong measured dmin (deg)",
+             "Hatching field: alignment against smoothness (lower left is better)")):
+        fig, axes = plt.subplots(nrows, cols, figsize=(3.3 * cols, 2.9 * nrows), squeeze=False)
+        for ax, m in zip(axes.ravel(), meshes, strict=False):
+            for field, color in FIELD_COLORS.items():
+                rows = sorted((r for r in m["rows"] if r["field"] == field), key=lambda r: r["smoothing"])
+                if not rows:
+                    continue
+                xs, ys = [r[xkey] for r in rows], [r[ykey] for r in rows]
+                ax.plot(xs, ys, marker="o", ms=3.5, lw=1.0, color=color, label=field)
+                if xkey == "s":
+                    ax.hlines(ys, [r["s_min"] for r in rows], [r["s_max"] for r in rows], color=color, lw=0.6)
+                for r, x, y in zip(rows, xs, ys, strict=True):
+                    ax.annotate(f"{r['smoothing']:g}", (x, y), textcoords="offset points", xytext=(3, 2),
+                                fontsize=5.5, color=color)
+            if xkey == "s":
+                ax.axvline(m["curvature_s"], color="#888888", lw=0.8, ls=":")
+                ax.axhline(m["measured_smooth_deg"], color="#888888", lw=0.8, ls="--")
+                ax.set_xscale("log")
+            ax.set_title(f"{m['mesh']} ({m['vertices']} vertices)", fontsize=8)
+            ax.set_xlabel(xlabel, fontsize=7)
+            ax.set_ylabel(ylabel, fontsize=7)
+            ax.tick_params(labelsize=7)
+        for ax in axes.ravel()[len(meshes):]:
+            ax.axis("off")
+        axes[0][0].legend(fontsize=7)
+        note = " (dashed: as measured; labels: smoothing)" if name == "field" else " (labels: smoothing)"
+        fig.suptitle(title + note, fontsize=9)
+        fig.tight_layout()
+        paths += _save(fig, out, name)
+    return paths
+
+
 def draw_all(result: dict[str, Any], out: Path) -> list[Path]:
     paths: list[Path] = []
     for fn in (chart_edges, chart_curvature, chart_particles, chart_hatching, chart_noise, chart_pipelines,
                chart_stability):
         paths += fn(result, Path(out))
     return paths
+
+
+def main(argv: list[str] | None = None) -> int:
+    """python -m nodegraph.tools.accuracy_charts field FIGURES.json OUTDIR: draws one chart family from a
+    JSON of figures (field: nodes/curvature/field_figures.py's --json)."""
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("chart", choices=["field"])
+    ap.add_argument("figures", type=Path)
+    ap.add_argument("out", type=Path)
+    a = ap.parse_args(argv)
+    for p in {"field": chart_field}[a.chart](json.loads(a.figures.read_text()), a.out):
+        print(f"wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

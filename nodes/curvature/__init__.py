@@ -1,10 +1,11 @@
 """curvature: per-vertex principal curvatures and directions of every mesh in a scene (libigl), cached.
 
 The measurement and its fallbacks are in ``principal``; this node runs it once per mesh content on the
-welded mesh (duplicated seam vertices of OBJ files would otherwise read as boundaries), optionally smooths
-the minimum-curvature line field the way a hatching direction field wants it (the tensor-field smoothing
-Lee et al. 2006 borrow from Alliez et al. 2003), and hands out per-object arrays indexed like the mesh's
-own vertices.
+welded mesh (duplicated seam vertices of OBJ files would otherwise read as boundaries), smooths the
+minimum-curvature line field the way a hatching direction field wants it (by default one global solve for
+the smoothest field aligned to the reliable directions, ``field``; or the tensor-field smoothing Lee et al.
+2006 borrow from Alliez et al. 2003), and hands out per-object arrays indexed like the mesh's own
+vertices.
 """
 
 from __future__ import annotations
@@ -28,10 +29,12 @@ class Curvature(Node):
     ordered by magnitude: dmin is the direction of least bending, the one hatching follows. Where the
     direction is undefined or unreliable (flat, umbilic, too few neighbours, unreferenced, non-finite)
     the vertex gets a defined fallback: the direction smoothed from reliable neighbours, else the world x
-    axis in its tangent plane, and a confidence of 0 (see `principal`). The line-field tensor
-    (confidence x dmin dmin^T) is then diffused over a geodesic length of `smoothing` x the bounding-box
-    diagonal and dmin set to its dominant tangent direction (sign-invariant), as Lee et al. smooth the
-    curvature tensor field after Alliez et al. 2003: hatching follows the form, not scanner noise. Output:
+    axis in its tangent plane, and a confidence of 0 (see `principal`). dmin is then replaced by the
+    smoothest line field (2-RoSy) that follows the measured directions where the surface bends much more
+    one way than the other, weighted by the anisotropy, over a length of `smoothing` x the bounding-box
+    diagonal: one global sparse solve after Knoppel et al. 2013 (`field`: smooth, see field.py), so
+    hatching follows the form, not scanner noise, without the whorls and rings of spreading directions from
+    neighbours (`field`: spread, the line-field tensor diffused as Lee et al. after Alliez et al. 2003). Output:
     Arrays with, per object i, o{i}_kmin, o{i}_kmax (n,), o{i}_dmin, o{i}_dmax, o{i}_normal (n, 3),
     o{i}_confidence (n,), o{i}_reason, o{i}_source (n,) uint8 codes, o{i}_key (a digest of the mesh and
     the params); n is the object's mesh vertex count, arrays are in object space. The key covers the mesh
@@ -39,7 +42,7 @@ class Curvature(Node):
     measured in its rest pose (`Mesh.rest`): the arrays are the rest pose's, the same for every frame, so
     they are computed once for the whole animation."""
 
-    version = "1"
+    version = "2"
     persist = "always"
     context_keys = frozenset()
     inputs = {"scene": Input(SCENE, "Scene whose meshes to measure; the pipeline's scene when not connected.",
@@ -50,17 +53,19 @@ class Curvature(Node):
     class Params(NodeParams):
         radius: int = Field(DEFAULT_RADIUS, ge=2, le=12, description="libigl's neighbourhood in rings of "
                             "vertices (3 keeps an analytic torus within 5%; larger is smoother but biased).")
-        smoothing: float = Field(0.05, ge=0, le=0.5, description="Diffusion length of the line-field "
-                                 "smoothing of dmin, as a fraction of the bounding-box diagonal (0: libigl's "
-                                 "directions as measured); the same on coarse and dense meshes.")
+        smoothing: float = Field(0.02, ge=0, le=0.5, description="Smoothing length of the hatching field "
+                                 "dmin, as a fraction of the bounding-box diagonal (0: libigl's directions as "
+                                 "measured); the same on coarse and dense meshes. smooth: l in the energy; "
+                                 "spread: the diffusion length (its old default was 0.05).")
         min_confidence: float = Field(0.5, gt=0, le=1, description="Below this a vertex's own direction is "
                                       "replaced by one smoothed from its neighbours.")
         weld: bool = Field(True, description="Measure on the mesh with coincident vertices merged.")
-        field: Literal["spread", "smooth"] = Field("spread", description="How dmin is smoothed: spread: "
-                                                   "rounds of 1-ring tensor averaging; smooth: one global "
-                                                   "solve for the smoothest line field aligned to the measured "
-                                                   "directions, weighted by the anisotropy (Knoppel et al. "
-                                                   "2013; see field.py), `smoothing` x diagonal its length.")
+        field: Literal["spread", "smooth"] = Field("smooth", description="How dmin is smoothed: smooth: one "
+                                                   "global solve for the smoothest line field aligned to the "
+                                                   "measured directions, each weighted by its anisotropy "
+                                                   "(Knoppel et al. 2013; see field.py), `smoothing` x "
+                                                   "diagonal its length; spread: rounds of 1-ring tensor "
+                                                   "averaging (the earlier default, with smoothing 0.05).")
 
     def key(self, ctx: HashContext, input_keys: dict[str, str]) -> str:
         base = super().key(ctx, input_keys)
