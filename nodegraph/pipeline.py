@@ -3,6 +3,7 @@
 ```yaml
 pipeline: nienhaus-sketchy
 size: [800, 800]
+reference_size: 800            # image-space params are pixels at this shorter side (docs/sizes.md)
 scene: builtin:cloister        # or a scene YAML / mesh file, relative to this file
 seed: 7
 nodes:
@@ -26,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
 from .fsio import show_path
-from .node import Node
+from .node import REFERENCE_SIZE, Node
 from .registry import Registry, default
 from .shipped import resolve
 
@@ -51,6 +52,11 @@ class PipelineSpec(BaseModel):
 
     pipeline: str = Field(description="Name of the pipeline.")
     size: tuple[int, int] = Field((800, 800), description="Output size in pixels: [width, height].")
+    reference_size: int = Field(REFERENCE_SIZE, ge=1, le=16384, description=(
+        "The shorter side, in pixels, at which the nodes' image-space params (line widths, noise frequencies, "
+        "paper grain, particle spacing: 'in pixels at the reference size') hold as written; at another size "
+        "they scale by min(width, height) / reference_size, so the drawing is the same at every size "
+        "(docs/sizes.md)."))
     scene: str = Field("builtin:cloister", description="builtin:NAME, a scene YAML, or a mesh file "
                                                        "(OBJ, PLY, OFF, STL), relative to this file.")
     seed: int = Field(0, description="Pipeline seed; every stochastic node derives its own from it, "
@@ -85,6 +91,14 @@ class Pipeline:
     scene: Any = None
     spec: PipelineSpec | None = None
     raw_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    reference_size: int = REFERENCE_SIZE  # the shorter side at which image-space params hold as written
+
+    @property
+    def px_scale(self) -> float:
+        """min(width, height) / reference_size: what the nodes multiply their image-space params by."""
+        from .node import px_scale
+
+        return px_scale(self.size, self.reference_size)
 
     def graph(self) -> nx.DiGraph:
         import networkx as nx
@@ -212,7 +226,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
 
     pipe = Pipeline(name=spec.pipeline, file=file, size=tuple(size or spec.size), seed=spec.seed,
                     scene_spec=scene or spec.scene, nodes=nodes, connections=connections, outputs=outputs,
-                    spec=spec, raw_params=raw_params)
+                    spec=spec, raw_params=raw_params, reference_size=spec.reference_size)
     _check_cycles(pipe, loc)
     _check_sizes(pipe, loc)
     if load_scene:

@@ -32,6 +32,7 @@ NAMED: dict[str, str] = {
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
     "film": "nodegraph.tools.bench_film:command",
+    "sizes": "nodegraph.tools.sizes:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
