@@ -134,7 +134,7 @@ class Pipeline:
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-         up: str | None = None) -> Pipeline:
+         up: str | None = None, reference_size: int | None = None) -> Pipeline:
     """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
     PipelineError (one line, file:line:col). Files that nodes write (`Node.file_params`) resolve against
     `out_dir` (default: the current directory) and must stay inside it unless `allow_outside`."""
@@ -143,7 +143,7 @@ def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] |
     data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
                  load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside,
-                 view=view, up=up)
+                 view=view, up=up, reference_size=reference_size)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -153,8 +153,9 @@ def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
 def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
           scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
           base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False,
-          view: str | None = None, up: str | None = None) -> Pipeline:
-    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene)."""
+          view: str | None = None, up: str | None = None, reference_size: int | None = None) -> Pipeline:
+    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene);
+    `reference_size` replaces the file's (as `size` does)."""
     reg = registry or default()
     if not isinstance(data, dict):
         raise PipelineError(f"expected a mapping with keys pipeline, nodes, outputs; found {type(data).__name__}",
@@ -226,7 +227,8 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
 
     pipe = Pipeline(name=spec.pipeline, file=file, size=tuple(size or spec.size), seed=spec.seed,
                     scene_spec=scene or spec.scene, nodes=nodes, connections=connections, outputs=outputs,
-                    spec=spec, raw_params=raw_params, reference_size=spec.reference_size)
+                    spec=spec, raw_params=raw_params,
+                    reference_size=int(reference_size or spec.reference_size))
     _check_cycles(pipe, loc)
     _check_sizes(pipe, loc)
     if load_scene:

@@ -72,7 +72,9 @@ def run_minimal(gl, nodes: str, outputs: dict[str, str], size: tuple[int, int] =
     from nodegraph.executor import Executor
 
     outs = "".join(f"  {name}: {ref}\n" for name, ref in outputs.items())
-    text = f"pipeline: t\nsize: [{size[0]}, {size[1]}]\nscene: {scene}\nseed: {seed}\nnodes:\n{nodes}\noutputs:\n{outs}"
+    # the image is its own reference size (px_scale 1): params in pixels of this small image
+    text = (f"pipeline: t\nsize: [{size[0]}, {size[1]}]\nreference_size: {min(size)}\nscene: {scene}\nseed: {seed}\n"
+            f"nodes:\n{nodes}\noutputs:\n{outs}")
     ex = Executor(pl.loads(text, "t.yaml", **load_kw), None, requested=requested, gl=gl)
     return ex, ex.run()
 

@@ -20,8 +20,9 @@ class PerlinNoise(Node):
     for roughened, chalk-like profiles (paper §3.4). The seed (from the pipeline seed and the node id)
     shifts the noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times
     `scale` / px_scale: `scale` is in cycles per pixel at the pipeline's reference size (docs/sizes.md), so
-    the noise has the same features at every image size. The paper creates the noise texture once, so by default the values do
-    not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames (the boil rate:
+    the noise has the same features at every image size. The paper creates the noise texture once, so by
+    default the values do not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames
+    (the boil rate:
     `hold: 1` reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling).
     Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
     `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is

@@ -15,6 +15,7 @@ from tests.helpers import assert_outputs_as_planned, run_minimal
 TEXT = """\
 pipeline: t
 size: [40, 30]
+reference_size: 30  # px_scale 1: the tile as its params say
 scene: builtin:box
 seed: 8
 nodes:

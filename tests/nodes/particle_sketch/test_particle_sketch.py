@@ -135,7 +135,7 @@ def _load(name: str, size: tuple[int, int], **kw) -> pl.Pipeline:
 
 @pytest.mark.parametrize("name", ["loose_and_sketchy", "loose_and_sketchy_shaded"])
 def test_pipelines_draw_the_depth_edges(gl, name):
-    pipe = _load(name, (200, 200))
+    pipe = _load(name, (200, 200), reference_size=200)  # px_scale 1: spacing and widths as written
     res = Executor(pipe, None, requested=[("particles", "ink"), ("edges", "edges"), *pipe.outputs.values()],
                    gl=gl).run(0)
     ink = res.values[("particles", "ink")].read()[..., 0]
