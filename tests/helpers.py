@@ -22,11 +22,13 @@ def shared_mesh(name: str) -> Path:
 
 
 def run_node(gl, node, inputs: dict, size: tuple[int, int], frame: int = 0, scene: object = None, seed: int = 0,
-             needed: frozenset[str] | None = None) -> dict:
-    """Compute one node outside a pipeline (declared output formats)."""
+             needed: frozenset[str] | None = None, reference_size: int | None = None) -> dict:
+    """Compute one node outside a pipeline (declared output formats); without `reference_size` the image is
+    its own reference (px_scale 1)."""
     from nodegraph.node import RunContext
 
-    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene)
+    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene,
+                     reference_size=reference_size)
     return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)
 
 
