@@ -99,15 +99,50 @@ def compare_all(pipelines: list[str], small: int, large: int) -> list[dict[str, 
     return rows
 
 
+def sheet(pipelines: list[str], path: Path, sides: tuple[int, ...] = (400, 800, 1600), cell: int = 400) -> Path:
+    """A PNG: for each pipeline two rows, per-pixel params (every size its own reference: how pipelines drew
+    before reference_size) and the pipeline's reference size; one column per side, each area-averaged to
+    `cell` px so sizes compare at one scale."""
+    from ..api import Session
+    from ..imageio import write
+
+    rows = []
+    gap = 6
+    with Session(cache=False) as session:
+        for name in pipelines:
+            for own in (True, False):
+                cells = []
+                for side in sides:
+                    pipe = session.load(name, size=(side, side), reference_size=side if own else None)
+                    img = pipe.render()[..., :3].astype(np.float64) / 255.0
+                    f = side // cell
+                    cells.append(np.stack([area_down(img[..., c], f) for c in range(3)], axis=-1))
+                    cells.append(np.ones((cell, gap, 3)))
+                rows.append(np.concatenate(cells[:-1], axis=1))
+                rows.append(np.ones((gap, rows[-1].shape[1], 3)))
+    out = np.ascontiguousarray(np.concatenate(rows[:-1], axis=0)[::-1]).astype(np.float32)  # write() takes GL rows
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write(path, out)
+    return path
+
+
 @click.command()
 @click.argument("pipelines", nargs=-1)
 @click.option("--small", default=400, show_default=True, help="Side of the direct render (square).")
 @click.option("--large", default=1600, show_default=True, help="Side of the large render, a multiple of --small.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
-def command(pipelines: tuple[str, ...], small: int, large: int, json_path: Path | None) -> None:
+@click.option("--sheet", "sheet_path", type=click.Path(path_type=Path),
+              help="Instead: write a PNG of the pipelines at 400, 800 and 1600 px (shown at 400), per-pixel params "
+                   "above, the pipeline's reference size below.")
+def command(pipelines: tuple[str, ...], small: int, large: int, json_path: Path | None,
+            sheet_path: Path | None) -> None:
     """SSIM (luminance) of each pipeline at --large area-averaged to --small against a direct --small render
     (default: every shipped pipeline)."""
     from ..shipped import names
+
+    if sheet_path is not None:
+        click.echo(f"wrote {sheet(list(pipelines) or ['nienhaus_sketchy', 'pencil'], sheet_path)}")
+        return
 
     rows = compare_all(list(pipelines) or names(), small, large)
     text = json.dumps({"small": small, "large": large, "results": rows}, indent=2) + "\n"
