@@ -65,15 +65,17 @@ class Session:
     def load(self, pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
              set: Mapping[str, Any] | Iterable[str] | None = None,  # noqa: A002 - the CLI's --set
              out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-             up: str | None = None) -> Pipe:
+             up: str | None = None, reference_size: int | None = None) -> Pipe:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH'),
         `set` ({"node.param": value} or ["node.param=value"]), and `view` and `up` (`--view`, `--up`: the
         side a mesh file is seen from and its up axis; nodegraph/framing.py). Files the pipeline's nodes write (`write`,
         `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
-        unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir)."""
+        unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
+        pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md)."""
         return Pipe(self, str(pipeline), scene=None if scene is None else str(scene), size=size,
-                    overrides=_overrides(set), out_dir=out_dir, allow_outside=allow_outside, view=view, up=up)
+                    overrides=_overrides(set), out_dir=out_dir, allow_outside=allow_outside, view=view, up=up,
+                    reference_size=reference_size)
 
     def executor(self, pipe: Any, requested: list[tuple[str, str]], mode: str, frame: int, like: Any = None) -> Any:
         """A new executor for `requested` that adopts the last one's in-memory values (same GL context)."""
@@ -118,10 +120,11 @@ def default_session() -> Session:
 def load(pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
          set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None,  # noqa: A002
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-         up: str | None = None) -> Pipe:
+         up: str | None = None, reference_size: int | None = None) -> Pipe:
     """Load and validate a pipeline (a path, or the name of a shipped one) in the default session."""
     return (session or default_session()).load(pipeline, scene=scene, size=size, set=set, out_dir=out_dir,
-                                               allow_outside=allow_outside, view=view, up=up)
+                                               allow_outside=allow_outside, view=view, up=up,
+                                               reference_size=reference_size)
 
 
 class Pipe:
@@ -129,8 +132,9 @@ class Pipe:
 
     def __init__(self, session: Session, source: str, *, scene: str | None, size: tuple[int, int] | str | None,
                  overrides: list[str], out_dir: str | Path | None = None, allow_outside: bool = False,
-                 view: str | None = None, up: str | None = None) -> None:
+                 view: str | None = None, up: str | None = None, reference_size: int | None = None) -> None:
         self.session = session
+        self.reference_size = reference_size
         self.out_dir = Path.cwd() if out_dir is None else Path(out_dir)  # fixed at load: set() keeps it
         self.allow_outside = allow_outside
         self.source = source
@@ -140,7 +144,8 @@ class Pipe:
         self.view, self.up = view, up
         size_text = size if isinstance(size, str) or size is None else f"{int(size[0])}x{int(size[1])}"
         self.pipeline = render.open_pipeline(source, tuple(self.overrides), size_text, scene, out_dir=self.out_dir,
-                                             allow_outside=allow_outside, view=view, up=up)
+                                             allow_outside=allow_outside, view=view, up=up,
+                                             reference_size=reference_size)
         self.last_run: Any = None  # the last RunResult: .computed() names the nodes that ran
 
     # -- what it is ------------------------------------------------------------------------------
@@ -173,7 +178,7 @@ class Pipe:
         more = _overrides(values) + _overrides({k.replace("__", "."): v for k, v in kw.items()})
         return Pipe(self.session, self.source, scene=self.scene_arg, size=self.size_arg,
                     overrides=self.overrides + more, out_dir=self.out_dir, allow_outside=self.allow_outside,
-                    view=self.view, up=self.up)
+                    view=self.view, up=self.up, reference_size=self.reference_size)
 
     # -- running ---------------------------------------------------------------------------------
     def _ref(self, output: str | None) -> tuple[str, str]:

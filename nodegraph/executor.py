@@ -96,7 +96,8 @@ class Executor:
 
     # -- keys ------------------------------------------------------------------------------
     def keys(self, frame: int = 0) -> dict[str, str]:
-        hctx = HashContext(self.pipeline.size, frame, self.pipeline.seed, self.pipeline.scene)
+        hctx = HashContext(self.pipeline.size, frame, self.pipeline.seed, self.pipeline.scene,
+                           self.pipeline.reference_size)
         keys: dict[str, str] = {}
         for nid in self.plan.order:
             node = self.pipeline.nodes[nid]
@@ -162,7 +163,8 @@ class Executor:
         needed = self.plan.needed[nid]
         ctx = RunContext(node, gl=lambda: self.gl, size=self.pipeline.size, frame=frame,
                          pipeline_seed=self.pipeline.seed, scene=self.pipeline.scene,
-                         formats={p: f for (n, p), f in self.plan.formats.items() if n == nid})
+                         formats={p: f for (n, p), f in self.plan.formats.items() if n == nid},
+                         reference_size=self.pipeline.reference_size)
         t0 = time.perf_counter()
         try:
             outs = node.compute(ctx, inputs, needed)

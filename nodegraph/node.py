@@ -60,7 +60,21 @@ def digest(value: Any) -> str:
 
 
 # context values a node may read; each node lists the ones it reads in `context_keys`
-CONTEXT_KEYS = frozenset({"size", "frame", "seed", "scene", "camera"})
+CONTEXT_KEYS = frozenset({"size", "frame", "seed", "scene", "camera", "px_scale"})
+
+# The pipeline's `reference_size` (pixels on the shorter side) when it names none: image-space params (line
+# widths, noise frequencies, grain, particle spacing) are "pixels at the reference size", and a node that
+# declares the context key "px_scale" multiplies them by px_scale = min(width, height) / reference_size, so a
+# pipeline draws the same picture at every size (docs/sizes.md).
+REFERENCE_SIZE = 800
+
+
+def px_scale(size: tuple[int, int], reference_size: int | None) -> float:
+    """Image pixels per pixel at the reference size: min(width, height) / reference_size (1.0 exactly at it;
+    None: the image is its own reference, 1.0)."""
+    if reference_size is None:
+        return 1.0
+    return min(int(size[0]), int(size[1])) / int(reference_size)
 
 # The `hold` convention of stochastic nodes: a `hold` param (frames per change of the node's noise, the boil
 # rate; 0: the same noise for the whole sequence) makes the frame the node's seed and noise see, and the
@@ -192,18 +206,26 @@ class Node:
 
 
 class HashContext:
-    """Context values visible to `Node.key()`: size, frame, seed, scene and camera digests."""
+    """Context values visible to `Node.key()`: size, frame, seed, scene and camera digests, px_scale."""
 
-    def __init__(self, size: tuple[int, int], frame: int, seed: int, scene: Any | None):
+    def __init__(self, size: tuple[int, int], frame: int, seed: int, scene: Any | None,
+                 reference_size: int | None = None):
         self.size = size
         self.frame = frame
         self.seed = seed
         self.scene = posed(scene, frame)
+        self.reference_size = None if reference_size is None else int(reference_size)
+
+    @property
+    def px_scale(self) -> float:
+        return px_scale(self.size, self.reference_size)
 
     def values_for(self, node: Node) -> dict[str, Any]:
-        """The context values `node` reads (its `context_keys`), the frame held by its `hold`."""
+        """The context values `node` reads (its `context_keys`), the frame held by its `hold`. `px_scale` is
+        left out where it is 1.0: there a node computes exactly what it did before it read the scale (a
+        multiplication by 1), so its key, and the cache entries and records made with it, stay as they were."""
         return {k: node.held_frame(self.frame) if k == "frame" else self.value(k, node.id)
-                for k in sorted(node.context_keys)}
+                for k in sorted(node.context_keys) if not (k == "px_scale" and self.px_scale == 1.0)}
 
     def value(self, name: str, node_id: str) -> Any:
         if name == "size":
@@ -221,17 +243,22 @@ class HashContext:
             # the matrices themselves, at this aspect: a change in how a camera projects changes the key
             w, h = self.size
             return digest([cam.view_matrix().tolist(), cam.projection_matrix(w / h).tolist()])
+        if name == "px_scale":
+            return self.px_scale
         raise KeyError(f"unknown context value {name!r}; known: {sorted(CONTEXT_KEYS)}")
 
 
 @dataclass(frozen=True, init=False)
 class RunContext:
     """What a node's `compute()` sees, as a plain value: the node, the GL wrapper, the image size, the frame,
-    the pipeline seed, the scene and the planned formats of the node's texture outputs.
+    the pipeline seed, the scene, the planned formats of the node's texture outputs and the pipeline's
+    reference size (`px_scale`: image pixels per pixel at the reference size).
 
     `gl` may be given as the GL wrapper or as a zero-argument callable that returns it, so a node that never
     touches the GPU never creates a context. Tests build one directly:
-    `RunContext(node, gl=gl, size=(64, 64), frame=0, pipeline_seed=3)`.
+    `RunContext(node, gl=gl, size=(64, 64), frame=0, pipeline_seed=3)`; without `reference_size` the image
+    is its own reference (px_scale 1: params in pixels of this image), as a node run outside a pipeline
+    measures it. The executor passes the pipeline's.
     """
 
     node: Node
@@ -241,9 +268,11 @@ class RunContext:
     pipeline_seed: int = 0
     scene: Any = None
     formats: Mapping[str, str] = field(default_factory=dict)  # output port -> planned texture format
+    reference_size: int | None = None
 
     def __init__(self, node: Node, *, gl: Any = None, size: tuple[int, int] = (800, 800), frame: int = 0,
-                 pipeline_seed: int = 0, scene: Any = None, formats: Mapping[str, str] | None = None) -> None:
+                 pipeline_seed: int = 0, scene: Any = None, formats: Mapping[str, str] | None = None,
+                 reference_size: int | None = None) -> None:
         object.__setattr__(self, "node", node)
         object.__setattr__(self, "gl_source", gl)
         object.__setattr__(self, "size", (int(size[0]), int(size[1])))
@@ -251,6 +280,13 @@ class RunContext:
         object.__setattr__(self, "pipeline_seed", int(pipeline_seed))
         object.__setattr__(self, "scene", posed(scene, frame))
         object.__setattr__(self, "formats", dict(formats or {}))
+        object.__setattr__(self, "reference_size", None if reference_size is None else int(reference_size))
+
+    @property
+    def px_scale(self) -> float:
+        """Image pixels per pixel at the pipeline's reference size: min(width, height) / reference_size. A
+        node multiplies its image-space params by it (and declares the context key "px_scale")."""
+        return px_scale(self.size, self.reference_size)
 
     @property
     def gl(self) -> Any:

@@ -3,6 +3,7 @@
 ```yaml
 pipeline: nienhaus-sketchy
 size: [800, 800]
+reference_size: 800            # image-space params are pixels at this shorter side (docs/sizes.md)
 scene: builtin:cloister        # or a scene YAML / mesh file, relative to this file
 seed: 7
 nodes:
@@ -26,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from . import yamlio
 from .errors import CycleError, Location, PipelineError, PortTypeError
 from .fsio import show_path
-from .node import Node
+from .node import REFERENCE_SIZE, Node
 from .registry import Registry, default
 from .shipped import resolve
 
@@ -51,6 +52,11 @@ class PipelineSpec(BaseModel):
 
     pipeline: str = Field(description="Name of the pipeline.")
     size: tuple[int, int] = Field((800, 800), description="Output size in pixels: [width, height].")
+    reference_size: int = Field(REFERENCE_SIZE, ge=1, le=16384, description=(
+        "The shorter side, in pixels, at which the nodes' image-space params (line widths, noise frequencies, "
+        "paper grain, particle spacing: 'in pixels at the reference size') hold as written; at another size "
+        "they scale by min(width, height) / reference_size, so the drawing is the same at every size "
+        "(docs/sizes.md)."))
     scene: str = Field("builtin:cloister", description="builtin:NAME, a scene YAML, or a mesh file "
                                                        "(OBJ, PLY, OFF, STL), relative to this file.")
     seed: int = Field(0, description="Pipeline seed; every stochastic node derives its own from it, "
@@ -85,6 +91,14 @@ class Pipeline:
     scene: Any = None
     spec: PipelineSpec | None = None
     raw_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    reference_size: int = REFERENCE_SIZE  # the shorter side at which image-space params hold as written
+
+    @property
+    def px_scale(self) -> float:
+        """min(width, height) / reference_size: what the nodes multiply their image-space params by."""
+        from .node import px_scale
+
+        return px_scale(self.size, self.reference_size)
 
     def graph(self) -> nx.DiGraph:
         import networkx as nx
@@ -120,7 +134,7 @@ class Pipeline:
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-         up: str | None = None) -> Pipeline:
+         up: str | None = None, reference_size: int | None = None) -> Pipeline:
     """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
     PipelineError (one line, file:line:col). Files that nodes write (`Node.file_params`) resolve against
     `out_dir` (default: the current directory) and must stay inside it unless `allow_outside`."""
@@ -129,7 +143,7 @@ def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] |
     data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
                  load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside,
-                 view=view, up=up)
+                 view=view, up=up, reference_size=reference_size)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -139,8 +153,9 @@ def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
 def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
           scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
           base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False,
-          view: str | None = None, up: str | None = None) -> Pipeline:
-    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene)."""
+          view: str | None = None, up: str | None = None, reference_size: int | None = None) -> Pipeline:
+    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene);
+    `reference_size` replaces the file's (as `size` does)."""
     reg = registry or default()
     if not isinstance(data, dict):
         raise PipelineError(f"expected a mapping with keys pipeline, nodes, outputs; found {type(data).__name__}",
@@ -212,7 +227,8 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
 
     pipe = Pipeline(name=spec.pipeline, file=file, size=tuple(size or spec.size), seed=spec.seed,
                     scene_spec=scene or spec.scene, nodes=nodes, connections=connections, outputs=outputs,
-                    spec=spec, raw_params=raw_params)
+                    spec=spec, raw_params=raw_params,
+                    reference_size=int(reference_size or spec.reference_size))
     _check_cycles(pipe, loc)
     _check_sizes(pipe, loc)
     if load_scene:

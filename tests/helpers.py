@@ -22,11 +22,13 @@ def shared_mesh(name: str) -> Path:
 
 
 def run_node(gl, node, inputs: dict, size: tuple[int, int], frame: int = 0, scene: object = None, seed: int = 0,
-             needed: frozenset[str] | None = None) -> dict:
-    """Compute one node outside a pipeline (declared output formats)."""
+             needed: frozenset[str] | None = None, reference_size: int | None = None) -> dict:
+    """Compute one node outside a pipeline (declared output formats); without `reference_size` the image is
+    its own reference (px_scale 1)."""
     from nodegraph.node import RunContext
 
-    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene)
+    ctx = RunContext(node, gl=gl, size=size, frame=frame, pipeline_seed=seed, scene=scene,
+                     reference_size=reference_size)
     return node.compute(ctx, inputs, frozenset(node.outputs) if needed is None else needed)
 
 
@@ -72,7 +74,9 @@ def run_minimal(gl, nodes: str, outputs: dict[str, str], size: tuple[int, int] =
     from nodegraph.executor import Executor
 
     outs = "".join(f"  {name}: {ref}\n" for name, ref in outputs.items())
-    text = f"pipeline: t\nsize: [{size[0]}, {size[1]}]\nscene: {scene}\nseed: {seed}\nnodes:\n{nodes}\noutputs:\n{outs}"
+    # the image is its own reference size (px_scale 1): params in pixels of this small image
+    text = (f"pipeline: t\nsize: [{size[0]}, {size[1]}]\nreference_size: {min(size)}\nscene: {scene}\nseed: {seed}\n"
+            f"nodes:\n{nodes}\noutputs:\n{outs}")
     ex = Executor(pl.loads(text, "t.yaml", **load_kw), None, requested=requested, gl=gl)
     return ex, ex.run()
 

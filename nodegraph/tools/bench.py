@@ -34,6 +34,7 @@ NAMED: dict[str, str] = {
     "film": "nodegraph.tools.bench_film:command",
     "uncertainty-cost": "nodegraph.tools.bench_lines:uncertainty_command",
     "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
+    "sizes": "nodegraph.tools.sizes:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -90,7 +90,8 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         return ex, ex.run(0)
 
     ex, res = node_run()  # compiles the shaders and uploads the mesh: not counted
-    ctx = RunContext(node, gl=gl, size=pipe.size, pipeline_seed=pipe.seed, scene=pipe.scene)
+    ctx = RunContext(node, gl=gl, size=pipe.size, pipeline_seed=pipe.seed, scene=pipe.scene,
+                     reference_size=pipe.reference_size)
     edges = res.values[("edges", "edges")].read()[..., 0] >= 0.5
     ff = res.values[("field", "out")].read()[..., :2].astype(np.float64)
 

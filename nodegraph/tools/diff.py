@@ -58,7 +58,7 @@ def key_parts(node: Node, hctx: HashContext, input_keys: dict[str, str]) -> dict
 
 def node_keys(pipe: Pipeline, frame: int = 0) -> tuple[dict[str, str], dict[str, dict[str, Any]]]:
     """Keys and key parts of every planned node."""
-    hctx = HashContext(pipe.size, frame, pipe.seed, pipe.scene)
+    hctx = HashContext(pipe.size, frame, pipe.seed, pipe.scene, pipe.reference_size)
     keys: dict[str, str] = {}
     parts: dict[str, dict[str, Any]] = {}
     for nid in plan(pipe).order:

@@ -22,10 +22,14 @@ class DepthEdges(Node):
 
     The seed thresholds a per-pixel gradient, so a sloped surface (a floor at a grazing angle) that stays
     under the threshold at 800 px crosses it at 400 px, where each pixel spans twice the depth, and the
-    floor turns into edges. With `reference_height` (default 800) the gradient is expressed per pixel of
-    an image that tall: multiplied by height / reference_height. At 800 px this is the seed's computation
-    exactly; at other sizes slopes of the same steepness give the same edges, and a depth step counts when
-    s >= threshold / 3 x reference_height / height (smaller images keep only larger steps).
+    floor turns into edges. So the gradient is expressed per pixel at the pipeline's `reference_size`
+    (docs/sizes.md; default 800 on the shorter side): multiplied by px_scale = shorter side /
+    reference_size. At the reference size this is the seed's computation exactly; at other sizes slopes of
+    the same steepness give the same edges, and a depth step counts when s >= threshold / 3 / px_scale
+    (smaller images keep only larger steps). `reference_height` H instead scales by height / H (its
+    meaning before pipelines had a reference size; the default used to be 800, which equals the pipeline
+    reference for a square or landscape image at the default reference_size); None: the seed's per-pixel
+    gradient.
 
     The method wants depth in [0, 1] with 1 = background. `mode: linear` (default) takes
     rasterize.linear_depth (view distance, 0 = background) and maps [near, far] to [0, 1]: the same depth
@@ -35,7 +39,12 @@ class DepthEdges(Node):
 
     version = "1"
     shaders = ("depth_edges.glsl",)
-    context_keys = frozenset({"size", "camera"})
+    @property
+    def context_keys(self) -> frozenset[str]:  # type: ignore[override]
+        keys = {"size", "camera"}
+        if self.params.reference_height == "pipeline":
+            keys.add("px_scale")
+        return frozenset(keys)
     inputs = {
         "depth": Input(Texture("R32F"), "mode: linear: rasterize.linear_depth (0 = background); mode: window: "
                        "a depth in [0, 1] with 1 = background (rasterize.depth)."),
@@ -54,10 +63,11 @@ class DepthEdges(Node):
         mode: Literal["linear", "window"] = Field(
             "linear", description="linear: the input is linear view depth (0 = background), mapped to [0, 1] by "
             "`range`; window: the input already is depth in [0, 1] with 1 = background, used as it is.")
-        reference_height: int | None = Field(
-            800, ge=1, description="Express the gradient per pixel of an image this tall (times height / "
-            "reference_height), so `threshold` means the same slope at every size; None: per pixel of this "
-            "image, the seed's.")
+        reference_height: int | Literal["pipeline"] | None = Field(
+            "pipeline", description="Express the gradient per pixel of an image this tall (times height / "
+            "reference_height), so `threshold` means the same slope at every size; pipeline (default): per "
+            "pixel at the pipeline's reference_size (times px_scale = shorter side / reference_size); None: "
+            "per pixel of this image, the seed's.")
         range: tuple[float, float] | None = Field(
             None, description="mode: linear only: the view distances mapped to 0 and 1 (clamped); default: the "
             "camera's near and far planes.")
@@ -84,8 +94,10 @@ class DepthEdges(Node):
                             "or use mode: window for a depth in [0, 1]", self.id, self.type_name)
         return float(cam.near), float(cam.far)
 
-    def gradient_scale(self, height: int) -> float:
+    def gradient_scale(self, height: int, px_scale: float = 1.0) -> float:
         ref = self.params.reference_height
+        if ref == "pipeline":
+            return px_scale
         return 1.0 if ref is None else height / ref
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
@@ -106,7 +118,7 @@ class DepthEdges(Node):
                        for port in ports}
             gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
                           textures={"t_x": across},
-                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1])})
+                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1], ctx.px_scale)})
         finally:
             gl.release(across)
         return targets

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import Field
@@ -15,10 +16,15 @@ _PORTS = {"out": "LOC_OUT", "profile": "LOC_PROFILE", "inner": "LOC_INNER"}
 class EdgeDetect(Node):
     """Edge intensities (1 = edge) from a G-buffer. Profile edges come from depth discontinuities and
     the object/background boundary and are marked on the nearer side, one `width` thick; inner edges
-    come from normal discontinuities (creases) and are marked on both sides of the crease."""
+    come from normal discontinuities (creases) and are marked on both sides of the crease.
+    `width` is in pixels at the pipeline's reference size (docs/sizes.md): the stencil radius is
+    width x px_scale, and a radius that is not whole blends the stencils at its floor and its ceiling by
+    the fraction, so a line 2 px at the reference size is 1 px at half of it and a faint, half-intensity
+    line of 1 px at a quarter of it, never nothing."""
 
-    version = "1"
+    version = "2"
     shaders = ("edge_detect.glsl",)
+    context_keys = frozenset({"size", "px_scale"})
     inputs = {
         "normal_depth": Input(Texture("RGBA32F"), "View-space normal (xyz) and linear view depth (w, 0 = "
                               "background): rasterize.normal_depth."),
@@ -40,7 +46,9 @@ class EdgeDetect(Node):
                                         "inner edge starts (0.4 ~ 23 degrees, 0.6 ~ 35 degrees).")
         depth_threshold: float = Field(0.03, gt=0, description="Relative depth discontinuity above which a "
                                        "profile edge starts.")
-        width: int = Field(1, ge=1, le=8, description="Stencil radius in pixels; lines are about this thick.")
+        width: float = Field(1, gt=0, le=8, allow_inf_nan=False, description="Stencil radius in pixels at the "
+                             "reference size; lines are about this thick. Not whole: the two nearest whole "
+                             "stencils blended.")
         profile_intensity: float = Field(1.0, ge=0, le=1, description="Intensity of profile edges in `out`.")
         inner_intensity: float = Field(1.0, ge=0, le=1, description="Intensity of inner edges in `out`.")
 
@@ -53,13 +61,26 @@ class EdgeDetect(Node):
                        USE_DEPTH=int(p.mode in ("normal_depth", "depth")))
         prog = ctx.program("edge_detect.glsl", defines)
         size = inputs["normal_depth"].size
+        radius, frac = self.radius(ctx.px_scale)
         targets = {port: ctx.target(port, size) for port in ports}
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures={"t_normal_depth": inputs["normal_depth"]},
                           uniforms={"u_normal_threshold": p.normal_threshold, "u_depth_threshold": p.depth_threshold,
                                     "u_profile_intensity": p.profile_intensity,
-                                    "u_inner_intensity": p.inner_intensity, "u_width": p.width})
+                                    "u_inner_intensity": p.inner_intensity,
+                                    "u_radius": radius, "u_frac": frac})
         return targets
+
+    def radius(self, px_scale: float) -> tuple[int, float]:
+        """The stencil radius at this scale as (whole part, fraction): width x px_scale."""
+        return split_width(self.params.width * px_scale)
+
+
+def split_width(width: float) -> tuple[int, float]:
+    """(whole part, fraction) of a width in pixels; a fraction within 1e-9 of a whole number snaps to it."""
+    whole = math.floor(width + 1e-9)
+    frac = width - whole
+    return whole, (0.0 if frac < 1e-9 else float(frac))
 
 
 NODE = EdgeDetect

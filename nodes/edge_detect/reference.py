@@ -8,15 +8,33 @@ from nodegraph.sampling import shifted, smoothstep
 
 
 def edge_detect(normal_depth: np.ndarray, operator: str = "four_neighbour", mode: str = "normal_depth",
-                normal_threshold: float = 0.4, depth_threshold: float = 0.03, width: int = 1,
+                normal_threshold: float = 0.4, depth_threshold: float = 0.03, width: float = 1,
                 profile_intensity: float = 1.0, inner_intensity: float = 1.0) -> dict[str, np.ndarray]:
-    """normal_depth (H, W, 4): view-space normal in xyz, linear depth in w with 0 = background."""
+    """normal_depth (H, W, 4): view-space normal in xyz, linear depth in w with 0 = background. `width` is
+    the stencil radius in image pixels (already scaled); not whole, the stencils at floor(width) and
+    floor(width) + 1 are blended by the fraction (radius 0: nothing)."""
+    whole = int(np.floor(width + 1e-9))
+    frac = width - whole
+    frac = 0.0 if frac < 1e-9 else frac
+    zero = np.zeros(normal_depth.shape[:2])
+    profile, inner = (_measures(normal_depth, operator, mode, normal_threshold, depth_threshold, whole)
+                      if whole > 0 else (zero, zero))
+    if frac > 0.0:
+        p1, i1 = _measures(normal_depth, operator, mode, normal_threshold, depth_threshold, whole + 1)
+        profile = profile * (1.0 - frac) + p1 * frac
+        inner = inner * (1.0 - frac) + i1 * frac
+    return {"out": np.maximum(profile * profile_intensity, inner * inner_intensity), "profile": profile,
+            "inner": inner}
+
+
+def _measures(normal_depth: np.ndarray, operator: str, mode: str, normal_threshold: float,
+              depth_threshold: float, r: int) -> tuple[np.ndarray, np.ndarray]:
+    """(profile, inner) with the stencil at distance r."""
     n = normal_depth[..., :3].astype(np.float64)
     d = normal_depth[..., 3].astype(np.float64)
     cov = d > 0
     dc = d
     inside = dc > 0
-    r = int(width)
 
     def depth_at(dx: int, dy: int) -> np.ndarray:
         s = shifted(d, dx, dy)
@@ -53,5 +71,4 @@ def edge_detect(normal_depth: np.ndarray, operator: str = "four_neighbour", mode
         inner = smoothstep(normal_threshold, 1.25 * normal_threshold, normal_measure)
     profile = np.where(inside, profile, 0.0)
     inner = np.where(inside, inner, 0.0)
-    return {"out": np.maximum(profile * profile_intensity, inner * inner_intensity), "profile": profile,
-            "inner": inner}
+    return profile, inner

@@ -34,7 +34,7 @@ class FeatureLines(Node):
 
     version = "1"
     shaders = ("feature_lines.glsl", "edges.glsl")
-    context_keys = frozenset({"size", "frame", "scene", "camera"})
+    context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "curvature": Input(ARRAYS, "Per-object curvature arrays (curvature.out, best with smoothing: 0)."),
         "normal_depth": Input(Texture("RGBA32F"), "G-buffer normal and linear depth (rasterize.normal_depth): "
@@ -68,7 +68,8 @@ class FeatureLines(Node):
                                   "curvature noise on scanned meshes gives many short fragments.")
         chain_strength: float = Field(0.5, ge=0, le=1, description="Hysteresis: a chain is kept only where its "
                                       "strongest point reaches this intensity; its weaker parts stay with it.")
-        width: float = Field(2.0, ge=1, le=8, description="Line width in pixels.")
+        width: float = Field(2.0, ge=1, le=8, description="Line width in pixels at the reference size (times "
+                             "px_scale; below one pixel: drawn one pixel wide at that fraction of the intensity).")
         depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A line is hidden where the G-buffer "
                                        "is nearer by more than this fraction of its depth.")
         suggestive_intensity: float = Field(1.0, ge=0, le=1, description="Suggestive contours in `out`.")
@@ -151,6 +152,7 @@ class FeatureLines(Node):
             model = np.asarray(obj.transform, dtype=np.float64)
             eye_obj = (np.linalg.inv(model) @ np.r_[eye, 1.0])[:3]
             per_object.append((obj, model, self.segments(ctx, inputs["curvature"], index, obj.mesh, eye_obj, kinds)))
+        line_width, line_scale = self.drawn_width(ctx.px_scale)
         targets = {port: ctx.target(port, nd.size) for port in ("out", *_KINDS) if port in needed}
         for port, target in targets.items():
             with_edges = port == "out" and edges is not None
@@ -176,10 +178,16 @@ class FeatureLines(Node):
                     inten = np.concatenate([s.intensity * wt for s, wt in parts]).reshape(-1)
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
                     _draw(gl, prog, textures, {"u_model": u_model, "u_view": u_view, "u_proj": proj,
-                                               "u_viewport": (float(w), float(h)), "u_width": float(p.width),
-                                               "u_depth_tolerance": p.depth_tolerance, "u_scale": 1.0},
+                                               "u_viewport": (float(w), float(h)), "u_width": float(line_width),
+                                               "u_depth_tolerance": p.depth_tolerance, "u_scale": line_scale},
                           pts, inten)
         return targets
+
+    def drawn_width(self, px_scale: float) -> tuple[float, float]:
+        """(quad width in pixels, intensity factor) at px_scale: width x px_scale, and a line thinner than a
+        pixel drawn one pixel wide at that fraction of the intensity (its coverage), so it fades, not drops."""
+        w = self.params.width * px_scale
+        return (w, 1.0) if w >= 1.0 else (1.0, w)
 
 
 def _draw(gl: Any, prog: Any, textures: dict[str, Any], uniforms: dict[str, Any], pts: np.ndarray,

@@ -50,7 +50,10 @@ class Paper(Node):
     """Paper normal texture: a periodic height field of paper tooth and fibres (seeded), its unit normals
     in xyz and the height in w. Consumers read it with wrap-around addressing at one texel per pixel and
     take the dot product of the grain normal with the stroke direction: graphite catches on the side of
-    the tooth a stroke runs into (paper §4.2.3)."""
+    the tooth a stroke runs into (paper §4.2.3). `grain` and `relief` are in texels (= pixels) at the
+    pipeline's reference size (docs/sizes.md): at another size the tooth is grain x px_scale texels and the
+    relief relief x px_scale (so the normals lean as much), and the paper keeps its look relative to the
+    picture. The tile keeps `size` texels (it repeats more often on a larger image)."""
 
     version = "1"
     persist = "never"  # ~30 ms on the CPU, about what reading it back from the disk cache costs
@@ -59,7 +62,8 @@ class Paper(Node):
     class Params(NodeParams):
         size: int = Field(512, ge=16, le=4096, description="Tile width and height in texels (a power of two "
                           "is fastest).")
-        grain: float = Field(1.2, gt=0, le=16, description="Size of the paper tooth in texels.")
+        grain: float = Field(1.2, gt=0, le=16, description="Size of the paper tooth in texels (pixels) at the "
+                             "reference size.")
         fibres: float = Field(0.35, ge=0, le=1, description="Share of elongated fibres in the relief.")
         fibre_length: float = Field(6.0, ge=1, le=64, description="Fibres are this many times longer than wide.")
         relief: float = Field(6.0, gt=0, le=100, description="Height scale of the relief; larger: steeper "
@@ -68,18 +72,21 @@ class Paper(Node):
 
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
-        return frozenset() if self.params.seed is not None else frozenset({"seed"})
+        return frozenset({"px_scale"}) if self.params.seed is not None else frozenset({"seed", "px_scale"})
 
-    def normals(self, seed: int) -> np.ndarray:
+    def normals(self, seed: int, px_scale: float = 1.0) -> np.ndarray:
         p = self.params
-        return paper_normals(paper_height(p.size, seed, p.grain, p.fibres, p.fibre_length), p.relief)
+        if px_scale == 1.0:
+            return paper_normals(paper_height(p.size, seed, p.grain, p.fibres, p.fibre_length), p.relief)
+        return paper_normals(paper_height(p.size, seed, p.grain * px_scale, p.fibres, p.fibre_length),
+                             p.relief * px_scale)
 
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         return (self.params.size, self.params.size, 1)
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         seed = self.params.seed if self.params.seed is not None else ctx.seed
-        data = self.normals(seed)
+        data = self.normals(seed, ctx.px_scale)
         tex = ctx.gl.texture((self.params.size, self.params.size), ctx.format("out"), data=data, repeat=True)
         return {"out": tex}
 

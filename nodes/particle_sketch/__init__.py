@@ -23,6 +23,8 @@ from nodegraph.values import Strokes
 from . import core
 
 Color = tuple[float, float, float]
+# the core's params that are lengths in pixels (the random force is one per unit time, like the field)
+_SCALED = ("n", "m", "line_width", "erase_width", "randomness")
 _CORE_FIELDS = ("strokes", "n", "m", "mass", "drag", "randomness", "step", "max_steps", "line_width",
                 "erase_width", "integrator", "retries", "batch")
 
@@ -47,11 +49,15 @@ class ParticleSketch(Node):
     Random numbers come from the pipeline seed, the node id, `seed` and the frame the seeds are held from:
     frame // hold * hold (`hold` 1: new strokes every frame, the classic squiggle; k: the same particle seeds
     for k frames; 0: never new ones). Within a hold the drawing changes only where its inputs do, and the
-    node's key is the same, so held frames come from the cache."""
+    node's key is the same, so held frames come from the cache.
+    Distances (`n`, `m`, `line_width`, `erase_width`) are in pixels at the pipeline's reference size
+    (docs/sizes.md). At px_scale s they are multiplied by s, and so are the force field and the random
+    force: the equation of motion is linear in them, so a trajectory is the reference-size one scaled by s
+    (same time step, same number of steps), and the same strokes cover the same share of the picture."""
 
     version = "3"
     shaders = ("particle_sketch.glsl",)
-    context_keys = frozenset({"size", "seed"})
+    context_keys = frozenset({"size", "seed", "px_scale"})
     inputs = {
         "edges": Input(Texture("R8"), "Binary edge map, 1 = ink needed (depth_edges.edges)."),
         "force": Input(Texture("RG32F"), "Force field in pixels, x right, y up (force_field.out)."),
@@ -68,9 +74,9 @@ class ParticleSketch(Node):
         strokes: int = Field(2000, ge=0, le=1_000_000, description="Particles to launch; fewer are drawn when "
                              "the edge map runs out of valid starts first.")
         n: float = Field(2.0, ge=0, le=32, allow_inf_nan=False, description="A start, and every later position, "
-                         "must be within n px of a remaining edge pixel.")
+                         "must be within n px (at the reference size) of a remaining edge pixel.")
         m: float = Field(2.0, ge=0, le=32, allow_inf_nan=False, description="A start must not be within m px "
-                         "of a drawn line.")
+                         "(at the reference size) of a drawn line.")
         mass: float = Field(6.0, gt=0, allow_inf_nan=False, description="Particle mass: more is more inertia "
                             "(strokes overshoot corners and curves).")
         drag: float = Field(1.0, ge=0, allow_inf_nan=False, description="Drag coefficient: more keeps strokes "
@@ -80,8 +86,8 @@ class ParticleSketch(Node):
         step: float = Field(3.0, gt=0, le=64, allow_inf_nan=False, description="Time step; with the saturated "
                             "force field a particle moves about step / drag px per step.")
         max_steps: int = Field(25, ge=1, le=100_000, description="Steps after which a stroke ends anyway.")
-        line_width: float = Field(1.2, gt=0, le=16, allow_inf_nan=False, description="Ink line width in px "
-                                  "(antialiased).")
+        line_width: float = Field(1.2, gt=0, le=16, allow_inf_nan=False, description="Ink line width in px at "
+                                  "the reference size (antialiased).")
         erase_width: float | None = Field(None, ge=0, le=32, allow_inf_nan=False, description="Width erased "
                                           "from the edge map along each segment; default: line_width. Keep it "
                                           "below 2 n.")
@@ -98,8 +104,14 @@ class ParticleSketch(Node):
         retries: int = Field(5000, ge=1, le=10_000_000, description="Random start positions tried per stroke "
                              "before the drawing counts as complete.")
 
-    def core_params(self) -> core.ParticleParams:
-        return core.ParticleParams(**{name: getattr(self.params, name) for name in _CORE_FIELDS})
+    def core_params(self, px_scale: float = 1.0) -> core.ParticleParams:
+        """The core's params at px_scale: distances and the random force times px_scale (as written at 1)."""
+        values = {name: getattr(self.params, name) for name in _CORE_FIELDS}
+        if px_scale != 1.0:
+            for name in _SCALED:
+                if values[name] is not None:
+                    values[name] = values[name] * px_scale
+        return core.ParticleParams(**values)
 
     def seed_frame(self, frame: int) -> int:
         """The frame whose seed the particles use at `frame`."""
@@ -120,8 +132,11 @@ class ParticleSketch(Node):
         # float32 as read back: the sketcher promotes to float64 before combining values, so the strokes
         # are bit-identical to a float64 copy's (checked), without a 10 MB conversion per frame
         ff = force.read()[..., :2]
+        s = ctx.px_scale
+        if s != 1.0:
+            ff = ff * np.float32(s)  # pixels per unit time at this size: the trajectories scale with the image
         try:
-            return core.simulate(e, ff, self.core_params(), self.rng(ctx))
+            return core.simulate(e, ff, self.core_params(s), self.rng(ctx))
         except ValueError as exc:  # the core checks its arrays (a force field with NaN or inf)
             raise NodeError(str(exc), self.id, self.type_name) from None
 
@@ -132,7 +147,7 @@ class ParticleSketch(Node):
         size = inputs["edges"].size
         out: dict[str, Any] = {}
         if "strokes" in needed:
-            out["strokes"] = Strokes(list(res.strokes), size, p.line_width, p.color)
+            out["strokes"] = Strokes(list(res.strokes), size, p.line_width * ctx.px_scale, p.color)
         if "remaining" in needed:
             out["remaining"] = gl.upload(res.edges.astype(np.float32), ctx.format("remaining"), filter="nearest")
         if "ink" in needed or "image" in needed:

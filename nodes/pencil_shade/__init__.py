@@ -37,7 +37,7 @@ class PencilShade(Node):
 
     version = "1"
     shaders = ("pencil_shade.glsl", "composite.glsl")
-    context_keys = frozenset({"size", "frame", "scene", "camera"})
+    context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "tam": Input(TextureArray("R8"), "Tonal art map, layer 0 lightest (hatching_synthesis.tones)."),
         "curvature": Input(ARRAYS, "Per-object curvature arrays (curvature.out) of the same scene."),
@@ -64,8 +64,10 @@ class PencilShade(Node):
                                     "exceeds k x layer_offset.")
         layer_angle: float = Field(30.0, ge=0, le=90, description="Layer 1 is turned by +layer_angle, layer 2 "
                                    "by -layer_angle degrees from the curvature frame.")
-        texel_scale: float = Field(0.7, gt=0, le=8, description="Tonal-art-map texels per screen pixel "
-                                   "(below 1: broader strokes; above 1: finer, from the mipmaps).")
+        texel_scale: float = Field(0.7, gt=0, le=8, description="Tonal-art-map texels per screen pixel at the "
+                                   "reference size (below 1: broader strokes; above 1: finer, from the mipmaps); "
+                                   "per image pixel it is texel_scale / px_scale, so strokes keep their size "
+                                   "relative to the picture.")
         grain: float = Field(0.15, ge=0, le=1, description="Paper grain: graphite darkness times 1 + 2.5 x grain x "
                            "(grain normal . stroke direction), clamped to [0, 2].")
         fallback_angle: float = Field(45.0, ge=-180, le=180, description="Screen direction in degrees "
@@ -98,6 +100,10 @@ class PencilShade(Node):
 
     def layer_shifts(self) -> np.ndarray:
         return reference.LAYER_SHIFTS[: self.params.layers].astype(np.float32)
+
+    def texel_scale(self, px_scale: float) -> float:
+        """Tonal-art-map texels per image pixel: texel_scale / px_scale (docs/sizes.md)."""
+        return self.params.texel_scale if px_scale == 1.0 else self.params.texel_scale / px_scale
 
     def hash_extra(self, ctx: HashContext) -> Any:
         return origin.hash_extra(ctx.scene, ctx.frame)
@@ -136,6 +142,7 @@ class PencilShade(Node):
         fallback = math.radians(p.fallback_angle)
         light = view_light(scene, cam)
         max_tone = p.max_darkness * (tam.layers - 1)
+        texel_scale = self.texel_scale(ctx.px_scale)
         bind(prog, textures, {
             "u_proj": proj, "u_viewport": (float(w), float(h)),
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
@@ -143,10 +150,10 @@ class PencilShade(Node):
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
             "u_max_tone": float(max_tone), "u_layer_offset": p.layer_offset,
             "u_layer_rot": self.layer_rotations(), "u_layer_shift": self.layer_shifts(),
-            "u_texel_scale": p.texel_scale, "u_lod": max(math.log2(p.texel_scale), 0.0), "u_grain": p.grain,
+            "u_texel_scale": texel_scale, "u_lod": max(math.log2(texel_scale), 0.0), "u_grain": p.grain,
         })
         # one texel per pixel or coarser needs no mipmaps: plain bilinear is 3x cheaper on llvmpipe
-        sampler = _sampler(gl, mipmaps=p.texel_scale > 1.0)
+        sampler = _sampler(gl, mipmaps=texel_scale > 1.0)
         sampler.use(location=0)  # t_tam is bound first, to unit 0
         try:
             with gl.depth_test() as state:

@@ -19,8 +19,10 @@ class PerlinNoise(Node):
     so the drawing is coherent from frame to frame. `kind: white` gives uncorrelated values in [0, 1)
     for roughened, chalk-like profiles (paper §3.4). The seed (from the pipeline seed and the node id)
     shifts the noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times
-    `scale` (cycles per pixel). The paper creates the noise texture once, so by default the values do
-    not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames (the boil rate:
+    `scale` / px_scale: `scale` is in cycles per pixel at the pipeline's reference size (docs/sizes.md), so
+    the noise has the same features at every image size. The paper creates the noise texture once, so by
+    default the values do not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames
+    (the boil rate:
     `hold: 1` reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling).
     Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
     `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is
@@ -35,7 +37,8 @@ class PerlinNoise(Node):
                                                  "white: uncorrelated per-pixel values (chalk, paper §3.4).")
         mode: Literal["turbulence", "fbm"] = Field("turbulence", description="turbulence: sum of |noise| over "
                                                    "octaves (the paper's); fbm: signed sum.")
-        scale: float = Field(0.01, gt=0, le=1, description="Noise frequency in cycles per pixel (perlin).")
+        scale: float = Field(0.01, gt=0, le=1, description="Noise frequency in cycles per pixel at the reference "
+                             "size (perlin).")
         octaves: int = Field(4, ge=1, le=12, description="Octaves summed, each at twice the frequency and half "
                                                          "the amplitude (perlin).")
         animate: bool = Field(False, description="Reseed every frame (no frame-to-frame coherence); the older "
@@ -54,6 +57,8 @@ class PerlinNoise(Node):
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
         keys = {"size", "seed"}
+        if self.params.kind == "perlin":
+            keys.add("px_scale")
         if self.hold != 0:
             keys.add("frame")
         return frozenset(keys)
@@ -66,7 +71,7 @@ class PerlinNoise(Node):
         out = ctx.target("out")
         w, h = ctx.size
         ctx.gl.fullscreen(prog, [out],
-                          uniforms={"u_scale_split": noise.split_scale(p.scale),
+                          uniforms={"u_scale_split": noise.split_scale(self.frequency(ctx.px_scale)),
                                     "u_seed_cell": tuple(int(c) for c in cell),
                                     "u_seed_frac": tuple(float(f) for f in frac),
                                     "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
@@ -75,12 +80,16 @@ class PerlinNoise(Node):
                                     "u_size": (float(w), float(h))})
         return {"out": out}
 
-    def reference(self, width: int, height: int, seed: int, frame: int = 0) -> Any:
+    def frequency(self, px_scale: float) -> float:
+        """Cycles per image pixel: `scale` / px_scale (`scale` itself at the reference size)."""
+        return self.params.scale if px_scale == 1.0 else self.params.scale / px_scale
+
+    def reference(self, width: int, height: int, seed: int, frame: int = 0, px_scale: float = 1.0) -> Any:
         """The float64 CPU computation of this node's output, (H, W, 2)."""
         p = self.params
         if p.kind == "white":
             return noise.white_offsets(width, height, seed, frame)
-        return noise.screen_offsets(width, height, p.scale, p.octaves, seed, p.mode)
+        return noise.screen_offsets(width, height, self.frequency(px_scale), p.octaves, seed, p.mode)
 
 
 NODE = PerlinNoise

@@ -31,7 +31,8 @@ def _pipeline(scene, with_curvature: bool = False) -> pl.Pipeline:
     if with_curvature:
         nodes["curv"] = {"type": "curvature"}
         outputs["curvature"] = "curv.out"
-    data = {"pipeline": "formats", "size": list(SIZE), "scene": "builtin:box", "nodes": nodes, "outputs": outputs}
+    data = {"pipeline": "formats", "size": list(SIZE), "reference_size": min(SIZE),  # px_scale 1, as NodeRunner
+            "scene": "builtin:box", "nodes": nodes, "outputs": outputs}
     pipe = pl.build(data, "<test_formats>", load_scene=False)
     pipe.scene = scene
     return pipe

@@ -17,6 +17,7 @@ from tests.helpers import assert_outputs_as_planned, run_minimal
 TEXT = """\
 pipeline: t
 size: [160, 120]
+reference_size: 120  # px_scale 1: widths and grain as written
 scene: builtin:torus
 seed: 5
 nodes:

@@ -117,3 +117,51 @@ def test_errors_are_located_at_load_time():
         pl.loads(text.replace("g.normal_depth}, params: {normal_threshold: 0}", "g.color}"), "t.yaml")
     assert_one_line_located(e.value, "t.yaml:5:")
     assert "Texture[RGBA32F]" in str(e.value) and "Texture[RGBA8]" in str(e.value)
+
+
+# -- widths at the reference size (docs/sizes.md) ----------------------------------------------------------
+def _box_nd(gl, size=(128, 128)):
+    g = run_node(gl, Rasterize("g"), {}, size, scene=load_scene("builtin:box"), needed=frozenset({"normal_depth"}))
+    return g["normal_depth"]
+
+
+@pytest.mark.parametrize("operator", ["four_neighbour", "sobel"])
+@pytest.mark.parametrize("width", [0.5, 1.5, 2.25])
+def test_fractional_width_matches_the_float64_reference(gl, operator, width):
+    nd = _box_nd(gl)
+    node = EdgeDetect("e", EdgeDetect.Params(operator=operator, width=width))
+    got = run_node(gl, node, {"normal_depth": nd}, nd.size)
+    ref = edge_detect_ref(nd.read(), operator=operator, width=width)
+    for port in ("out", "profile", "inner"):
+        np.testing.assert_allclose(got[port].read()[..., 0], ref[port], atol=2e-3, err_msg=port)
+
+
+def test_width_follows_the_reference_size_and_fades_below_a_pixel(gl):
+    """width 2 at reference 800: radius 1 at 400, 0.5 at 200 (one pixel at half intensity), and the ink
+    (sum of intensities across a line) falls with the radius smoothly instead of vanishing."""
+    nd = _box_nd(gl)
+    ref = edge_detect_ref(nd.read())  # radius 1 of this image, by hand
+    inks = []
+    for px_scale in (1.0, 0.5, 0.25, 0.125):
+        node = EdgeDetect("e", EdgeDetect.Params(width=2))
+        out = run_node(gl, node, {"normal_depth": nd}, nd.size, reference_size=round(128 * 2 / (2 * px_scale)))
+        inks.append(out["out"].read()[..., 0].astype(np.float64))
+    # reference 128 x 2 / 2: px_scale 0.5 of width 2 -> radius 1, bit for bit the whole-radius stencil
+    np.testing.assert_allclose(inks[1], ref["out"], atol=1e-3)
+    # radius 0.5 and 0.25: the radius-1 lines at half and a quarter intensity (the radius-0 stencil is empty)
+    np.testing.assert_allclose(inks[2], 0.5 * ref["out"], atol=1e-3)
+    np.testing.assert_allclose(inks[3], 0.25 * ref["out"], atol=1e-3)
+    totals = [a.sum() for a in inks]
+    assert totals[0] > totals[1] > totals[2] > totals[3] > 0
+
+
+def test_width_key_covers_the_scale_only_away_from_the_reference():
+    from nodegraph.node import HashContext
+
+    node = EdgeDetect("e", EdgeDetect.Params(width=2))
+    at_ref = node.key_parts(HashContext((800, 600), 0, 1, None, 600), {})["context"]
+    assert at_ref == {"size": [800, 600]}  # px_scale 1 is left out: the key is what it was before
+    half = node.key_parts(HashContext((800, 600), 0, 1, None, 1200), {})["context"]
+    assert half == {"size": [800, 600], "px_scale": 0.5}
+    keys = {node.key(HashContext((800, 600), 0, 1, None, ref), {}) for ref in (600, 1200)}
+    assert len(keys) == 2

@@ -15,6 +15,7 @@ from tests.helpers import assert_outputs_as_planned, run_minimal
 TEXT = """\
 pipeline: t
 size: [40, 30]
+reference_size: 30  # px_scale 1: the tile as its params say
 scene: builtin:box
 seed: 8
 nodes:
@@ -96,3 +97,16 @@ def test_gpu_tile_range_and_seam(gl):
     n = np.stack([-gx, -gy, np.ones_like(h)], axis=-1)
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     np.testing.assert_allclose(out[..., :3], n, atol=1.5e-2)  # heights and normals both in half floats
+
+
+def test_grain_follows_the_reference_size():
+    """At px_scale 2 the tooth is twice as many texels and the relief twice as high (same lean of the
+    normals); at 1 the tile is exactly the params'."""
+    from nodegraph_nodes.paper import paper_height, paper_normals
+
+    node = load().nodes["paper"]
+    p = node.params
+    assert np.array_equal(node.normals(3, 1.0), paper_normals(paper_height(p.size, 3, p.grain, p.fibres,
+                                                                            p.fibre_length), p.relief))
+    assert np.array_equal(node.normals(3, 2.0), paper_normals(paper_height(p.size, 3, 2 * p.grain, p.fibres,
+                                                                            p.fibre_length), 2 * p.relief))

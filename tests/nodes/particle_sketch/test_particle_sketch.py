@@ -135,7 +135,7 @@ def _load(name: str, size: tuple[int, int], **kw) -> pl.Pipeline:
 
 @pytest.mark.parametrize("name", ["loose_and_sketchy", "loose_and_sketchy_shaded"])
 def test_pipelines_draw_the_depth_edges(gl, name):
-    pipe = _load(name, (200, 200))
+    pipe = _load(name, (200, 200), reference_size=200)  # px_scale 1: spacing and widths as written
     res = Executor(pipe, None, requested=[("particles", "ink"), ("edges", "edges"), *pipe.outputs.values()],
                    gl=gl).run(0)
     ink = res.values[("particles", "ink")].read()[..., 0]
@@ -211,3 +211,16 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
     outputs = {"image": "p.image", "ink": "p.ink", "strokes": "p.strokes", "remaining": "p.remaining"}
     ex, res = run_minimal(gl, nodes, outputs)
     assert assert_outputs_as_planned(ex, res, "p") == ["image", "ink", "remaining", "strokes"]
+
+
+def test_distances_follow_the_reference_size():
+    """At px_scale 2 the core gets twice the spacing, widths and random force (and the node doubles the
+    field): the equation of motion is linear in them, so trajectories are the reference ones scaled."""
+    from nodegraph_nodes.particle_sketch import ParticleSketch
+
+    node = ParticleSketch("p", ParticleSketch.Params(n=2.0, m=1.5, line_width=1.2, randomness=0.35))
+    one, two = node.core_params(1.0), node.core_params(2.0)
+    assert (two.n, two.m, two.line_width, two.randomness) == (4.0, 3.0, 2.4, 0.7)
+    assert two.erase_width is None and (two.step, two.max_steps, two.mass, two.drag) == (one.step, one.max_steps,
+                                                                                       one.mass, one.drag)
+    assert node.core_params(1.0) == node.core_params()

@@ -221,7 +221,7 @@ def test_curvature_of_another_scene_is_a_clear_error(gl, tam):
 
 @pytest.mark.parametrize("name, output", [("pencil.yaml", "shade.color"), ("pencil_contours.yaml", "contour.color")])
 def test_shipped_pencil_pipelines_run(gl, name: str, output: str):
-    pipe = pl.load(ROOT / "pipelines" / name, size=(160, 120))
+    pipe = pl.load(ROOT / "pipelines" / name, size=(160, 120), reference_size=120)
     res = Executor(pipe, None, gl=gl).run()
     img = next(iter(res.values.values())).read()
     assert img.shape == (120, 160, 4) and np.isfinite(img).all()
@@ -244,7 +244,8 @@ def test_golden_pencil_torus(gl, request):
     from nodegraph import imageio
     from tests.helpers import FAILURES, GOLDEN
 
-    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(128, 96))
+    # reference_size 96: px_scale 1, so this also checks that the scaled params are exactly the old ones there
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(128, 96), reference_size=96)
     img = Executor(pipe, None, gl=gl).run().values[("shade", "color")].read()
     golden = GOLDEN / "pencil_torus.exr"
     if request.config.getoption("--regen-golden"):

@@ -74,3 +74,36 @@ def test_bad_params_are_located_load_errors():
             pl.loads(text, "t.yaml")
         assert_one_line_located(e.value, "t.yaml:4:")
         assert field in str(e.value)
+
+
+def test_scale_is_cycles_per_pixel_at_the_reference_size(gl):
+    """At 200 px with reference 400 (px_scale 0.5) the noise is twice the frequency per pixel: the float64
+    reference with scale / 0.5, and the same noise values at the same place in the picture as a 400 px
+    render (its position 2i + 1 is pixel i's centre here)."""
+    from nodegraph.node import derive_seed
+
+    node = PerlinNoise("noise", PerlinNoise.Params(scale=0.013, octaves=3))
+    seed = derive_seed(99, "noise", 0)
+    got = run_node(gl, node, {}, (200, 120), seed=99, reference_size=240)["out"].read()
+    ref = node.reference(200, 120, seed, px_scale=0.5)
+    assert np.abs(got - ref).max() < 1e-5
+    # independent of the node: Perlin's function at the picture's coordinates, 400 px wide at 0.013 per pixel
+    from nodegraph_nodes._shared import noise
+
+    xs = np.arange(200) * 2 + 1.0
+    ys = np.arange(120) * 2 + 1.0
+    o = noise.seed_offset(seed)
+    sx, ty = np.meshgrid(xs, ys)
+    fn = noise._octave_fn("turbulence")
+    expect = fn(sx * 0.013 + o[0], ty * 0.013 + o[1], np.full(sx.shape, o[2]), 3)
+    assert np.abs(ref[..., 0] - expect).max() < 1e-9
+
+
+def test_white_noise_and_px_scale_in_the_key():
+    from nodegraph.node import HashContext
+
+    perlin = PerlinNoise("n", PerlinNoise.Params())
+    white = PerlinNoise("n", PerlinNoise.Params(kind="white"))
+    h = HashContext((400, 400), 0, 1, None, 800)
+    assert h.values_for(perlin)["px_scale"] == 0.5
+    assert "px_scale" not in h.values_for(white)  # white noise is per pixel by nature
