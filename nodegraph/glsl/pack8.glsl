@@ -22,6 +22,11 @@ uniform int u_width;        // the source texture's width
 uniform int u_target_width; // texels in a row of the target
 uniform int u_total;        // bytes in the stream: u_height * (1 + PNG_CHANNELS * u_width)
 
+vec4 pixel(int px, int row) {  // the 8-bit values of pixel px of image row `row` (rows counted top first)
+    return bytes_of(texelFetch(t_src, ivec2(px, u_height - 1 - min(row, u_height - 1)), 0));
+}
+
+// Branch-free on purpose: llvmpipe runs both sides of a branch its SIMD lanes disagree on.
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     int stride = 1 + PNG_CHANNELS * u_width;  // bytes of one image row in the stream
@@ -29,42 +34,38 @@ void main() {
     // the image row of the first byte: a float quotient (integer division by a uniform is slow on the CPU)
     // corrected to the exact one
     int row = int(float(b0) / float(stride));
-    int j0 = b0 - row * stride;
-    if (j0 < 0) { row -= 1; j0 += stride; }
-    if (j0 >= stride) { row += 1; j0 -= stride; }
-    // the four bytes: their place in a row (0 is the filter byte) and their row (a row holds 4 bytes or more,
-    // so they reach at most into the next one)
+    int j0 = b0 - row * stride;  // place of the first byte in its row; 0 is the filter byte
+    row += j0 >= stride ? 1 : (j0 < 0 ? -1 : 0);
+    j0 = b0 - row * stride;
+    int left = stride - j0;  // bytes of this row from the first one on: 1..3 means the next row starts here
+#if PNG_CHANNELS == 1
     ivec4 j = ivec4(j0) + ivec4(0, 1, 2, 3);
     ivec4 next = ivec4(greaterThanEqual(j, ivec4(stride)));
     j -= next * stride;
     ivec4 r = ivec4(row) + next;
-    ivec4 q = max(j - 1, 0);
-    ivec4 px = q / PNG_CHANNELS;
-    ivec4 ch = q - px * PNG_CHANNELS;
-#if PNG_CHANNELS == 1
-    // grey: one pixel a byte
-    vec4 v = vec4(bytes_of(texelFetch(t_src, ivec2(px.x, u_height - 1 - min(r.x, u_height - 1)), 0)).x,
-                  bytes_of(texelFetch(t_src, ivec2(px.y, u_height - 1 - min(r.y, u_height - 1)), 0)).x,
-                  bytes_of(texelFetch(t_src, ivec2(px.z, u_height - 1 - min(r.z, u_height - 1)), 0)).x,
-                  bytes_of(texelFetch(t_src, ivec2(px.w, u_height - 1 - min(r.w, u_height - 1)), 0)).x);
+    ivec4 px = max(j - 1, 0);
+    vec4 v = vec4(pixel(px.x, r.x).r, pixel(px.y, r.y).r, pixel(px.z, r.z).r, pixel(px.w, r.w).r);
+    v = mix(v, vec4(0.0), equal(j, ivec4(0)));  // filter bytes
 #else
-    // RGB: four bytes touch at most two pixels, the first data byte's and the last one's
-    int fa = j.x == 0 ? 1 : 0;  // the first data byte (byte 0, or byte 1 after a filter byte)
-    int fb = j.w == 0 ? 2 : 3;  // the last data byte
-    ivec2 a = ivec2(px[fa], min(r[fa], u_height - 1));
-    ivec2 bb = ivec2(px[fb], min(r[fb], u_height - 1));
-    vec4 va = bytes_of(texelFetch(t_src, ivec2(a.x, u_height - 1 - a.y), 0));
-    vec4 vb = bytes_of(texelFetch(t_src, ivec2(bb.x, u_height - 1 - bb.y), 0));
-    vec4 v;
-    for (int k = 0; k < 4; k++) {
-        bool from_a = px[k] == a.x && r[k] == a.y;
-        v[k] = from_a ? va[ch[k]] : vb[ch[k]];
-    }
+    // RGB: four bytes touch two pixels at most. Inside a row they are pixel px from channel `phase` on and
+    // pixel px + 1; at a row's start the filter byte and pixel 0; across a row's end the last pixel, the
+    // next row's filter byte and its pixel 0.
+    int q = max(j0 - 1, 0);
+    int px = q / 3;
+    int phase = q - px * 3;
+    bool start = j0 == 0;
+    bool across = left <= 3;
+    ivec2 ca = across ? ivec2(u_width - 1, row) : ivec2(px, row);
+    ivec2 cb = across ? ivec2(0, row + 1) : ivec2(min(px + 1, u_width - 1), row);
+    vec4 a = pixel(ca.x, ca.y);
+    vec4 b = pixel(cb.x, cb.y);
+    vec4 inside = phase == 0 ? vec4(a.rgb, b.r) : (phase == 1 ? vec4(a.gb, b.rg) : vec4(a.b, b.rgb));
+    vec4 at_end = left == 1 ? vec4(a.b, 0.0, b.rg) : (left == 2 ? vec4(a.gb, 0.0, b.r) : vec4(a.rgb, 0.0));
+    vec4 v = start ? vec4(0.0, a.rgb) : (across ? at_end : inside);
 #endif
-    // filter bytes are 0, and so is everything past the end of the stream
-    bvec4 is_filter = equal(j, ivec4(0));
-    bvec4 past = greaterThanEqual(ivec4(b0) + ivec4(0, 1, 2, 3), ivec4(u_total));
-    o_bytes = uvec4(mix(v, vec4(0.0), bvec4(ivec4(is_filter) | ivec4(past))));
+    // past the end of the stream: zeros
+    v = mix(v, vec4(0.0), greaterThanEqual(ivec4(b0) + ivec4(0, 1, 2, 3), ivec4(u_total)));
+    o_bytes = uvec4(v);
 }
 #else
 void main() {
