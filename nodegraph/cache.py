@@ -61,14 +61,16 @@ STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftove
 PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
 MAX_PENDING_WRITES = 6  # background writes queued at most; the next `store` waits for one to finish
 LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
-ENTRY_MS_PER_MB = 10.0
-"""Estimated cost of writing an entry and reading it back later, per MB of stored pixels (half or float;
-zip-compressed EXR on the project's 2-core machine: 4K entries took 6-13 ms/MB write + read, more under load;
-docs/performance.md "Big single renders"). Used by `Cache.worth_writing`."""
+ENTRY_MS_PER_MB = 20.0
+"""Estimated cost of writing an entry and reading it back later, per MB of stored pixels (half or float):
+zip-compressed EXR on the project's 2-core machine, the six 4K entries of nienhaus_sketchy took 10-35 ms/MB
+write + read (median 19; load average 2.7; docs/performance.md "Big single renders"). Used by
+`Cache.worth_writing`."""
 ALWAYS_WRITE_MS = 250.0
 """Entries estimated below this are written whatever their node costs: the background write hides them, the
-estimate is too rough to second-guess them, and every render up to about 1.5 Mpx of float RGBA keeps the
-promise that a changed param recomputes only what is downstream of it."""
+estimate is too rough to second-guess them, and every render up to about 0.8 Mpx of float RGBA (800x800
+included; more for half and fewer channels) keeps the promise that a changed param recomputes only what is
+downstream of it."""
 
 
 class CacheWarning(UserWarning):
