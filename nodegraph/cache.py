@@ -16,6 +16,10 @@ Promises (docs/reliability.md, tests/nodegraph/test_cache_faults.py):
   where the folder should be, a file-size limit, permission denied) loses only that entry, with one
   warning per run. Background writes report the same way, from the main thread (at `flush`, at the next
   `store`, at `close`, or at interpreter exit).
+- Worth its cost: the executor asks `worth_writing` before a single render writes an output; an entry
+  estimated at `ALWAYS_WRITE_MS` or more (stored bytes at `ENTRY_MS_PER_MB`) is written only when
+  recomputing it costs as much (docs/architecture.md, step 5). An entry not written is never lost data:
+  the next run computes it, as it would any miss.
 - Bounded: least-recently-used entries (by mtime, refreshed on every hit) are evicted past the size
   limit, and temporary files count toward it. Writes are atomic: a temporary file
   `.tmp-<pid>@<host>-<random>.<ext>` in the entry's folder, then a rename. `prune` removes a temporary
@@ -57,6 +61,16 @@ STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftove
 PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
 MAX_PENDING_WRITES = 6  # background writes queued at most; the next `store` waits for one to finish
 LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
+ENTRY_MS_PER_MB = 20.0
+"""Estimated cost of writing an entry and reading it back later, per MB of stored pixels (half or float):
+zip-compressed EXR on the project's 2-core machine, the six 4K entries of nienhaus_sketchy took 10-35 ms/MB
+write + read (median 19; load average 2.7; docs/performance.md "Big single renders"). Used by
+`Cache.worth_writing`."""
+ALWAYS_WRITE_MS = 250.0
+"""Entries estimated below this are written whatever their node costs: the background write hides them, the
+estimate is too rough to second-guess them, and every render up to about 0.8 Mpx of float RGBA (800x800
+included; more for half and fewer channels) keeps the promise that a changed param recomputes only what is
+downstream of it."""
 
 
 class CacheWarning(UserWarning):
@@ -232,6 +246,9 @@ class Cache:
         self._written_since_prune = 0
         self._write_error: str | None = None  # first failure not yet reported (set on the writer thread too)
         self._write_warned = False
+        self.ms_per_mb = ENTRY_MS_PER_MB  # the cost model of `worth_writing` (tests change it)
+        self.always_write_ms = ALWAYS_WRITE_MS
+        self.skipped = 0  # entries not written because recomputing them costs less (`worth_writing`)
         atexit.register(_report_at_exit, weakref.ref(self))
 
     def bind(self, renderer: str) -> None:
@@ -287,6 +304,35 @@ class Cache:
         return loaded
 
     # -- write -----------------------------------------------------------------------------
+    def entry_cost_ms(self, value: Any) -> float:
+        """Estimated milliseconds to write `value`'s entry and read it back in a later run: its stored bytes
+        (textures as half or float, as `store_value` writes them) at `ms_per_mb`."""
+        if isinstance(value, (Tex, TexArray)):
+            w, h = value.size
+            layers = value.layers if isinstance(value, TexArray) else 1
+            if isinstance(value, Tex):
+                per = 4 if types.precision(value.fmt) >= 2 else 2
+            else:
+                per = int(np.dtype(types.numpy_dtype(value.fmt)).itemsize)
+            stored = w * h * layers * types.components(value.fmt) * per
+        else:
+            stored = int(getattr(value, "nbytes", 0))
+        return stored / 1e6 * self.ms_per_mb
+
+    def worth_writing(self, value: Any, recompute_ms: float | None) -> bool:
+        """Whether a computed value is worth an entry: always when it is cheap to store (under
+        `always_write_ms`) or its recompute cost is unknown (None); otherwise when recomputing it (its node and
+        the unstored nodes it would need, measured in this run) costs at least as much as writing and later
+        reading the entry. Counts what it declines in `skipped`."""
+        if recompute_ms is None:
+            return True
+        cost = self.entry_cost_ms(value)
+        if cost < self.always_write_ms or recompute_ms >= cost:
+            return True
+        with self._lock:
+            self.skipped += 1
+        return False
+
     def store_value(self, key: str, port: str, value: Any, meta: dict[str, Any], background: bool = False) -> bool:
         """Write a node's output value (textures are read back to the host first). Returns False, writing
         nothing, for a value that is never cached; `load` gives it back as host data with its kind."""

@@ -75,6 +75,11 @@ class Executor:
         self._unstorable: set[tuple[str, str]] = set()  # outputs already reported as not cacheable
         self.keep_host = keep_host
         self._host: dict[int, tuple[Any, Any]] = {}  # id(value) -> (value, its host copy), with keep_host
+        # cost-aware persistence (single renders): each node's measured compute ms by key, and for each output
+        # (key, port) the keys of the nodes a later run would have to compute to get it back (empty: on disk)
+        self._own_ms: dict[str, float] = {}
+        self._recompute: dict[tuple[str, str], frozenset[str]] = {}
+        self._deferred: list[tuple[Node, str, str, Any]] = []  # entries to write when the run's nodes are done
 
     @property
     def cache(self) -> Cache | None:
@@ -112,8 +117,11 @@ class Executor:
         stats = {nid: NodeStat(nid, self.pipeline.nodes[nid].type_name, keys[nid]) for nid in self.plan.order}
         pinned: set[tuple[str, str]] = set()
         values: dict[PortRef, Any] = {}
-        for ref in self.plan.requested:
-            values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
+        try:
+            for ref in self.plan.requested:
+                values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
+        finally:  # what was computed is kept even when a later node fails
+            self._store_deferred()
         self._evict(pinned)
         if self._cache is not None and self.mode == "loop":
             self._cache.report_write_errors()
@@ -147,6 +155,7 @@ class Executor:
                 if self.keep_host and isinstance(value, (Tex, TexArray)):
                     self._host[id(value)] = (value, as_read(loaded.data, value.fmt))
                 self._remember(mkey, value, pinned)
+                self._recompute[mkey] = frozenset()
                 if stats[nid].status in ("skipped", "memory"):
                     stats[nid].status = "disk"
                 stats[nid].ms += (time.perf_counter() - t0) * 1000
@@ -165,6 +174,7 @@ class Executor:
                          pipeline_seed=self.pipeline.seed, scene=self.pipeline.scene,
                          formats={p: f for (n, p), f in self.plan.formats.items() if n == nid},
                          reference_size=self.pipeline.reference_size)
+        weigh = self._weighing()
         t0 = time.perf_counter()
         try:
             outs = node.compute(ctx, inputs, needed)
@@ -176,8 +186,8 @@ class Executor:
             raise
         except Exception as exc:  # a bug or an unforeseen input inside a node: one line naming it
             raise NodeError(one_line(exc), nid, node.type_name) from exc
-        if self.timing and self._gl is not None:
-            self.gl.finish()
+        if (self.timing or weigh) and self._gl is not None:
+            self.gl.finish()  # the GPU's share of the node's time counts too
         ms = (time.perf_counter() - t0) * 1000
         self.compute_counts[nid] = self.compute_counts.get(nid, 0) + 1
         missing = needed - set(outs)
@@ -185,8 +195,10 @@ class Executor:
             raise NodeError(f"did not produce {sorted(missing)}", nid, node.type_name)
         st = stats[nid]
         st.status, st.ms = "computed", st.ms + ms
+        self._own_ms[keys[nid]] = ms
         persist = self.cache is not None and (
             node.persist == "always" or self.persist_all or (node.persist == "auto" and self.mode == "single"))
+        chain = self._chain(nid, keys) if weigh else None
         for port, value in outs.items():
             mkey = (keys[nid], port)
             held = self._memory.get(mkey)
@@ -199,8 +211,47 @@ class Executor:
                 continue
             self._remember(mkey, value, pinned)
             st.outputs[port] = describe(value)
-            if persist and port in needed and self.cache.find(keys[nid], self._entry(nid, port)) is None:
-                self._persist(node, keys[nid], port, value)
+            if persist and port in needed:
+                if self.cache.find(keys[nid], self._entry(nid, port)) is not None:
+                    self._recompute[mkey] = frozenset()
+                    continue
+                if chain is None or node.persist == "always" or self.cache.worth_writing(value, chain[1]):
+                    if weigh:  # written once the run's nodes are done: no write competes with them
+                        self._deferred.append((node, keys[nid], port, value))
+                    else:
+                        self._persist(node, keys[nid], port, value)
+                    self._recompute[mkey] = frozenset()
+                    continue
+            if chain is not None:  # not on disk (not worth it, or never persisted): a later run recomputes it
+                self._recompute[mkey] = chain[0]
+
+    def _store_deferred(self) -> None:
+        """Write the entries chosen during this run (their values are still pinned: nothing was evicted yet)."""
+        deferred, self._deferred = self._deferred, []
+        for node, key, port, value in deferred:
+            self._persist(node, key, port, value)
+
+    def _weighing(self) -> bool:
+        """Whether outputs are persisted by cost (`Cache.worth_writing`; nodes marked `persist = "always"`
+        are persisted all the same): single renders with a disk cache, unless everything is to be persisted.
+        Each node's compute time is then measured to the end of its GPU work, and the chosen entries are
+        written when the run's nodes are done (`_store_deferred`), so no write slows a node it measures."""
+        return self._cache is not None and self.mode == "single" and not self.persist_all
+
+    def _chain(self, nid: str, keys: dict[str, str]) -> tuple[frozenset[str], float | None]:
+        """What recomputing `nid`'s outputs would take in a later run: the keys of the nodes it needs computed
+        (itself, and the inputs that are not on disk, transitively) and their measured ms this run; the ms is
+        None when an input's cost is not known (a value kept in memory from before this executor saw it)."""
+        need = {keys[nid]}
+        for s, sp in self.pipeline.connections[nid].values():
+            while (s, sp) in self.plan.aliases:
+                s, sp = self.plan.aliases[(s, sp)]
+            up = self._recompute.get((keys[s], sp))
+            if up is None:
+                return frozenset(need), None
+            need |= up
+        own = [self._own_ms.get(k) for k in need]
+        return frozenset(need), None if any(m is None for m in own) else sum(m for m in own if m is not None)
 
     # -- memory cache ----------------------------------------------------------------------
     def _remember(self, mkey: tuple[str, str], value: Any, pinned: set[tuple[str, str]]) -> None:
@@ -256,6 +307,10 @@ class Executor:
             adopted += 1
         old._memory.clear()
         old._memory_bytes = 0
+        for k, v in old._recompute.items():  # what it knew of those values' cost (same keys, same nodes)
+            self._recompute.setdefault(k, v)
+        for k, ms in old._own_ms.items():
+            self._own_ms.setdefault(k, ms)
         return adopted
 
     def host_copy(self, value: Any) -> Any:

@@ -181,14 +181,7 @@ class GL:
             out[:, :, 3] = 255
             out[:, :, :c] = raw
             return out
-        key = ("pack8", (w, h))
-        target = self.resources.get(key)
-        if target is None:
-            target = self.resources[key] = self.ctx.texture((w, h), 4, dtype="u1")
-        fbo_key = ("pack8_fbo", (w, h))
-        fbo = self.resources.get(fbo_key)
-        if fbo is None:
-            fbo = self.resources[fbo_key] = self.ctx.framebuffer(color_attachments=[target])
+        target, fbo = self._pack_target((w, h))
         from .glsl import ENGINE_GLSL
 
         prog = self.program(ENGINE_GLSL / "pack8.glsl", node="engine")
@@ -196,6 +189,35 @@ class GL:
         out = np.empty((h, w, 4), np.uint8)
         target.read_into(out, alignment=1)
         return out
+
+    def read_png_rows(self, tex: Tex) -> tuple[np.ndarray, int]:
+        """A texture as the bytes a PNG's image data compresses, and their channels (1: grey, 3: RGB):
+        every row top first, a filter byte 0 ("none"), then the row's 8-bit values, exactly as
+        `imageio.png_rows(read_uint8(tex)[..., :channels])` would give them (values as `read_uint8`; one
+        channel is grey, anything else RGB with missing colour channels 0). One full-screen pass writes the
+        stream 4 bytes a texel, so the read-back is the stream itself: no copy on the host."""
+        w, h = tex.size
+        c = 1 if types.components(tex.fmt) == 1 else 3
+        total = h * (1 + c * w)
+        rows = -(-total // (4 * w))  # at most h: 1 + 3w <= 4w bytes a row
+        target, fbo = self._pack_target((w, rows))
+        from .glsl import ENGINE_GLSL
+
+        prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_ROWS": 1, "PNG_CHANNELS": c}, node="engine")
+        self.fullscreen(prog, [], {"t_src": tex},
+                        {"u_height": h, "u_width": w, "u_target_width": w, "u_total": total}, fbo=fbo)
+        out = np.empty(rows * w * 4, np.uint8)
+        target.read_into(out, alignment=1)
+        return out[:total], c
+
+    def _pack_target(self, size: tuple[int, int]) -> tuple[Any, Any]:
+        """The RGBA8UI texture (and its framebuffer) of `size` that the pack passes draw into, kept per size."""
+        key = ("pack8", size)
+        entry = self.resources.get(key)
+        if entry is None:
+            target = self.ctx.texture(size, 4, dtype="u1")
+            entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
+        return entry
 
     # -- geometry ---------------------------------------------------------------------------
     def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays]) -> MeshBuffers:

@@ -123,6 +123,28 @@ class Bytes8:
         return self.data[:, :, :1] if self.channels == 1 else self.data[:, :, :3]
 
 
+class PngRows:
+    """A frame already laid out on the GPU as a PNG's row bytes (`GL.read_png_rows`): `data` (1-D uint8,
+    h * (1 + w * channels) bytes), the size and the channels (1 grey, 3 RGB); `write` compresses and writes."""
+
+    def __init__(self, data: Any, size: tuple[int, int], channels: int):  # np.ndarray
+        self.data = data
+        self.size = size
+        self.channels = channels
+
+    @classmethod
+    def of(cls, tex: Any, gl: Any) -> PngRows:
+        data, channels = gl.read_png_rows(tex)
+        return cls(data, tex.size, channels)
+
+    def write(self, path: Path, level: int | None = None) -> Path:
+        from . import imageio
+
+        w, h = self.size
+        return imageio.write_png_rows(path, self.data, w, h, self.channels,
+                                      imageio.PNG_LEVEL if level is None else level)
+
+
 def is_sequence(pattern: str, many: bool) -> bool:
     """Whether frames go to a sequence of files (several frames, or a `####` pattern): those PNGs are written
     by `write_frame`; a single named image keeps `write_value` (OpenImageIO's PNG writer)."""
@@ -130,16 +152,12 @@ def is_sequence(pattern: str, many: bool) -> bool:
 
 
 def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:
-    """One frame of a sequence: a texture bound for a PNG is converted to 8 bits on the GPU and written by
-    `imageio.write_png8` (as `film.SequenceWriter` does), anything else by `write_value`; serial and
-    distributed sequences give the same bytes. `gl`: the GL wrapper, or a function giving it (called only
-    for a texture)."""
-    from . import imageio
+    """One frame of a sequence: a texture bound for a PNG is converted to 8 bits and laid out as PNG rows on
+    the GPU (`PngRows`), then compressed by `imageio.write_png_rows` (as `film.SequenceWriter` does);
+    anything else goes to `write_value`. Serial and distributed sequences give the same bytes. `gl`: the GL
+    wrapper, or a function giving it (called only for a texture)."""
     from .values import Tex
 
     if isinstance(value, Tex) and path.suffix.lower() == ".png":
-        from .types import components
-
-        frame = Bytes8((gl() if callable(gl) else gl).read_uint8(value), components(value.fmt))
-        return imageio.write_png8(path, frame.png(), imageio.PNG_LEVEL if png_level is None else png_level)
+        return PngRows.of(value, gl() if callable(gl) else gl).write(path, png_level)
     return write_value(value, path)

@@ -5,12 +5,16 @@ The same frames of a pipeline are rendered (no disk cache, as `--frames` in a lo
 - `png`: through `film.render_frames` into an image sequence `f_####.png` (the `run --frames` path);
 - `mp4`: through `film.render_frames` into an H.264 film.
 
-and the JSON gives each rate and the ratios png/frames and mp4/frames (targets 0.85 and 0.8).
+and the JSON gives each rate and the ratios png/frames and mp4/frames (targets 0.85 and 0.8), and the
+process's CPU time a frame for each way (all threads: llvmpipe's, the writers', the encoder's). On a shared
+machine the CPU figures move less than the rates: `cpu_ms_per_frame` and `extra_cpu_ms` (a way's CPU a frame
+beyond frames-only, median over the rounds) show what writing costs.
 """
 
 from __future__ import annotations
 
 import json
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -43,21 +47,29 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
         gl.finish()
         return ex
 
+    cpu_s: dict[str, list[float]] = {"frames": [], "png": [], "mp4": []}
+
+    def cpu() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
     def frames_only() -> float:
         ex = executor()
-        t0 = time.perf_counter()
+        c0, t0 = cpu(), time.perf_counter()
         for f in frame_list:
             ex.run(f)
             gl.finish()
         dt = time.perf_counter() - t0
+        cpu_s["frames"].append(cpu() - c0)
         ex.clear_memory()
         return dt
 
-    def written(pattern: str, **kw: Any) -> float:
+    def written(way: str, pattern: str, **kw: Any) -> float:
         ex = executor()
-        t0 = time.perf_counter()
+        c0, t0 = cpu(), time.perf_counter()
         film.render_frames(ex, ref, frame_list, pattern, **kw)
         dt = time.perf_counter() - t0
+        cpu_s[way].append(cpu() - c0)
         ex.clear_memory()
         return dt
 
@@ -67,18 +79,20 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
         for r in range(repeat):  # interleaved, so drift in the machine's speed hits all three alike
             times["frames"].append(frames_only())
             seq = Path(tmp) / f"png{r}"
-            times["png"].append(written(str(seq / "f_####.png"), png_level=png_level))
+            times["png"].append(written("png", str(seq / "f_####.png"), png_level=png_level))
             sizes["png_bytes_per_frame"] = sum(p.stat().st_size for p in seq.glob("*.png")) // max(1, frames)
             mp4 = Path(tmp) / f"film{r}.mp4"
-            times["mp4"].append(written(str(mp4)))
+            times["mp4"].append(written("mp4", str(mp4)))
             sizes["mp4_bytes"] = mp4.stat().st_size
     best = {k: min(v) for k, v in times.items()}
     fps = {k: frames / v for k, v in best.items()}
+    cpu_ms = {k: sorted(v)[len(v) // 2] / frames * 1000 for k, v in cpu_s.items()}  # the median round
     out: dict[str, Any] = {
         "pipeline": pipeline, "scene": pipe.scene_spec, "size": list(pipe.size), "frames": frames,
         "repeat": repeat, "renderer": gl.renderer, "png_level": png_level,
         "fps": fps, "seconds": times,
         "ratio": {"png": fps["png"] / fps["frames"], "mp4": fps["mp4"] / fps["frames"]},
+        "cpu_ms_per_frame": cpu_ms, "extra_cpu_ms": {k: cpu_ms[k] - cpu_ms["frames"] for k in ("png", "mp4")},
         "targets": TARGETS, **sizes,
     }
     out["met"] = {k: out["ratio"][k] >= t for k, t in TARGETS.items()}

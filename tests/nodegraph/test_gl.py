@@ -1,0 +1,85 @@
+"""`GL.read_uint8` and `GL.read_png_rows` (8-bit file values made on the GPU) against NumPy: x * 255 in float32
+rounded half to even and clamped, NaN as 0, rows top first; PNG rows as a filter byte 0 and the row's grey or
+RGB bytes. Files written from the rows decode (OpenImageIO) to the same values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nodegraph import imageio, types
+
+FORMATS = ["R8", "RGBA8", "R16F", "RG16F", "RGBA16F", "R32F", "RG32F", "RGBA32F"]
+SIZES = [(1, 1), (2, 3), (7, 5), (33, 17), (64, 9)]  # widths where the PNG row stream is and is not 4-aligned
+
+
+def _texture(gl, rng, fmt: str, w: int, h: int):
+    c = types.components(fmt)
+    a = rng.random((h, w, c), dtype=np.float32) * 1.4 - 0.2  # out of [0, 1] on both sides
+    ties = ((rng.integers(0, 255, (h, w, c)) + 0.5) / 255.0).astype(np.float32)
+    a = np.where(rng.random((h, w, c)) < 0.4, ties, a)  # values whose x * 255 lands at or near .5
+    if not fmt.endswith("8"):
+        a[0, 0, 0] = np.nan
+    return gl.upload(a, fmt)
+
+
+def _reference(tex) -> np.ndarray:
+    """(H, W, 4) uint8, row 0 at the top, from the texture's float read-back (NumPy only)."""
+    x = tex.read().astype(np.float32)
+    h, w, c = x.shape
+    v = np.rint(x * np.float32(255.0))
+    v = np.where(np.isnan(v), 0.0, np.clip(v, 0.0, 255.0)).astype(np.uint8)
+    out = np.zeros((h, w, 4), np.uint8)
+    out[:, :, 3] = 255  # what GL samples for missing channels: colour 0, alpha 1
+    out[:, :, :c] = v
+    return out[::-1]
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_read_uint8_and_png_rows_match_numpy(gl, rng, fmt):
+    for w, h in SIZES:
+        tex = _texture(gl, rng, fmt, w, h)
+        try:
+            want = _reference(tex)
+            np.testing.assert_array_equal(gl.read_uint8(tex), want)
+            rows, c = gl.read_png_rows(tex)
+            assert c == (1 if types.components(fmt) == 1 else 3)
+            expect = np.zeros((h, 1 + w * c), np.uint8)
+            expect[:, 1:] = want[:, :, :c].reshape(h, w * c)
+            assert rows.dtype == np.uint8 and rows.shape == (h * (1 + w * c),)
+            np.testing.assert_array_equal(rows.reshape(h, -1), expect, err_msg=f"{fmt} {w}x{h}")
+        finally:
+            gl.release(tex)
+
+
+def test_a_png_from_gpu_rows_is_the_png_of_the_values(gl, rng, tmp_path):
+    tex = _texture(gl, rng, "RGBA16F", 37, 11)
+    try:
+        rows, c = gl.read_png_rows(tex)
+        want = _reference(tex)[:, :, :3]
+    finally:
+        gl.release(tex)
+    gpu = imageio.write_png_rows(tmp_path / "gpu.png", rows, 37, 11, c, level=1)
+    host = imageio.write_png8(tmp_path / "host.png", np.ascontiguousarray(want), level=1)
+    assert gpu.read_bytes() == host.read_bytes()
+    decoded = imageio.read(gpu)  # float, row 0 at the bottom
+    np.testing.assert_array_equal(np.rint(decoded[::-1] * 255).astype(np.uint8), want)
+
+
+def test_write_png_rows_refuses_rows_of_the_wrong_length(tmp_path):
+    from nodegraph.errors import SketchgraphError
+
+    with pytest.raises(SketchgraphError, match="expected 2 rows of 1 \\+ 3 x 3 bytes"):
+        imageio.write_png_rows(tmp_path / "x.png", np.zeros(19, np.uint8), 3, 2, 3)
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("level", [0, 1, 3, 6, 9])
+def test_every_png_level_decodes_to_the_same_values(rng, tmp_path, level):
+    """Levels 1-3 are ISA-L's deflate where it is installed, the others zlib's: the same pixels either way."""
+    img = rng.integers(0, 256, (23, 31, 3), dtype=np.uint8)
+    img[5:, :] = img[5, :]  # compressible rows too
+    path = imageio.write_png8(tmp_path / f"l{level}.png", img, level)
+    np.testing.assert_array_equal(np.rint(imageio.read(path)[::-1] * 255).astype(np.uint8), img)
+    if level == 0:  # stored: the rows and a little framing
+        assert path.stat().st_size > img.size
