@@ -10,7 +10,7 @@ from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
-from . import kernels
+from .._shared import scaled_kernels as kernels
 
 _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MAGNITUDE"}
 
@@ -27,7 +27,7 @@ class DepthEdges(Node):
     peaks at 3 s whatever the size. So with `reference_height: pipeline` (default) the tent and the Sobel
     pair have their footprint in pixels at the pipeline's `reference_size` (docs/sizes.md; default 800 on
     the shorter side): at px_scale = shorter side / reference_size the kernels are the seed's, a function
-    of the offset in reference pixels, sampled at this image's pixels (kernels.py: the tent's half-width
+    of the offset in reference pixels, sampled at this image's pixels (scaled_kernels.py: the tent's half-width
     2 px_scale, the difference I(x + px_scale) - I(x - px_scale) of the linearly interpolated image). At the
     reference size this is the seed's computation exactly; at other sizes a slope gives the same gradient,
     a step of s the same 3 s peak above the reference size and 2 s at half of it (the per-pixel filters

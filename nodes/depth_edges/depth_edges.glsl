@@ -3,7 +3,7 @@
 // The blur [1 2 1; 2 4 2; 1 2 1] / 16 and the seed's Sobel pair run as one separable pass per axis
 // (tent_sobel.glsl), edge-clamped at both stages as the two convolutions are; with reference_height
 // `pipeline` their footprint is in pixels at the reference size (TENT_R, SOBEL_R and the weights set by
-// the node from px_scale, kernels.py), otherwise the seed's (TENT_R 1, SOBEL_R 1).
+// the node from px_scale, ../_shared/scaled_kernels.py), otherwise the seed's (TENT_R 1, SOBEL_R 1).
 // PASS 0 (along x): depth in [0, 1] (1 = background; DEPTH_MODE 1 converts linear view depth,
 //         0 = background, with the near and far planes), then (smooth, diff) of its tent along x.
 // PASS 1 (along y): (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height /

@@ -5,7 +5,7 @@
 // (smooth(t(f)), diff(t(f))) along x, and the y pass combines gx = -smooth(t(diff channel)),
 // gy = -diff(t(smooth channel)) along y, unnormalised (divide by u_tent_norm, the tent's sum squared).
 //
-// The 1-D weights are uniforms (nodes/depth_edges/kernels.py): at px_scale 1 the seed's tent, [1 2 1] and
+// The 1-D weights are uniforms (nodes/_shared/scaled_kernels.py): at px_scale 1 the seed's tent, [1 2 1] and
 // [-1 0 1]; at other scales the same kernels with their footprint in pixels at the reference size
 // (radius TENT_R of the tent, SOBEL_R of the Sobel pair; both defines are set before including).
 //

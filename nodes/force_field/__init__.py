@@ -9,7 +9,7 @@ from pydantic import Field
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
-from ..depth_edges import kernels
+from .._shared import scaled_kernels as kernels
 
 
 class ForceField(Node):
@@ -31,7 +31,7 @@ class ForceField(Node):
 
     The 9x9 tent and the Sobel pair have their footprint in pixels at the pipeline's reference size
     (docs/sizes.md): at px_scale s the tent's half-width is 5 s px and the difference reads the blur at
-    +-s px, linearly interpolated (../depth_edges/kernels.py), so ff2 has the same shape in the picture at
+    +-s px, linearly interpolated (../_shared/scaled_kernels.py), so ff2 has the same shape in the picture at
     every size and is, like depth_edges' scaled gradient, per reference pixel (particle_sketch multiplies
     the field by s). At the reference size (and for a node run on its own image) it is the seed's."""
 

@@ -4,7 +4,7 @@
 // The 9x9 tent [1 2 3 4 5 4 3 2 1] / 25 (each axis) and the Sobel pair run as one separable pass per
 // axis (../depth_edges/tent_sobel.glsl), edge-clamped at both stages as the two convolutions are; their
 // footprint is in pixels at the reference size (TENT_R, SOBEL_R and the weights from px_scale,
-// ../depth_edges/kernels.py; at px_scale 1 the seed's 9x9 tent and 3x3 Sobel):
+// ../_shared/scaled_kernels.py; at px_scale 1 the seed's 9x9 tent and 3x3 Sobel):
 // PASS 0 (along x): min(|g|, clamp), then (smooth, diff) of its tent along x.
 // PASS 1 (along y): h = the Sobel pair of the blurred magnitude, ff = ff1 - ff2 (RESTORING 1: ff2 = h
 //         unrotated, a pull up the magnitude ridge, i.e. towards the edge), divided by max(|ff|, saturate)

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from .._shared import filters
-from ..depth_edges import kernels
+from .._shared import scaled_kernels as kernels
 
 
 def force_field(gradient: np.ndarray, clamp: float = 1.0, saturate: float = 0.03,
                 restoring: str = "rotated", px_scale: float | None = None) -> np.ndarray:
     """(H, W, 2) field from the seed's Sobel pair (H, W, 2) of the blurred depth (depth_edges.gradient);
-    with px_scale, the tent and Sobel pair with their footprint in reference pixels (kernels.py)."""
+    with px_scale, the tent and Sobel pair with their footprint in reference pixels
+    (nodes/_shared/scaled_kernels.py)."""
     g = np.asarray(gradient, np.float64)
     gx, gy = g[..., 0], g[..., 1]
     mag = np.minimum(np.sqrt(gx * gx + gy * gy), clamp)

@@ -168,7 +168,7 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
     assert assert_outputs_as_planned(ex, res, "e") == ["edges", "gradient", "magnitude"]
 
 
-# --- footprint in pixels at the pipeline's reference size (reference_height: pipeline, kernels.py) ---
+# --- footprint in reference pixels (reference_height: pipeline, nodes/_shared/scaled_kernels.py) ---
 
 def _run_scaled(gl, depth: np.ndarray, reference_size: int, **params) -> dict[str, np.ndarray]:
     node = DepthEdges("de", DepthEdges.Params(mode="window", **params))  # reference_height: pipeline
@@ -186,7 +186,7 @@ def _seed_filters(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_scaled_kernels_at_scale_one_are_the_seeds():
-    from nodegraph_nodes.depth_edges import kernels
+    from nodegraph_nodes._shared import scaled_kernels as kernels
 
     k = kernels.kernels(2.0, 1.0)
     assert k.tent.tolist() == [1, 2, 1] and k.tent_sum == 4 and k.smooth.tolist() == [1, 2, 1]
@@ -201,7 +201,7 @@ def test_scaled_kernels_at_scale_one_are_the_seeds():
 def test_scaled_kernels_by_hand(s):
     """The weights are the continuous kernels sampled at the pixels: a ramp of slope a per reference pixel
     gives -8 a at every scale; the difference is I(x + s) - I(x - s), linearly interpolated."""
-    from nodegraph_nodes.depth_edges import kernels
+    from nodegraph_nodes._shared import scaled_kernels as kernels
 
     k = kernels.kernels(2.0, s)
     x = np.arange(-k.sobel_r, k.sobel_r + 1, dtype=np.float64)
@@ -221,7 +221,7 @@ def test_a_depth_step_peaks_the_same_above_the_reference_size():
     twice the pixels (hand computation: the difference at +-2 px is 0.1 on four columns, the tent of
     half-width 4 px, [1 2 3 4 3 2 1] / 16, sums three of them, (3 + 4 + 3 + 2) / 16 x 4 = 3 at its peak);
     at 400 it spans one pixel of the coarser image: 0.1 x 2 on two columns (the difference at +-0.5 px)."""
-    from nodegraph_nodes.depth_edges import kernels
+    from nodegraph_nodes._shared import scaled_kernels as kernels
 
     step = np.where(np.arange(32) >= 16, 0.6, 0.5)[None, :].repeat(12, 0)
     ridge = {s: -kernels.tent_sobel(step, kernels.kernels(2.0, s))[0][6] for s in (0.5, 1.0, 2.0)}

@@ -117,7 +117,7 @@ def test_scaled_tent_and_sobel_match_float64(gl, shape, reference):
     """px_scale 2, 0.5 and 1.5: the 9x9 tent and the Sobel pair with their footprint in reference pixels
     (half-width 5 px_scale, difference at +-px_scale, linearly interpolated) against the float64 NumPy
     reference, on a noise gradient so that every weight and border texel matters."""
-    from nodegraph_nodes.depth_edges import kernels
+    from nodegraph_nodes._shared import scaled_kernels as kernels
 
     h, w = shape
     s = min(w, h) / reference
