@@ -10,6 +10,8 @@ from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
+from .._shared import scaled_kernels as kernels
+
 _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MAGNITUDE"}
 
 
@@ -20,16 +22,18 @@ class DepthEdges(Node):
     edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
     s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
 
-    The seed thresholds a per-pixel gradient, so a sloped surface (a floor at a grazing angle) that stays
-    under the threshold at 800 px crosses it at 400 px, where each pixel spans twice the depth, and the
-    floor turns into edges. So the gradient is expressed per pixel at the pipeline's `reference_size`
-    (docs/sizes.md; default 800 on the shorter side): multiplied by px_scale = shorter side /
-    reference_size. At the reference size this is the seed's computation exactly; at other sizes slopes of
-    the same steepness give the same edges, and a depth step counts when s >= threshold / 3 / px_scale
-    (smaller images keep only larger steps). `reference_height` H instead scales by height / H (its
-    meaning before pipelines had a reference size; the default used to be 800, which equals the pipeline
-    reference for a square or landscape image at the default reference_size); None: the seed's per-pixel
-    gradient.
+    The seed's filters work per pixel, so a sloped surface (a floor at a grazing angle) that stays under
+    the threshold at 800 px crosses it at 400 px, where each pixel spans twice the depth, and a depth step
+    peaks at 3 s whatever the size. So with `reference_height: pipeline` (default) the tent and the Sobel
+    pair have their footprint in pixels at the pipeline's `reference_size` (docs/sizes.md; default 800 on
+    the shorter side): at px_scale = shorter side / reference_size the kernels are the seed's, a function
+    of the offset in reference pixels, sampled at this image's pixels (scaled_kernels.py: the tent's half-width
+    2 px_scale, the difference I(x + px_scale) - I(x - px_scale) of the linearly interpolated image). At the
+    reference size this is the seed's computation exactly; at other sizes a slope gives the same gradient,
+    a step of s the same 3 s peak above the reference size and 2 s at half of it (the per-pixel filters
+    times px_scale gave 6 s at 1600 px and 1.5 s at 400), and the edge band is as wide in the picture.
+    `reference_height` H instead keeps the seed's per-pixel filters and scales the gradient by height / H
+    (slopes match, steps do not); None: the seed's per-pixel gradient.
 
     The method wants depth in [0, 1] with 1 = background. `mode: linear` (default) takes
     rasterize.linear_depth (view distance, 0 = background) and maps [near, far] to [0, 1]: the same depth
@@ -37,7 +41,7 @@ class DepthEdges(Node):
     [0, 1] with 1 = background (rasterize.depth, a depth image) and uses it as it is; window depth is
     hyperbolic, so far edges come out weaker."""
 
-    version = "1"
+    version = "2"
     shaders = ("depth_edges.glsl",)
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
@@ -52,7 +56,7 @@ class DepthEdges(Node):
     outputs = {
         "edges": Output(Texture("R8"), "Binary edge map: 1 where mag >= threshold, else 0."),
         "gradient": Output(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth (times height / "
-                           "reference_height); feeds force_field."),
+                           "reference_height; per reference pixel with `pipeline`); feeds force_field."),
         "magnitude": Output(Texture("R32F"), "mag = sqrt(gx^2 + gy^2)."),
     }
 
@@ -65,9 +69,9 @@ class DepthEdges(Node):
             "`range`; window: the input already is depth in [0, 1] with 1 = background, used as it is.")
         reference_height: int | Literal["pipeline"] | None = Field(
             "pipeline", description="Express the gradient per pixel of an image this tall (times height / "
-            "reference_height), so `threshold` means the same slope at every size; pipeline (default): per "
-            "pixel at the pipeline's reference_size (times px_scale = shorter side / reference_size); None: "
-            "per pixel of this image, the seed's.")
+            "reference_height), so `threshold` means the same slope at every size; pipeline (default): the "
+            "tent and Sobel with their footprint in pixels at the pipeline's reference_size (slopes and steps "
+            "alike); None: per pixel of this image, the seed's.")
         range: tuple[float, float] | None = Field(
             None, description="mode: linear only: the view distances mapped to 0 and 1 (clamped); default: the "
             "camera's near and far planes.")
@@ -94,11 +98,14 @@ class DepthEdges(Node):
                             "or use mode: window for a depth in [0, 1]", self.id, self.type_name)
         return float(cam.near), float(cam.far)
 
-    def gradient_scale(self, height: int, px_scale: float = 1.0) -> float:
+    def gradient_scale(self, height: int) -> float:
+        """The factor on the gradient of the per-pixel filters (1 with the scaled kernels of `pipeline`)."""
         ref = self.params.reference_height
-        if ref == "pipeline":
-            return px_scale
-        return 1.0 if ref is None else height / ref
+        return 1.0 if ref is None or ref == "pipeline" else height / ref
+
+    def kernels(self, px_scale: float = 1.0) -> kernels.Kernels:
+        """The tent (half-width 2 px) and Sobel weights: at px_scale with `pipeline`, else the seed's."""
+        return kernels.kernels(2.0, px_scale if self.params.reference_height == "pipeline" else 1.0)
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
@@ -106,19 +113,21 @@ class DepthEdges(Node):
         depth = inputs["depth"]
         size = depth.size
         linear = p.mode == "linear"
+        k = self.kernels(ctx.px_scale)
+        weights = kernels.uniforms(k)
         across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
         try:
-            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear)}), [across],
-                          textures={"t_depth": depth},
-                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0)})
+            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear), **kernels.defines(k)}),
+                          [across], textures={"t_depth": depth},
+                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0), **weights})
             ports = [port for port in _PORTS if port in needed]
             defines: dict[str, Any] = {_PORTS[port]: i for i, port in enumerate(ports)}
-            defines["PASS"] = 1
+            defines.update(PASS=1, **kernels.defines(k))
             targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
                        for port in ports}
             gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
                           textures={"t_x": across},
-                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1], ctx.px_scale)})
+                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1]), **weights})
         finally:
             gl.release(across)
         return targets

@@ -1,14 +1,15 @@
 #version 330
 // Curtis' edge map (seed 004): 3x3 tent blur of the depth map, Sobel gradient, magnitude, threshold.
 // The blur [1 2 1; 2 4 2; 1 2 1] / 16 and the seed's Sobel pair run as one separable pass per axis
-// (tent_sobel.glsl), edge-clamped at both stages as the two convolutions are.
+// (tent_sobel.glsl), edge-clamped at both stages as the two convolutions are; with reference_height
+// `pipeline` their footprint is in pixels at the reference size (TENT_R, SOBEL_R and the weights set by
+// the node from px_scale, ../_shared/scaled_kernels.py), otherwise the seed's (TENT_R 1, SOBEL_R 1).
 // PASS 0 (along x): depth in [0, 1] (1 = background; DEPTH_MODE 1 converts linear view depth,
 //         0 = background, with the near and far planes), then (smooth, diff) of its tent along x.
 // PASS 1 (along y): (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height /
-//         reference height: per pixel of an image of the reference height), mag = |(gx, gy)|,
+//         reference height: per pixel of an image of the reference height; 1 with scaled kernels), mag = |(gx, gy)|,
 //         edge = mag >= threshold.
 #if defined FRAGMENT_SHADER
-#define TENT_R 1
 #include "tent_sobel.glsl"
 #if PASS == 0
 uniform sampler2D t_depth;
@@ -27,9 +28,9 @@ float depth_at(ivec2 p, ivec2 hi) {
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_depth, 0) - 1;
-    vec2 w[2 * TENT_W + 1];
-    for (int m = -TENT_W; m <= TENT_W; ++m)
-        w[m + TENT_W] = vec2(depth_at(p + ivec2(m, 0), hi));
+    vec2 w[2 * WIN_R + 1];
+    for (int m = -WIN_R; m <= WIN_R; ++m)
+        w[m + WIN_R] = vec2(depth_at(p + ivec2(m, 0), hi));
     o_x = tent_sobel_x(w, p.x, hi.x);
 }
 #else
@@ -49,10 +50,10 @@ layout(location = LOC_MAGNITUDE) out float o_magnitude;
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_x, 0) - 1;
-    vec2 w[2 * TENT_W + 1];
-    for (int m = -TENT_W; m <= TENT_W; ++m)
-        w[m + TENT_W] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
-    vec2 g = tent_sobel_y(w, p.y, hi.y) * (u_scale / 16.0);
+    vec2 w[2 * WIN_R + 1];
+    for (int m = -WIN_R; m <= WIN_R; ++m)
+        w[m + WIN_R] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
+    vec2 g = tent_sobel_y(w, p.y, hi.y) * (u_scale / u_tent_norm);
     float mag = sqrt(g.x * g.x + g.y * g.y);
 #ifdef LOC_EDGES
     o_edges = mag >= u_threshold ? 1.0 : 0.0;

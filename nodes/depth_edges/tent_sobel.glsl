@@ -1,42 +1,55 @@
 // A tent blur followed by the Sobel pair of Curtis' pseudocode (seed 004), split into one pass per axis.
-// Both are separable: tent = t(x) t(y), t = [1 2 .. R+1 .. 2 1]; the seed's gx = smooth(y) diff(x) and
-// gy = diff(y) smooth(x), smooth = [1 2 1], diff = I(+1) - I(-1) (read as k[x][y] with y down the image;
-// on a texture, row 0 at the bottom, that is -8 x the gradient: see nodes/particle_sketch/core.py). So
-// the x pass stores (smooth(t(f)), diff(t(f))) along x, and the y pass combines
-// gx = -smooth(t(diff channel)), gy = -diff(t(smooth channel)) along y, unnormalised.
+// Both are separable: tent = t(x) t(y), and the seed's gx = smooth(y) diff(x), gy = diff(y) smooth(x),
+// smooth = [1 2 1], diff = I(+1) - I(-1) (read as k[x][y] with y down the image; on a texture, row 0 at the
+// bottom, that is -8 x the gradient: see nodes/particle_sketch/core.py). So the x pass stores
+// (smooth(t(f)), diff(t(f))) along x, and the y pass combines gx = -smooth(t(diff channel)),
+// gy = -diff(t(smooth channel)) along y, unnormalised (divide by u_tent_norm, the tent's sum squared).
+//
+// The 1-D weights are uniforms (nodes/_shared/scaled_kernels.py): at px_scale 1 the seed's tent, [1 2 1] and
+// [-1 0 1]; at other scales the same kernels with their footprint in pixels at the reference size
+// (radius TENT_R of the tent, SOBEL_R of the Sobel pair; both defines are set before including).
 //
 // Borders clamp to the edge texel at *both* stages, as two clamped convolutions do: the Sobel taps read
-// the blur at the clamped neighbours c(p - 1), p, c(p + 1), and each of those blurs reads clamped texels.
-// All of them lie in the window f(c(p + m)), m = -(R + 1) .. R + 1, which the caller fetches once.
-// Define TENT_R before including.
+// the blur at the clamped neighbours c(p + k), k = -SOBEL_R .. SOBEL_R, and each of those blurs reads
+// clamped texels. All of them lie in the window f(c(p + m)), m = -WIN_R .. WIN_R, which the caller
+// fetches once.
 
-#define TENT_W (TENT_R + 1)
+#define WIN_R (TENT_R + SOBEL_R)
 
-// The tent at offset k (-1, 0, 1) of the window w[m + TENT_W] = f(c(p + m)).
-vec2 tent_at(vec2 w[2 * TENT_W + 1], int k) {
+uniform float u_tent[2 * TENT_R + 1];
+uniform float u_smooth[2 * SOBEL_R + 1];
+uniform float u_diff[2 * SOBEL_R + 1];
+uniform float u_tent_norm;
+
+// The tent at offset k of the window w[m + WIN_R] = f(c(p + m)).
+vec2 tent_at(vec2 w[2 * WIN_R + 1], int k) {
     vec2 s = vec2(0.0);
     for (int j = -TENT_R; j <= TENT_R; ++j)
-        s += float(TENT_W - abs(j)) * w[k + j + TENT_W];
+        s += u_tent[j + TENT_R] * w[k + j + WIN_R];
     return s;
 }
 
-// The tents at c(p - 1), p, c(p + 1): at a border the clamped neighbour is p itself.
-void clamped_tents(vec2 w[2 * TENT_W + 1], bool has_lo, bool has_hi, out vec2 lo, out vec2 mid, out vec2 hi) {
-    mid = tent_at(w, 0);
-    lo = has_lo ? tent_at(w, -1) : mid;
-    hi = has_hi ? tent_at(w, 1) : mid;
+// (smooth, diff) of the tents at the clamped neighbours c(p + k) (at a border the clamped neighbour is
+// nearer p: its offset is c(p + k) - p).
+mat2 smooth_diff(vec2 w[2 * WIN_R + 1], int p, int last) {
+    vec2 sm = vec2(0.0);
+    vec2 df = vec2(0.0);
+    for (int k = -SOBEL_R; k <= SOBEL_R; ++k) {
+        vec2 t = tent_at(w, clamp(p + k, 0, last) - p);
+        sm += u_smooth[k + SOBEL_R] * t;
+        df += u_diff[k + SOBEL_R] * t;
+    }
+    return mat2(sm, df);
 }
 
 // x pass: (smooth, diff) along x of the tent-blurred scalar f, from the window of f along x.
-vec2 tent_sobel_x(vec2 w[2 * TENT_W + 1], int x, int last) {
-    vec2 lo, mid, hi;
-    clamped_tents(w, x > 0, x < last, lo, mid, hi);
-    return vec2(lo.x + 2.0 * mid.x + hi.x, hi.x - lo.x);
+vec2 tent_sobel_x(vec2 w[2 * WIN_R + 1], int x, int last) {
+    mat2 sd = smooth_diff(w, x, last);
+    return vec2(sd[0].x, sd[1].x);
 }
 
 // y pass: the seed's (gx, gy), unnormalised, from the window along y of the x pass's (smooth, diff).
-vec2 tent_sobel_y(vec2 w[2 * TENT_W + 1], int y, int last) {
-    vec2 lo, mid, hi;
-    clamped_tents(w, y > 0, y < last, lo, mid, hi);
-    return -vec2(lo.y + 2.0 * mid.y + hi.y, hi.x - lo.x);
+vec2 tent_sobel_y(vec2 w[2 * WIN_R + 1], int y, int last) {
+    mat2 sd = smooth_diff(w, y, last);
+    return -vec2(sd[0].y, sd[1].x);
 }

@@ -9,6 +9,8 @@ from pydantic import Field
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
+from .._shared import scaled_kernels as kernels
+
 
 class ForceField(Node):
     """The field that steers the particles of `particle_sketch`, from depth_edges.gradient, the seed's Sobel
@@ -25,10 +27,17 @@ class ForceField(Node):
     `saturate` s > 0 divides ff by max(|ff|, s): the streamlines stay, the speed is capped at 1, so a faint
     inner edge and a strong silhouette are drawn at the same pace (with the raw field a silhouette runs
     ten times faster than an inner edge and no single time step suits both). Set it to the edge threshold
-    of depth_edges; 0 gives the seed's raw field."""
+    of depth_edges; 0 gives the seed's raw field.
 
-    version = "1"
+    The 9x9 tent and the Sobel pair have their footprint in pixels at the pipeline's reference size
+    (docs/sizes.md): at px_scale s the tent's half-width is 5 s px and the difference reads the blur at
+    +-s px, linearly interpolated (../_shared/scaled_kernels.py), so ff2 has the same shape in the picture at
+    every size and is, like depth_edges' scaled gradient, per reference pixel (particle_sketch multiplies
+    the field by s). At the reference size (and for a node run on its own image) it is the seed's."""
+
+    version = "2"
     shaders = ("force_field.glsl",)
+    context_keys = frozenset({"size", "px_scale"})
     inputs = {
         "gradient": Input(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth: "
                           "depth_edges.gradient."),
@@ -52,13 +61,17 @@ class ForceField(Node):
         gl = ctx.gl
         grad = inputs["gradient"]
         size = grad.size
+        k = kernels.kernels(5.0, ctx.px_scale)
+        weights, defs = kernels.uniforms(k), kernels.defines(k)
         across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
         try:
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0}), [across], textures={"t_gradient": grad},
-                          uniforms={"u_clamp": p.clamp})
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0, **defs}), [across],
+                          textures={"t_gradient": grad}, uniforms={"u_clamp": p.clamp, **weights})
             out = ctx.target("out", size)
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1, "RESTORING": int(p.restoring == "gradient")}),
-                          [out], textures={"t_gradient": grad, "t_x": across}, uniforms={"u_saturate": p.saturate})
+            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1, "RESTORING": int(p.restoring == "gradient"),
+                                                           **defs}),
+                          [out], textures={"t_gradient": grad, "t_x": across},
+                          uniforms={"u_saturate": p.saturate, **weights})
         finally:
             gl.release(across)
         return {"out": out}

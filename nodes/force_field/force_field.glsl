@@ -2,13 +2,14 @@
 // Curtis' force field (seed 004) from the seed's Sobel pair g = (gx, gy) of the blurred depth:
 // ff1 = rot90(g), ff2 = rot90(sobel(tent9(min(|g|, clamp)))), ff = ff1 - ff2, rot90(x, y) = (-y, x).
 // The 9x9 tent [1 2 3 4 5 4 3 2 1] / 25 (each axis) and the Sobel pair run as one separable pass per
-// axis (../depth_edges/tent_sobel.glsl), edge-clamped at both stages as the two convolutions are:
+// axis (../depth_edges/tent_sobel.glsl), edge-clamped at both stages as the two convolutions are; their
+// footprint is in pixels at the reference size (TENT_R, SOBEL_R and the weights from px_scale,
+// ../_shared/scaled_kernels.py; at px_scale 1 the seed's 9x9 tent and 3x3 Sobel):
 // PASS 0 (along x): min(|g|, clamp), then (smooth, diff) of its tent along x.
 // PASS 1 (along y): h = the Sobel pair of the blurred magnitude, ff = ff1 - ff2 (RESTORING 1: ff2 = h
 //         unrotated, a pull up the magnitude ridge, i.e. towards the edge), divided by max(|ff|, saturate)
 //         when saturate > 0.
 #if defined FRAGMENT_SHADER
-#define TENT_R 4
 #include "../depth_edges/tent_sobel.glsl"
 #if PASS == 0
 uniform sampler2D t_gradient;
@@ -18,10 +19,10 @@ layout(location = 0) out vec2 o_x;
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_gradient, 0) - 1;
-    vec2 w[2 * TENT_W + 1];
-    for (int m = -TENT_W; m <= TENT_W; ++m) {
+    vec2 w[2 * WIN_R + 1];
+    for (int m = -WIN_R; m <= WIN_R; ++m) {
         vec2 g = texelFetch(t_gradient, ivec2(clamp(p.x + m, 0, hi.x), p.y), 0).xy;
-        w[m + TENT_W] = vec2(min(sqrt(g.x * g.x + g.y * g.y), u_clamp));
+        w[m + WIN_R] = vec2(min(sqrt(g.x * g.x + g.y * g.y), u_clamp));
     }
     o_x = tent_sobel_x(w, p.x, hi.x);
 }
@@ -34,10 +35,10 @@ layout(location = 0) out vec2 o_out;
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_x, 0) - 1;
-    vec2 w[2 * TENT_W + 1];
-    for (int m = -TENT_W; m <= TENT_W; ++m)
-        w[m + TENT_W] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
-    vec2 h = tent_sobel_y(w, p.y, hi.y) / 625.0;
+    vec2 w[2 * WIN_R + 1];
+    for (int m = -WIN_R; m <= WIN_R; ++m)
+        w[m + WIN_R] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
+    vec2 h = tent_sobel_y(w, p.y, hi.y) / u_tent_norm;
     vec2 g = texelFetch(t_gradient, p, 0).xy;
 #if RESTORING == 1
     vec2 ff = vec2(-g.y, g.x) - h;

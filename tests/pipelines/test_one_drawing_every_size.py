@@ -10,11 +10,10 @@ import pytest
 from nodegraph.shipped import names
 from nodegraph.tools import sizes
 
-PARTICLES = {"loose_and_sketchy", "loose_and_sketchy_shaded"}
 # Particle pipelines: two renders of one pipeline at one size with another particle seed score about 0.91 (the
-# strokes are random), and depth_edges' 3x3 tent and Sobel stay per pixel (a depth step is found more easily
-# at 1600 than at 400); measured 0.82 and 0.84 (docs/sizes.md), below the 0.85 asked for.
-FLOOR = {"loose_and_sketchy": 0.80, "loose_and_sketchy_shaded": 0.82}
+# strokes are random), so they are held at the issue's 0.85; with depth_edges' and force_field's filters in
+# reference pixels they measure 0.896 and 0.908 (0.819 and 0.844 with the per-pixel filters; docs/sizes.md).
+FLOOR = {"loose_and_sketchy": 0.85, "loose_and_sketchy_shaded": 0.85}
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +31,7 @@ def test_large_render_downsampled_matches_the_small_one(session, name):
     floor = FLOOR.get(name, 0.92)
     assert row["ssim"] >= floor, f"{name}: SSIM {row['ssim']} < {floor}"
     # the tone too: the same share of ink at both sizes, not only the same structure
-    assert abs(row["mean_luminance_small"] - row["mean_luminance_large"]) < (0.03 if name in PARTICLES else 0.025)
+    assert abs(row["mean_luminance_small"] - row["mean_luminance_large"]) < 0.025
 
 
 def test_per_pixel_params_fail_the_check(session):

@@ -166,3 +166,107 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"edges": "e.edges", "gradient": "e.gradient", "magnitude": "e.magnitude"})
     assert assert_outputs_as_planned(ex, res, "e") == ["edges", "gradient", "magnitude"]
+
+
+# --- footprint in reference pixels (reference_height: pipeline, nodes/_shared/scaled_kernels.py) ---
+
+def _run_scaled(gl, depth: np.ndarray, reference_size: int, **params) -> dict[str, np.ndarray]:
+    node = DepthEdges("de", DepthEdges.Params(mode="window", **params))  # reference_height: pipeline
+    h, w = depth.shape
+    out = run_node(gl, node, {"depth": gl.upload(depth.astype(np.float32), "R32F")}, (w, h),
+                   reference_size=reference_size)
+    return {port: tex.read().astype(np.float64) for port, tex in out.items()}
+
+
+def _seed_filters(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The seed's tent and Sobel pair, written out with SciPy (as `_pseudocode`)."""
+    blur = ndimage.convolve(img, SEED_TENT / 16.0, mode="nearest")
+    return (ndimage.convolve(blur, _weights(SEED_GX), mode="nearest"),
+            ndimage.convolve(blur, _weights(SEED_GY), mode="nearest"))
+
+
+def test_scaled_kernels_at_scale_one_are_the_seeds():
+    from nodegraph_nodes._shared import scaled_kernels as kernels
+
+    k = kernels.kernels(2.0, 1.0)
+    assert k.tent.tolist() == [1, 2, 1] and k.tent_sum == 4 and k.smooth.tolist() == [1, 2, 1]
+    assert k.diff.tolist() == [-1, 0, 1]
+    assert kernels.kernels(5.0, 1.0).tent.tolist() == [1, 2, 3, 4, 5, 4, 3, 2, 1]
+    img = np.random.default_rng(5).random((13, 17))
+    for got, want in zip(kernels.tent_sobel(img, k), _seed_filters(img), strict=True):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("s", [0.5, 1.5, 2.0, 0.3])
+def test_scaled_kernels_by_hand(s):
+    """The weights are the continuous kernels sampled at the pixels: a ramp of slope a per reference pixel
+    gives -8 a at every scale; the difference is I(x + s) - I(x - s), linearly interpolated."""
+    from nodegraph_nodes._shared import scaled_kernels as kernels
+
+    k = kernels.kernels(2.0, s)
+    x = np.arange(-k.sobel_r, k.sobel_r + 1, dtype=np.float64)
+    assert k.smooth.sum() == pytest.approx(4.0)
+    assert (k.diff * x).sum() == pytest.approx(2 * s)  # a linear function's difference over 2 s px
+    assert k.diff.sum() == pytest.approx(0.0)
+    a = 0.01  # depth per reference pixel, so a / s per pixel here
+    y, xx = np.mgrid[0:40, 0:48]
+    gx, gy = kernels.tent_sobel(0.2 + (a / s) * xx + 0 * y, k)
+    r = k.tent_r + k.sobel_r
+    np.testing.assert_allclose(gx[r:-r, r:-r], -8 * a, rtol=1e-12)
+    np.testing.assert_allclose(gy[r:-r, r:-r], 0.0, atol=1e-15)
+
+
+def test_a_depth_step_peaks_the_same_above_the_reference_size():
+    """A step of 0.1 across columns: the seed's ridge 0.1 x [1, 3, 3, 1] at 800; at 1600 the same ridge on
+    twice the pixels (hand computation: the difference at +-2 px is 0.1 on four columns, the tent of
+    half-width 4 px, [1 2 3 4 3 2 1] / 16, sums three of them, (3 + 4 + 3 + 2) / 16 x 4 = 3 at its peak);
+    at 400 it spans one pixel of the coarser image: 0.1 x 2 on two columns (the difference at +-0.5 px)."""
+    from nodegraph_nodes._shared import scaled_kernels as kernels
+
+    step = np.where(np.arange(32) >= 16, 0.6, 0.5)[None, :].repeat(12, 0)
+    ridge = {s: -kernels.tent_sobel(step, kernels.kernels(2.0, s))[0][6] for s in (0.5, 1.0, 2.0)}
+    np.testing.assert_allclose(ridge[1.0][13:19], 0.1 * np.array([0, 1, 3, 3, 1, 0]), atol=1e-12)
+    assert ridge[2.0].max() == pytest.approx(0.3)
+    np.testing.assert_allclose(ridge[2.0][11:21], 0.1 * np.array([1, 3, 6, 10, 12, 12, 10, 6, 3, 1]) / 4, atol=1e-12)
+    np.testing.assert_allclose(ridge[0.5][14:18], [0, 0.2, 0.2, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("side,reference", [(96, 48), (48, 96), (72, 48), (60, 200)])
+def test_scaled_filters_match_float64(gl, depth, side, reference):
+    """The GPU's scaled tent and Sobel (px_scale 2, 0.5, 1.5, 0.3) against the float64 NumPy reference,
+    borders included (the depth resampled to `side` rows)."""
+    from nodegraph_nodes.depth_edges.reference import depth_edges_scaled
+
+    h, w = depth.shape
+    rows = np.minimum((np.arange(side) * h) // side, h - 1)
+    cols = np.minimum((np.arange(side * w // h) * h) // side, w - 1)
+    d = depth[rows][:, cols]
+    noisy = d + np.random.default_rng(side).normal(0, 0.002, d.shape)  # every weight matters
+    s = min(d.shape) / reference
+    got = _run_scaled(gl, noisy, reference, threshold=0.03)
+    ref = depth_edges_scaled(noisy.astype(np.float32), 0.03, s)
+    np.testing.assert_allclose(got["gradient"], ref["gradient"], rtol=0, atol=3e-6)
+    np.testing.assert_allclose(got["magnitude"][..., 0], ref["magnitude"], rtol=0, atol=3e-6)
+    differ = (got["edges"][..., 0] > 0.5) != ref["edges"]
+    assert not (differ & (np.abs(ref["magnitude"] - 0.03) > 1e-5)).any()
+
+
+def test_pipeline_reference_keeps_slopes_and_steps_at_every_size(gl):
+    """A plane at the same angle and a depth step, rendered at 200, 400 and 800 rows with reference 400: the
+    slope gives the same gradient per reference pixel, the step is found at every size (its ridge 0.036
+    plus the slope's 0.01 at and above the reference, 0.024 + 0.01 at half of it) and its edge band is as
+    tall in the picture at and above the reference (2 reference px: 0.012 x [.., 3, 3, ..] at 400,
+    0.012 x [.., 10, 12, 12, 10, ..] / 4 at 800); at 200 one pixel spans 2 reference px, so 2 px, 4."""
+    band = {}
+    for h in (200, 400, 800):
+        y = (np.mgrid[0:h, 0:h][0] + 0.5) / h  # square: px_scale = h / 400
+        plane = 0.2 + 0.5 * y + np.where(y >= 0.5, 0.012, 0.0)
+        got = _run_scaled(gl, plane, 400, threshold=0.03)
+        g = got["gradient"][..., 1][:, h // 2]
+        far = np.abs(y[:, 0] - 0.5) > 8 / 400
+        inner = far & (np.minimum(y[:, 0], 1 - y[:, 0]) > 8 / 400)  # the footprint off the borders
+        np.testing.assert_allclose(g[inner], -8 * 0.5 / 400, rtol=1e-3)
+        e = got["edges"][..., 0][:, h // 2] > 0.5
+        assert e.any() and not e[far].any()
+        band[h] = e.sum() * 400 / h
+    assert band == {200: 4.0, 400: 2.0, 800: 2.0}

@@ -110,3 +110,53 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"out": "f.out"})
     assert assert_outputs_as_planned(ex, res, "f") == ["out"]
+
+
+@pytest.mark.parametrize("shape,reference", [((40, 52), 20), ((40, 52), 80), ((33, 45), 22)])
+def test_scaled_tent_and_sobel_match_float64(gl, shape, reference):
+    """px_scale 2, 0.5 and 1.5: the 9x9 tent and the Sobel pair with their footprint in reference pixels
+    (half-width 5 px_scale, difference at +-px_scale, linearly interpolated) against the float64 NumPy
+    reference, on a noise gradient so that every weight and border texel matters."""
+    from nodegraph_nodes._shared import scaled_kernels as kernels
+
+    h, w = shape
+    s = min(w, h) / reference
+    g = np.random.default_rng(reference).normal(0.0, 0.4, (h, w, 2)).astype(np.float32)
+    for saturate in (0.0, 0.03):
+        out = run_node(gl, ForceField("ff", ForceField.Params(saturate=saturate, clamp=0.5)),
+                       {"gradient": gl.upload(g, "RG32F", filter="nearest")}, (w, h),
+                       reference_size=reference)["out"].read()
+        ref = force_field_ref(g.astype(np.float64), 0.5, saturate, "rotated", px_scale=s)
+        # saturated: divided by max(|ff|, 0.03), which magnifies the float32 rounding up to 33 times
+        np.testing.assert_allclose(out, ref, rtol=0, atol=3e-6 if saturate == 0 else 3e-5)
+    k = kernels.kernels(5.0, s)
+    assert k.tent_r == int(np.ceil(5 * s)) - 1 and k.tent_sum == pytest.approx((5 * s) ** 2, rel=0.1)
+    # and the reference at scale 1 is the seed's (tent9, Sobel)
+    np.testing.assert_allclose(force_field_ref(g, 0.5, 0.0, px_scale=1.0), force_field_ref(g, 0.5, 0.0),
+                               rtol=0, atol=1e-12)
+
+
+def _ff2_in_the_picture(gl, size: int, reference: int) -> np.ndarray:
+    """ff2 of a disc at one place in the picture, size x size px, area-averaged to 64 px."""
+    d = synthetic.disc_depth(size, 0.3 * size, 0.5)
+    de = run_node(gl, DepthEdges("de", DepthEdges.Params(mode="window")),
+                  {"depth": gl.upload(d.astype(np.float32), "R32F")}, (size, size),
+                  needed=frozenset({"gradient"}), reference_size=reference)
+    ff = run_node(gl, ForceField("ff", ForceField.Params(saturate=0.0)), {"gradient": de["gradient"]},
+                  (size, size), reference_size=reference)["out"].read().astype(np.float64)
+    g = de["gradient"].read().astype(np.float64)
+    ff2 = np.stack([-g[..., 1], g[..., 0]], -1) - ff  # ff = ff1 - ff2
+    f = size // 64
+    return ff2.reshape(64, f, 64, f, 2).mean(axis=(1, 3))
+
+
+def test_ff2_keeps_its_shape_in_the_picture_at_every_size(gl):
+    """A disc at the same place in the picture at 64, 128 and 256 px, reference 128: the restoring part of
+    the field, area-averaged to 64 px, is close to the reference size's (per reference pixel); with the
+    per-pixel filters (every size its own reference) it is twice or half as wide and much further off."""
+    ref = _ff2_in_the_picture(gl, 128, 128)
+    for size in (64, 256):
+        scaled = np.linalg.norm(_ff2_in_the_picture(gl, size, 128) - ref) / np.linalg.norm(ref)
+        per_pixel = np.linalg.norm(_ff2_in_the_picture(gl, size, size) - ref) / np.linalg.norm(ref)
+        # measured 0.16 / 1.04 at 64 px (a step spans a pixel of the coarser image) and 0.09 / 0.69 at 256
+        assert scaled < 0.2 and scaled < per_pixel / 4, (size, scaled, per_pixel)
