@@ -1,0 +1,39 @@
+"""Writes tests/golden/pencil_shade_gs/*.exr: pencil.yaml's `shade` node as the geometry-shader
+implementation drew it (commit d7fa746, before the deferred shading pass), so the implementation that
+replaced it is compared with those pixels (test_pencil_shade.py::test_same_pixels_as_the_geometry_shader).
+
+Channels: shade, blend (r, g, b, a), color (r, g, b), all half floats as the node's outputs are.
+Run from the repository root at that commit: `python tests/nodes/pencil_shade/make_gs_reference.py OUT`.
+Kept for the record; running it at a later commit draws the later implementation.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from nodegraph import imageio
+from nodegraph import pipeline as pl
+from nodegraph.executor import Executor
+
+# name -> (scene, size, frame): closed meshes (torus, spot: back faces culled), an open one drawn two-sided
+# (teapot) and the dense one (ogre: 124k triangles, most of them a few pixels)
+CASES = {"torus": ("builtin:torus", (160, 120), 0), "spot": ("../shared/meshes/spot.obj", (192, 192), 5),
+         "teapot": ("../shared/meshes/teapot.obj", (192, 160), 9), "ogre": ("../shared/meshes/ogre.obj", (256, 256), 2)}
+
+
+def render(scene: str, size: tuple[int, int], frame: int) -> np.ndarray:
+    """(H, W, 8): shade, blend rgba, color rgb of pencil.yaml's `shade` node."""
+    pipe = pl.load(Path(__file__).resolve().parents[3] / "pipelines" / "pencil.yaml", size=size, scene=scene)
+    res = Executor(pipe, None, requested=[("shade", "shade"), ("shade", "blend"), ("shade", "color")]).run(frame)
+    shade, blend, color = (res.values[("shade", port)].read() for port in ("shade", "blend", "color"))
+    return np.concatenate([shade[..., :1], blend, color[..., :3]], axis=2)
+
+
+if __name__ == "__main__":
+    out = Path(sys.argv[1])
+    for name, case in CASES.items():
+        imageio.write(out / f"{name}.exr", render(*case))
+        print(f"wrote {out / name}.exr")
