@@ -20,13 +20,17 @@ from nodegraph.executor import Executor
 
 # name -> (scene, size, frame): closed meshes (torus, spot: back faces culled), an open one drawn two-sided
 # (teapot) and the dense one (ogre: 124k triangles, most of them a few pixels)
-CASES = {"torus": ("builtin:torus", (160, 120), 0), "spot": ("../shared/meshes/spot.obj", (192, 192), 5),
-         "teapot": ("../shared/meshes/teapot.obj", (192, 160), 9), "ogre": ("../shared/meshes/ogre.obj", (256, 256), 2)}
+# (mesh files from ../shared/meshes)
+CASES = {"torus": ("builtin:torus", (160, 120), 0), "spot": ("spot.obj", (192, 192), 5),
+         "teapot": ("teapot.obj", (192, 160), 9), "ogre": ("ogre.obj", (256, 256), 2)}
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def render(scene: str, size: tuple[int, int], frame: int) -> np.ndarray:
     """(H, W, 8): shade, blend rgba, color rgb of pencil.yaml's `shade` node."""
-    pipe = pl.load(Path(__file__).resolve().parents[3] / "pipelines" / "pencil.yaml", size=size, scene=scene)
+    if not scene.startswith("builtin:"):
+        scene = str(ROOT.parent / "shared" / "meshes" / scene)
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=size, scene=scene)
     res = Executor(pipe, None, requested=[("shade", "shade"), ("shade", "blend"), ("shade", "color")]).run(frame)
     shade, blend, color = (res.values[("shade", port)].read() for port in ("shade", "blend", "color"))
     return np.concatenate([shade[..., :1], blend, color[..., :3]], axis=2)
