@@ -43,8 +43,13 @@ def command_for(target: str) -> click.Command:
         return getattr(importlib.import_module(module), attr)
     if target.endswith((".yaml", ".yml")) or Path(target).exists():
         return _pipeline_command(target)
+    from .. import shipped
+
+    if target in shipped.paths():  # a shipped pipeline by name, as `sketchgraph run NAME` takes it
+        return _pipeline_command(target)
     names = ", ".join(sorted(NAMED)) or "none yet"
-    raise SketchgraphError(f"bench: '{target}' is neither a pipeline file nor a named benchmark ({names})")
+    raise SketchgraphError(f"bench: '{target}' is neither a pipeline file, a shipped pipeline "
+                           f"({', '.join(shipped.names())}) nor a named benchmark ({names})")
 
 
 def _pipeline_command(path: str) -> click.Command:
