@@ -29,6 +29,7 @@ NAMED: dict[str, str] = {
     "accuracy": "nodegraph.tools.accuracy:command",
     "hatching": "nodegraph.tools.bench_pencil:hatching_command",
     "curvature": "nodegraph.tools.bench_pencil:curvature_command",
+    "pencil-shade": "nodegraph.tools.bench_pencil:shade_command",
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
     "film": "nodegraph.tools.bench_film:command",

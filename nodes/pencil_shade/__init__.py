@@ -119,11 +119,9 @@ class PencilShade(Node):
         # 1. geometry: per pixel the three corner angles, darkness, blending weights and anchor (G-buffer)
         face_order = "blend" in needed  # weights in the triangles' corner order: one lookup per fragment more
         prog = ctx.program("pencil_shade.glsl", {"FACE_ORDER": int(face_order), "SLOT_ROW": SLOT_ROW})
-        frame = gl.texture((w, h), "RGBA32F", filter="nearest")
-        weights = gl.texture((w, h), "RGBA32F", filter="nearest")
-        fbo = gl.framebuffer([frame, weights], gl.depth_buffer((w, h)))
-        # only the depth is cleared (2 x RGBA32F cost more than a full-screen pass here): the passes below read the
-        # G-buffer only where the depth test says an object was drawn
+        gbuffer, fbo = _gbuffer(gl, (w, h))
+        # only the depth is cleared (clearing RGBA32F costs about a full-screen pass here): the passes below read
+        # the G-buffer only where the depth test says an object was drawn
         gl.framebuffer([], gl.depth_buffer((w, h))).clear(depth=1.0)
         fbo.use()
         gl.ctx.viewport = (0, 0, w, h)
@@ -140,6 +138,7 @@ class PencilShade(Node):
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
         })
+        anchors = np.zeros((1, max(len(scene.objects), 1), 2), dtype=np.float32)  # screen anchor: the origin
         with gl.depth_test() as state:
             for index, obj in enumerate(scene.objects):
                 geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
@@ -154,15 +153,15 @@ class PencilShade(Node):
                     face = "back" if outward else "front"
                 state.cull(face)
                 model = np.asarray(obj.transform, dtype=np.float64)
-                anchor = (0.0, 0.0)
                 if p.anchor == "object":
-                    anchor = reference.project_to_pixels(0.5 * np.add(*obj.world_bounds()), view, proj, (w, h))
+                    centre = 0.5 * np.add(*obj.world_bounds())
+                    anchors[0, index] = reference.project_to_pixels(centre, view, proj, (w, h))
                 normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
                 u_view, u_model = origin.relative_matrices(view, model, world, local)
                 slot_tex = gl.upload(slots, "R8", filter="nearest") if face_order else None
                 bind(prog, {"t_slots": slot_tex} if face_order else {},
                      {"u_mvp": proj @ u_view @ u_model, "u_model3": u_model[:3, :3], "u_normal_view": normal_view,
-                      "u_anchor": tuple(float(a) for a in anchor)})
+                      "u_object": index})
                 vao.render(gl.ctx.TRIANGLES)
                 if slot_tex is not None:
                     gl.release(slot_tex)
@@ -175,7 +174,8 @@ class PencilShade(Node):
         defines.update(LAYERS=p.layers, PAPER=int(paper is not None), CONTOUR=int(contour is not None),
                        CONTOUR_SAME_SIZE=int(same))
         targets = [ctx.target(port, filter="nearest" if port != "color" else "linear") for port in ports]
-        textures: dict[str, Any] = {"t_tam": tam, "t_frame": frame, "t_weights": weights}
+        anchor_tex = gl.upload(anchors, "RG32F", filter="nearest")
+        textures: dict[str, Any] = {"t_tam": tam, "t_gbuffer": gbuffer, "t_anchors": anchor_tex}
         if paper is not None:
             textures["t_paper"] = paper
         if contour is not None:
@@ -202,9 +202,24 @@ class PencilShade(Node):
             sampler.clear(location=0)
             shaded.depth_mask = True  # framebuffers are shared: leave it as the others expect
             shaded.scissor = None
-        gl.release(frame)
-        gl.release(weights)
+        gl.release(anchor_tex)
         return dict(zip(ports, targets, strict=True))
+
+
+def _gbuffer(gl: Any, size: tuple[int, int]) -> tuple[Any, Any]:
+    """The geometry pass's RGBA32UI texture (no pooled format holds integers) and its framebuffer with the
+    shared depth buffer, kept for the last size used (an allocation costs more than the pass)."""
+    key = "pencil_shade.gbuffer"
+    entry = gl.resources.get(key)
+    if entry is None or entry[0] != size:
+        if entry is not None:
+            gl.framebuffer([], gl.depth_buffer(size)).use()  # never leave a released framebuffer bound
+            entry[2].release()
+            entry[1].release()
+        tex = gl.ctx.texture(size, 4, dtype="u4")
+        tex.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        entry = gl.resources[key] = (size, tex, gl.ctx.framebuffer([tex], gl.depth_buffer(size)))
+    return entry[1], entry[2]
 
 
 def _sampler(gl: Any, mipmaps: bool) -> Any:

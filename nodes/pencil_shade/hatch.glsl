@@ -18,8 +18,8 @@ void main() {
 
 #elif defined FRAGMENT_SHADER
 in vec2 v_uv;
-uniform sampler2D t_frame;     // corner angles (xyz), darkness (w)
-uniform sampler2D t_weights;   // weights 0 and 1, anchor pixel (zw)
+uniform usampler2D t_gbuffer;  // pencil_shade.glsl's: angles, darkness, weights 0 and 1, object index
+uniform sampler2D t_anchors;   // per object (x = index): the pixel its hatching frame is centred on
 uniform sampler2DArray t_tam;  // tones, layer 0 lightest, wrap-around
 #if PAPER
 uniform sampler2D t_paper;     // grain normal (xyz), height (w)
@@ -54,6 +54,10 @@ float tam(vec2 uv, float t) {
     return mix(a, b, t - t0);
 }
 
+vec2 unpack2(uint v) { return vec2(uvec2(v & 0xFFFFu, v >> 16)) / 65535.0; }
+
+const float PI = 3.141592653589793;
+
 vec2 rot(vec2 d, vec2 cs) { return vec2(cs.x * d.x - cs.y * d.y, cs.y * d.x + cs.x * d.y); }
 
 void main() {
@@ -65,15 +69,17 @@ void main() {
 #if BACKGROUND
     float value = 1.0;
 #else
-    vec4 frame = texelFetch(t_frame, px, 0);
-    vec4 weights = texelFetch(t_weights, px, 0);
-    float darkness = frame.w;
-    vec3 w = vec3(weights.xy, 1.0 - weights.x - weights.y);
-    vec2 dir0 = vec2(cos(frame.x), sin(frame.x));
-    vec2 dir1 = vec2(cos(frame.y), sin(frame.y));
-    vec2 dir2 = vec2(cos(frame.z), sin(frame.z));
+    uvec4 g = texelFetch(t_gbuffer, px, 0);
+    vec2 a01 = unpack2(g.x), a2d = unpack2(g.y), w01 = unpack2(g.z);
+    vec3 angle = (vec3(a01, a2d.x) - 0.5) * PI;
+    float darkness = a2d.y;
+    vec3 w = vec3(w01, 1.0 - w01.x - w01.y);
+    vec2 dir0 = vec2(cos(angle.x), sin(angle.x));
+    vec2 dir1 = vec2(cos(angle.y), sin(angle.y));
+    vec2 dir2 = vec2(cos(angle.z), sin(angle.z));
+    vec2 anchor = texelFetch(t_anchors, ivec2(int(g.w), 0), 0).xy;
     vec2 tam_size = vec2(textureSize(t_tam, 0).xy);
-    vec2 p = (gl_FragCoord.xy - weights.zw) * u_texel_scale / tam_size;
+    vec2 p = (gl_FragCoord.xy - anchor) * u_texel_scale / tam_size;
     vec2 strongest = w.x >= w.y ? (w.x >= w.z ? dir0 : dir2) : (w.y >= w.z ? dir1 : dir2);
     float value = 1.0;
     for (int k = 0; k < LAYERS; ++k) {

@@ -9,7 +9,8 @@
 // where their triangles need it): it puts its one-hot barycentric coordinate and its direction's angle in
 // its slot, so after interpolation angle_i = (b_i angle_i) / b_i gives every fragment the angles of all
 // three corners of its triangle (what a geometry shader handed on as flat values).
-// Fragment stage: darkness from the light, the three angles, the blending weights and the object's anchor.
+// Fragment stage: the three angles, darkness from the light, two blending weights (the third is 1 - both),
+// each as 16 bits, and the object's index, in one RGBA32UI texel (one target: two cost a quarter more here).
 #if defined VERTEX_SHADER
 in vec3 in_pos;
 in vec3 in_normal;
@@ -54,14 +55,20 @@ in vec2 v_bary;
 in vec3 v_angles;
 uniform vec3 u_light;          // view-space unit direction towards the light
 uniform float u_light_intensity;
-uniform vec2 u_anchor;         // pixel the hatching frame is centred on (the object's projected centre)
+uniform uint u_object;         // the object's index: hatch.glsl looks its anchor up
 #if FACE_ORDER
 uniform sampler2D t_slots;     // per triangle (gl_PrimitiveID, SLOT_ROWS per row): slot(0) + 3 slot(1), / 255
 #endif
-layout(location = 0) out vec4 o_frame;    // the three corners' screen angles, darkness
-layout(location = 1) out vec4 o_weights;  // blending weights 0 and 1 (2 = 1 - both), the anchor
+layout(location = 0) out uvec4 o_gbuffer;  // angles 0 | 1, angle 2 | darkness, weights 0 | 1, object (16 | 16 bits)
 
 float corner_angle(float a, float b) { return b > 0.0 ? a / b : 0.0; }  // b = 0: the weight is 0 too
+
+// two values in [0, 1] as 16-bit fixed point (steps of 1.5e-5): x in the low half, y in the high one
+uint pack2(float x, float y) {
+    uvec2 q = uvec2(clamp(vec2(x, y), 0.0, 1.0) * 65535.0 + 0.5);
+    return q.x | (q.y << 16);
+}
+const float HALF_PI = 1.5707963267948966;
 
 void main() {
     vec3 n = normalize(v_normal);
@@ -82,7 +89,7 @@ void main() {
     w = w * pick;
     a = a * pick;
 #endif
-    o_frame = vec4(a, darkness);
-    o_weights = vec4(w.xy, u_anchor);
+    vec3 an = a / (2.0 * HALF_PI) + 0.5;  // (-90, 90] degrees -> (0, 1]
+    o_gbuffer = uvec4(pack2(an.x, an.y), pack2(an.z, darkness), pack2(w.x, w.y), u_object);
 }
 #endif

@@ -316,3 +316,61 @@ def test_same_pixels_as_the_geometry_shader(gl, name: str):
     for channels, what in ((slice(0, 1), "shade"), (slice(1, 5), "blend"), (slice(5, 8), "color")):
         d = diff[..., channels]
         assert d.mean() < 1e-4 and np.percentile(d, 99.9) < 5e-3, (what, d.mean(), np.percentile(d, 99.9))
+
+
+def test_the_kept_geometry_shader_draws_the_stored_references(gl):
+    """geometry_shader.py (the previous implementation, the speed and pixel reference) still draws what it
+    drew when the references were made (bit for bit on this renderer; within rounding on another)."""
+    from nodegraph_nodes.pencil_shade import geometry_shader
+
+    from nodegraph import imageio
+    from tests.helpers import GOLDEN
+
+    scene, size, frame = "builtin:torus", (160, 120), 0
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=size, scene=scene)
+    out = _both_implementations(gl, pipe, pipe.scene, frame, frozenset({"shade", "blend", "color"}),
+                                only=geometry_shader.compute)
+    got = np.concatenate([out["shade"][..., :1], out["blend"], out["color"][..., :3]], axis=2)
+    want = imageio.read(GOLDEN / "pencil_shade_gs" / "torus.exr")
+    diff = np.abs(got - want)
+    assert diff.mean() < 1e-5 and (diff > 0.02).sum() <= 2, diff.max()
+
+
+def _both_implementations(gl, pipe, scene, frame, needed, only=None):
+    """The shade node's outputs (read back) for `scene` with pencil.yaml's inputs, by the node or by `only`."""
+    res = Executor(pipe, None, gl=gl, requested=[("tam", "tones"), ("curv", "out"), ("paper", "out"),
+                                                 ("contour", "out")]).run(frame)
+    ins = {"tam": res.values[("tam", "tones")], "curvature": res.values[("curv", "out")],
+           "paper": res.values[("paper", "out")], "contour": res.values[("contour", "out")]}
+    node = pipe.nodes["shade"]
+    ctx = RunContext(node, gl=gl, size=pipe.size, frame=frame, pipeline_seed=pipe.seed, scene=scene)
+    out = (only or (lambda n, c, i, w: n.compute(c, i, w)))(node, ctx, ins, needed)
+    return {k: v.read() for k, v in out.items()}
+
+
+@pytest.mark.parametrize("anchor, mirror", [("object", False), ("object", True), ("screen", False)])
+def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mirror: bool):
+    """builtin:primitives (ten objects: closed, open and a plane) live against the kept geometry-shader
+    implementation: per-object anchors from the G-buffer's object index, and mirrored objects (front
+    faces clockwise) culled the same way."""
+    from nodegraph_nodes.pencil_shade import geometry_shader
+
+    from nodegraph.scene import Scene, SceneObject
+
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(200, 150), scene="builtin:primitives",
+                   overrides=[f"shade.anchor={anchor}"])
+    scene = pipe.scene
+    if mirror:  # every other object flipped in x about its own position (the curvature is object-space)
+        flip = np.diag([-1.0, 1.0, 1.0, 1.0])
+        objs = tuple(SceneObject(o.mesh, o.transform @ flip if i % 2 else o.transform, o.color, o.sketchy, o.name)
+                     for i, o in enumerate(scene.objects))
+        scene = Scene(scene.name, objs, scene.camera, light_direction=scene.light_direction)
+        assert any(o.mirrored for o in scene.objects)
+    needed = frozenset({"shade", "blend", "color"})
+    new = _both_implementations(gl, pipe, scene, 3, needed)
+    old = _both_implementations(gl, pipe, scene, 3, needed, only=geometry_shader.compute)
+    covered = old["blend"][..., 3] >= 0
+    assert covered.mean() > 0.1
+    for port in needed:
+        d = np.abs(new[port] - old[port])
+        assert d.mean() < 2e-4 and (d.max(axis=-1) > 0.02).mean() < 1e-3, (port, d.mean(), (d > 0.02).sum())
