@@ -15,10 +15,9 @@ from nodegraph.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
+from .._shared.culling import HOLE_SHARE_CULL
 from .._shared.curvature import DirectionSource, object_field
-from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, view_light
-from ..contour import screen_bounds
-from ..rasterize import HOLE_SHARE_CULL
+from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, screen_bounds, view_light
 from . import reference
 
 _LOCATIONS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND", "color": "LOC_COLOR"}
