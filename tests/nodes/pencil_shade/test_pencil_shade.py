@@ -348,17 +348,18 @@ def _both_implementations(gl, pipe, scene, frame, needed, only=None):
     return {k: v.read() for k, v in out.items()}
 
 
-@pytest.mark.parametrize("anchor, mirror", [("object", False), ("object", True), ("screen", False)])
-def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mirror: bool):
+@pytest.mark.parametrize("anchor, mirror, more", [("object", False, []), ("object", True, []), ("screen", False, []),
+                                                 ("object", False, ["shade.layers=3", "shade.texel_scale=2.5"])])
+def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mirror: bool, more: list[str]):
     """builtin:primitives (ten objects: closed, open and a plane) live against the kept geometry-shader
-    implementation: per-object anchors from the G-buffer's object index, and mirrored objects (front
-    faces clockwise) culled the same way."""
+    implementation: per-object anchors from the G-buffer's object index, mirrored objects (front faces
+    clockwise) culled the same way, and three layers read from the mipmaps."""
     from nodegraph_nodes.pencil_shade import geometry_shader
 
     from nodegraph.scene import Scene, SceneObject
 
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(200, 150), scene="builtin:primitives",
-                   overrides=[f"shade.anchor={anchor}"])
+                   overrides=[f"shade.anchor={anchor}", *more])
     scene = pipe.scene
     if mirror:  # every other object flipped in x about its own position (the curvature is object-space)
         flip = np.diag([-1.0, 1.0, 1.0, 1.0])
