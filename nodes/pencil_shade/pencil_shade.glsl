@@ -24,9 +24,9 @@ uniform mat3 u_normal_view;
 uniform vec2 u_viewport;       // pixels
 uniform vec2 u_fallback_dir;   // unit screen direction used where the curvature direction is unreliable
 uniform vec2 u_foreshortening; // projected/true length ratio: below .x the fallback, above .y the direction
-out vec3 v_normal;
-out vec2 v_bary;     // one-hot, slots 0 and 1: the barycentric coordinates once interpolated (slot 2: 1 - both)
-out vec3 v_angles;   // one-hot x this corner's screen angle
+// two vec4s rather than a vec3, a vec2 and a vec3: a few per cent less of the draw on llvmpipe
+out vec4 v_normal_b0;  // view-space normal; one-hot slot 0 (the barycentric coordinate once interpolated)
+out vec4 v_angles_b1;  // one-hot x this corner's screen angle; one-hot slot 1 (slot 2 is 1 - both)
 
 vec2 doubled(vec2 d) { return vec2(d.x * d.x - d.y * d.y, 2.0 * d.x * d.y); }
 
@@ -43,16 +43,14 @@ void main() {
     if (dot(m, m) < 1e-8) m = doubled(u_fallback_dir);
     float angle = 0.5 * atan(m.y, m.x);  // the line's angle in (-90, 90] degrees
     vec3 onehot = vec3(equal(vec3(in_corner), vec3(0.0, 1.0, 2.0)));
-    v_bary = onehot.xy;
-    v_angles = onehot * angle;
-    v_normal = u_normal_view * in_normal;
+    v_normal_b0 = vec4(u_normal_view * in_normal, onehot.x);
+    v_angles_b1 = vec4(onehot * angle, onehot.y);
     gl_Position = clip;
 }
 
 #elif defined FRAGMENT_SHADER
-in vec3 v_normal;
-in vec2 v_bary;
-in vec3 v_angles;
+in vec4 v_normal_b0;
+in vec4 v_angles_b1;
 uniform vec3 u_light;          // view-space unit direction towards the light
 uniform float u_light_intensity;
 uniform uint u_object;         // the object's index: hatch.glsl looks its anchor up
@@ -71,13 +69,14 @@ uint pack2(float x, float y) {
 const float HALF_PI = 1.5707963267948966;
 
 void main() {
-    vec3 n = normalize(v_normal);
+    vec3 n = normalize(v_normal_b0.xyz);
     if (!gl_FrontFacing) n = -n;
     // tone: brightness from the light; the darkest tone index is scaled by 1 - sqrt(brightness)
     float brightness = max(dot(n, u_light), 0.0);
     float darkness = 1.0 - sqrt(clamp(brightness * u_light_intensity, 0.0, 1.0));
-    vec3 w = vec3(v_bary, 1.0 - v_bary.x - v_bary.y);
-    vec3 a = vec3(corner_angle(v_angles.x, w.x), corner_angle(v_angles.y, w.y), corner_angle(v_angles.z, w.z));
+    vec3 w = vec3(v_normal_b0.w, v_angles_b1.w, 1.0 - v_normal_b0.w - v_angles_b1.w);
+    vec3 wa = v_angles_b1.xyz;
+    vec3 a = vec3(corner_angle(wa.x, w.x), corner_angle(wa.y, w.y), corner_angle(wa.z, w.z));
 #if FACE_ORDER
     // weights and angles in the order of the triangle's corners (the `blend` output), not of the slots
     float code = floor(texelFetch(t_slots, ivec2(gl_PrimitiveID % SLOT_ROW, gl_PrimitiveID / SLOT_ROW), 0).r
