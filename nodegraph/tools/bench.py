@@ -29,6 +29,7 @@ NAMED: dict[str, str] = {
     "accuracy": "nodegraph.tools.accuracy:command",
     "hatching": "nodegraph.tools.bench_pencil:hatching_command",
     "curvature": "nodegraph.tools.bench_pencil:curvature_command",
+    "pencil-shade": "nodegraph.tools.bench_pencil:shade_command",
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
     "film": "nodegraph.tools.bench_film:command",
@@ -46,8 +47,13 @@ def command_for(target: str) -> click.Command:
         return getattr(importlib.import_module(module), attr)
     if target.endswith((".yaml", ".yml")) or Path(target).exists():
         return _pipeline_command(target)
+    from .. import shipped
+
+    if target in shipped.paths():  # a shipped pipeline by name, as `sketchgraph run NAME` takes it
+        return _pipeline_command(target)
     names = ", ".join(sorted(NAMED)) or "none yet"
-    raise SketchgraphError(f"bench: '{target}' is neither a pipeline file nor a named benchmark ({names})")
+    raise SketchgraphError(f"bench: '{target}' is neither a pipeline file, a shipped pipeline "
+                           f"({', '.join(shipped.names())}) nor a named benchmark ({names})")
 
 
 def _pipeline_command(path: str) -> click.Command:

@@ -1,7 +1,8 @@
-"""Named benchmarks of the pencil pipeline's precomputed data: `sketchgraph bench hatching` and
-`sketchgraph bench curvature --scene MESH`.
+"""Named benchmarks of the pencil pipeline: its precomputed data (`sketchgraph bench hatching`,
+`sketchgraph bench curvature --scene MESH`) and its shading pass against the previous implementation
+(`sketchgraph bench pencil-shade --scene MESH`, see `shade_command`).
 
-Each runs its node through the executor the way a pipeline does:
+The precomputed data's benchmarks run their node through the executor the way a pipeline does:
 - `cold_s`: the first run with an empty disk cache (compute, upload, and the disk write), split into
   `cold_node_s` (the node's compute with its upload) and `cold_write_s` (the rest: the disk write);
 - `compute_s`: the computation alone, best of `--repeat`;
@@ -139,4 +140,68 @@ def curvature_command(scene: str, radius: int, repeat: int, json_path: Path | No
     result["libigl_s"] = _best(lambda: [igl.principal_curvature(np.asarray(m.vertices, dtype=np.float64),
                                                                 np.asarray(m.faces, dtype=np.int64), radius)
                                         for m in meshes.values()], repeat)
+    _emit(result, json_path)
+
+
+@click.command()
+@click.option("--scene", default="builtin:torus", show_default=True, help="builtin:NAME, a scene YAML or a mesh.")
+@click.option("--frames", default=20, show_default=True, help="Frames along the orbit (each draws both).")
+@click.option("--size", default=None, help="WxH (default: pencil.yaml's, 800x800).")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+def shade_command(scene: str, frames: int, size: str | None, json_path: Path | None) -> None:
+    """pencil_shade against its previous, geometry-shader implementation (nodes/pencil_shade/geometry_shader.py)
+    on the same inputs: the two alternate frame by frame along the orbit in one process (which goes first
+    alternates too), each followed by a wait for the GPU, with a plain copy pass timed every frame; reports
+    the median times, the median of the per-frame ratios old / new, and each over the copy pass."""
+    import statistics
+
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
+    from ..node import RunContext
+    from .bench import copy_pass_ms
+    from .measure import node_module
+
+    legacy = node_module("pencil_shade", "geometry_shader")
+    pipe = pl.load("pencil", scene=scene, size=pl.parse_size(size) if size else None)
+    gl = glmod.get()
+    ex = Executor(pipe, None, mode="loop", gl=gl,
+                  requested=[("tam", "tones"), ("curv", "out"), ("paper", "out"), ("contour", "out")])
+    node = pipe.nodes["shade"]
+    needed = frozenset({"color"})  # what pencil.yaml asks of it
+    implementations = {"deferred": node.compute,
+                       "geometry_shader": lambda c, i, n: legacy.compute(node, c, i, n)}
+    times: dict[str, list[float]] = {k: [] for k in implementations}
+    draws: dict[str, float] = dict.fromkeys(implementations, 0.0)
+    copy: list[float] = []
+    for f in range(-2, frames):  # two warm-up frames: programs compiled, buffers uploaded
+        res = ex.run(max(f, 0))
+        ins = {"tam": res.values[("tam", "tones")], "curvature": res.values[("curv", "out")],
+               "paper": res.values[("paper", "out")], "contour": res.values[("contour", "out")]}
+        order = list(implementations) if f % 2 == 0 else list(reversed(implementations))
+        for name in order:
+            ctx = RunContext(node, gl=gl, size=pipe.size, frame=max(f, 0), pipeline_seed=pipe.seed, scene=pipe.scene)
+            gl.finish()
+            d0 = gl.draws.total
+            t0 = time.perf_counter()
+            out = implementations[name](ctx, ins, needed)
+            gl.finish()
+            if f >= 0:
+                times[name].append((time.perf_counter() - t0) * 1000)
+                draws[name] += (gl.draws.total - d0) / frames
+            for value in out.values():
+                gl.release(value)
+        if f >= 0:
+            copy.append(copy_pass_ms(gl, pipe.size, passes=5))
+    copy_ms = statistics.median(copy)
+    ratios = [a / b for a, b in zip(times["geometry_shader"], times["deferred"], strict=True)]
+    result: dict[str, Any] = {"benchmark": "pencil-shade", "scene": pipe.scene_spec, "size": list(pipe.size),
+                              "frames": frames, "renderer": gl.renderer,
+                              "triangles": sum(o.mesh.n_faces for o in pipe.scene.objects)}
+    for name, t in times.items():
+        result[f"{name}_ms"] = statistics.median(t)
+        result[f"{name}_over_copy_pass"] = statistics.median(t) / copy_ms
+        result[f"{name}_draws"] = draws[name]
+    result.update(copy_pass_ms=copy_ms, speedup=statistics.median(ratios), speedup_min=min(ratios),
+                  speedup_max=max(ratios))
     _emit(result, json_path)

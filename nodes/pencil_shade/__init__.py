@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any, Literal
 
@@ -14,11 +15,12 @@ from nodegraph.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
+from .._shared.culling import HOLE_SHARE_CULL
 from .._shared.curvature import DirectionSource, object_field
-from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, view_light
+from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, screen_bounds, view_light
 from . import reference
 
-_GEOMETRY_PORTS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND"}
+_LOCATIONS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND", "color": "LOC_COLOR"}
 
 
 class PencilShade(Node):
@@ -35,8 +37,8 @@ class PencilShade(Node):
     direction. `color` adds the contours (multiplied) and the paper colour; `shade` is the hatching value
     alone; `blend` holds the weights (rgb) and the tone index (a; -1 off the objects)."""
 
-    version = "1"
-    shaders = ("pencil_shade.glsl", "composite.glsl")
+    version = "2"
+    shaders = ("pencil_shade.glsl", "hatch.glsl")
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "tam": Input(TextureArray("R8"), "Tonal art map, layer 0 lightest (hatching_synthesis.tones)."),
@@ -118,17 +120,14 @@ class PencilShade(Node):
         tam = inputs["tam"]
         paper = inputs.get("paper")
         contour = inputs.get("contour")
-        geo_ports = ["shade"] + (["blend"] if "blend" in needed else [])  # shade also feeds `color`
-        defines: dict[str, Any] = {_GEOMETRY_PORTS[port]: i for i, port in enumerate(geo_ports)}
-        defines.update(LAYERS=p.layers, PAPER=int(paper is not None))
-        prog = ctx.program("pencil_shade.glsl", defines)
         w, h = ctx.size
-        targets = {port: ctx.target(port, filter="nearest") for port in geo_ports}
-        fbo = gl.framebuffer([targets[port] for port in geo_ports], gl.depth_buffer((w, h)))
-        fbo.clear(depth=1.0)
-        gl.framebuffer([targets["shade"]]).clear(1.0, 1.0, 1.0, 1.0)
-        if "blend" in targets:
-            gl.framebuffer([targets["blend"]]).clear(0.0, 0.0, 0.0, -1.0)
+        # 1. geometry: per pixel the three corner angles, darkness, blending weights and anchor (G-buffer)
+        face_order = "blend" in needed  # weights in the triangles' corner order: one lookup per fragment more
+        prog = ctx.program("pencil_shade.glsl", {"FACE_ORDER": int(face_order), "SLOT_ROW": SLOT_ROW})
+        gbuffer, fbo = _gbuffer(gl, (w, h))
+        # only the depth is cleared (clearing RGBA32F costs about a full-screen pass here): the passes below read
+        # the G-buffer only where the depth test says an object was drawn
+        gl.framebuffer([], gl.depth_buffer((w, h))).clear(depth=1.0)
         fbo.use()
         gl.ctx.viewport = (0, 0, w, h)
         cam = scene.camera_at(ctx.frame)
@@ -136,66 +135,97 @@ class PencilShade(Node):
         view = cam.view_matrix()
         world = origin.world_origin(scene, cam)
         proj = cam.projection_matrix(w / h)
-        textures: dict[str, Any] = {"t_tam": tam}
-        if paper is not None:
-            textures["t_paper"] = paper
         fallback = math.radians(p.fallback_angle)
         light = view_light(scene, cam)
-        max_tone = p.max_darkness * (tam.layers - 1)
-        texel_scale = self.texel_scale(ctx.px_scale)
-        bind(prog, textures, {
-            "u_proj": proj, "u_viewport": (float(w), float(h)),
+        bind(prog, {}, {
+            "u_proj_y": float(proj[1, 1]), "u_viewport": (float(w), float(h)),
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
-            "u_max_tone": float(max_tone), "u_layer_offset": p.layer_offset,
-            "u_layer_rot": self.layer_rotations(), "u_layer_shift": self.layer_shifts(),
-            "u_texel_scale": texel_scale, "u_lod": max(math.log2(texel_scale), 0.0), "u_grain": p.grain,
         })
+        anchors = np.zeros((1, max(len(scene.objects), 1), 2), dtype=np.float32)  # screen anchor: the origin
+        with gl.depth_test() as state:
+            for index, obj in enumerate(scene.objects):
+                geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
+                if geometry is None:
+                    continue
+                vao, local, slots = geometry
+                # closed meshes hide their back faces, and meshes whose holes show at most 1% of the surface
+                # nearly so (rasterize's `backfaces: auto`; ogre.obj): culling halves the rasterised triangles
+                face = None
+                if obj.mesh.topology().closed or obj.mesh.hole_share() <= HOLE_SHARE_CULL:
+                    outward = (obj.mesh.signed_volume() > 0.0) != obj.mirrored
+                    face = "back" if outward else "front"
+                state.cull(face)
+                model = np.asarray(obj.transform, dtype=np.float64)
+                if p.anchor == "object":
+                    centre = 0.5 * np.add(*obj.world_bounds())
+                    anchors[0, index] = reference.project_to_pixels(centre, view, proj, (w, h))
+                normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
+                u_view, u_model = origin.relative_matrices(view, model, world, local)
+                slot_tex = gl.upload(slots, "R8", filter="nearest") if face_order else None
+                bind(prog, {"t_slots": slot_tex} if face_order else {},
+                     {"u_mvp": proj @ u_view @ u_model, "u_model3": u_model[:3, :3], "u_normal_view": normal_view,
+                      "u_object": index})
+                vao.render(gl.ctx.TRIANGLES)
+                if slot_tex is not None:
+                    gl.release(slot_tex)
+        # 2. bare paper over the whole image, then the hatching where an object was drawn: depth-tested against
+        # the geometry pass (llvmpipe skips a block of pixels that fails the depth test, not a branch) and
+        # scissored to the objects' projected boxes
+        ports = [port for port in ("shade", "blend", "color") if port in needed]
+        same = contour is not None and contour.size == (w, h)
+        defines: dict[str, Any] = {_LOCATIONS[port]: i for i, port in enumerate(ports)}
+        defines.update(LAYERS=p.layers, PAPER=int(paper is not None), CONTOUR=int(contour is not None),
+                       CONTOUR_SAME_SIZE=int(same))
+        targets = [ctx.target(port, filter="nearest" if port != "color" else "linear") for port in ports]
+        anchor_tex = gl.upload(anchors, "RG32F", filter="nearest")
+        textures: dict[str, Any] = {"t_tam": tam, "t_gbuffer": gbuffer, "t_anchors": anchor_tex}
+        if paper is not None:
+            textures["t_paper"] = paper
+        if contour is not None:
+            textures["t_contour"] = contour
+        texel_scale = self.texel_scale(ctx.px_scale)
+        uniforms = {"u_max_tone": float(p.max_darkness * (tam.layers - 1)), "u_layer_offset": p.layer_offset,
+                    "u_layer_rot": self.layer_rotations(), "u_layer_shift": self.layer_shifts(),
+                    "u_texel_scale": texel_scale, "u_lod": max(math.log2(texel_scale), 0.0), "u_grain": p.grain,
+                    "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color,
+                    "u_paper_tint": p.paper_tint}
+        shaded = gl.framebuffer(targets, gl.depth_buffer((w, h)))
+        gl.fullscreen(ctx.program("hatch.glsl", {**defines, "BACKGROUND": 1}), targets, textures=textures,
+                      uniforms=uniforms, fbo=shaded)
+        box = screen_bounds(scene, cam, (w, h), 1)
         # one texel per pixel or coarser needs no mipmaps: plain bilinear is 3x cheaper on llvmpipe
         sampler = _sampler(gl, mipmaps=texel_scale > 1.0)
-        sampler.use(location=0)  # t_tam is bound first, to unit 0
+        shaded.depth_mask = False  # read the depth, keep it
+        shaded.scissor = box
         try:
-            with gl.depth_test() as state:
-                for index, obj in enumerate(scene.objects):
-                    geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
-                    if geometry is None:
-                        continue
-                    vao, local = geometry
-                    # closed meshes hide their back faces: culling them halves the shaded fragments
-                    face = None
-                    if obj.mesh.topology().closed:
-                        outward = (obj.mesh.signed_volume() > 0.0) != obj.mirrored
-                        face = "back" if outward else "front"
-                    state.cull(face)
-                    model = np.asarray(obj.transform, dtype=np.float64)
-                    anchor = (0.0, 0.0)
-                    if p.anchor == "object":
-                        anchor = reference.project_to_pixels(0.5 * np.add(*obj.world_bounds()), view, proj, (w, h))
-                    normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
-                    u_view, u_model = origin.relative_matrices(view, model, world, local)
-                    bind(prog, {}, {"u_view": u_view, "u_model": u_model, "u_normal_view": normal_view,
-                                    "u_anchor": tuple(float(a) for a in anchor)})
-                    vao.render(gl.ctx.TRIANGLES)
+            with gl.depth_test(">"):  # the pass's triangle lies at depth 1, the clear value: covered pixels pass
+                sampler.use(location=0)  # t_tam is bound first, to unit 0
+                gl.fullscreen(ctx.program("hatch.glsl", {**defines, "BACKGROUND": 0}), targets, textures=textures,
+                              uniforms=uniforms, fbo=shaded)
         finally:
             sampler.clear(location=0)
-        out = {port: targets[port] for port in geo_ports if port in needed}
-        if "color" in needed:
-            same = contour is not None and contour.size == (w, h)
-            comp = ctx.program("composite.glsl", {"CONTOUR": int(contour is not None), "PAPER": int(paper is not None),
-                                                  "CONTOUR_SAME_SIZE": int(same)})
-            color = ctx.target("color")
-            tex = {"t_shade": targets["shade"]}
-            if contour is not None:
-                tex["t_contour"] = contour
-            if paper is not None:
-                tex["t_paper"] = paper
-            gl.fullscreen(comp, [color], textures=tex, uniforms={
-                "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint})
-            out["color"] = color
-        if "shade" not in needed:
-            gl.release(targets["shade"])
-        return out
+            shaded.depth_mask = True  # framebuffers are shared: leave it as the others expect
+            shaded.scissor = None
+        gl.release(anchor_tex)
+        return dict(zip(ports, targets, strict=True))
+
+
+def _gbuffer(gl: Any, size: tuple[int, int]) -> tuple[Any, Any]:
+    """The geometry pass's RGBA32UI texture (no pooled format holds integers) and its framebuffer with the
+    shared depth buffer, kept for the last size used (an allocation costs more than the pass)."""
+    key = "pencil_shade.gbuffer"
+    entry = gl.resources.get(key)
+    if entry is None or entry[0] != size:
+        if entry is not None:
+            gl.framebuffer([], gl.depth_buffer(size)).use()  # never leave a released framebuffer bound
+            entry[2].release()
+            entry[1].release()
+        tex = gl.ctx.texture(size, 4, dtype="u4")
+        tex.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        entry = gl.resources[key] = (size, tex, gl.ctx.framebuffer([tex], gl.depth_buffer(size)))
+    return entry[1], entry[2]
 
 
 def _sampler(gl: Any, mipmaps: bool) -> Any:
@@ -210,9 +240,10 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float,
-              node: Node) -> tuple[Any, np.ndarray] | None:
+              node: Node) -> tuple[Any, np.ndarray, np.ndarray] | None:
     """The program's vertex array over position (relative to the mesh's origin, nodegraph/origin.py), split
-    normal, curvature direction and trust, per (mesh, crease angle, curvature), and that origin."""
+    normal, curvature direction, trust and corner slot, built once per (mesh, crease angle, curvature) and
+    kept across frames, that origin, and each triangle's slots as `_slot_codes` gives them."""
     if mesh.n_faces == 0:
         return None
     name = object_field(index, "dmin")
@@ -230,13 +261,53 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         src = ra.source_vertex
         local = origin.mesh_origin(mesh)
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
-        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"), "in_normal": (ra.normals, "3f"),
-                           "in_dir": (skinned_directions(mesh, dmin, src), "3f"), "in_trust": (trust, "1f")},
-                          ra.indices,
-                          meta={"origin": local})
+        # every triangle's corners get the slots 0, 1, 2 (see pencil_shade.glsl): a vertex is copied once per slot
+        # its triangles give it, about 1.5 copies a vertex, and the draw stays indexed (shared vertices)
+        slots = corner_slots(ra.indices, ra.n_vertices)
+        keys, inverse = np.unique(np.asarray(ra.indices, dtype=np.int64) * 3 + slots, return_inverse=True)
+        vertex, slot = keys // 3, (keys % 3).astype(np.float32)
+        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
+                           "in_normal": (ra.normals[vertex], "3f"),
+                           "in_dir": (skinned_directions(mesh, dmin, src)[vertex], "3f"),
+                           "in_trust": (trust[vertex], "1f"), "in_corner": (slot, "1f")},
+                          inverse.reshape(-1, 3).astype(np.uint32), meta={"origin": local, "slots": _slot_codes(slots)})
 
-    entry = gl.mesh_buffers(("pencil_shade.mesh", mesh.content_hash(), float(crease_angle), ckey), build)
-    return entry.vao(prog), entry.meta["origin"]
+    entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build)
+    return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
+
+
+_PERMUTATIONS = tuple(itertools.permutations(range(3)))
+
+
+def corner_slots(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(m, 3) slot 0, 1 or 2 of every triangle corner, the three of a triangle distinct, chosen greedily so that
+    a vertex needs as few slots (copies) as it can: each triangle takes the permutation that reuses most of
+    its vertices' existing slots."""
+    have = [0] * n_vertices  # bit s: the vertex has a copy in slot s
+    out = np.empty((len(triangles), 3), dtype=np.int64)
+    for t, (a, b, c) in enumerate(np.asarray(triangles).tolist()):
+        ha, hb, hc = have[a], have[b], have[c]
+        best, choice = 4, _PERMUTATIONS[0]
+        for perm in _PERMUTATIONS:
+            cost = (not (ha >> perm[0]) & 1) + (not (hb >> perm[1]) & 1) + (not (hc >> perm[2]) & 1)
+            if cost < best:
+                best, choice = cost, perm
+                if cost == 0:
+                    break
+        have[a], have[b], have[c] = ha | 1 << choice[0], hb | 1 << choice[1], hc | 1 << choice[2]
+        out[t] = choice
+    return out
+
+
+SLOT_ROW = 1024  # triangles per row of the slot texture
+
+
+def _slot_codes(slots: np.ndarray) -> np.ndarray:
+    """(rows, SLOT_ROW) uint8 slot(0) + 3 slot(1) of every triangle (slot(2) is the one left), row-major by
+    triangle, zero-padded: what the geometry pass reads by gl_PrimitiveID to put the weights in corner order."""
+    codes = np.zeros(-(-len(slots) // SLOT_ROW) * SLOT_ROW, dtype=np.uint8)
+    codes[: len(slots)] = slots[:, 0] + 3 * slots[:, 1]
+    return codes.reshape(-1, SLOT_ROW)
 
 
 def skinned_directions(mesh: Any, directions: np.ndarray, src: np.ndarray) -> np.ndarray:

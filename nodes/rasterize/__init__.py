@@ -14,6 +14,8 @@ from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
 
+from .._shared.culling import HOLE_SHARE_CULL  # `auto` culls at most this share of holes
+
 # tone_bands -> (N.L thresholds (dark | middle | light), colour factors (dark, middle, light)); N.L with the
 # scene light in view space, the normal two-sided as the G-buffer has it. 2 bands: no middle band.
 TONE_BANDS: dict[int, tuple[tuple[float, float], tuple[float, float, float]]] = {
@@ -233,9 +235,6 @@ class Rasterize(Node):
 REST_SHADER = "rest_position.glsl"
 
 
-# `auto` culls back faces when holes can show at most this share of the surface (Mesh.hole_share): closed
-# meshes and ogre.obj (0.0085; culling changes 1 pixel of 800x800), not the teapot (0.24; 0.5% of pixels).
-HOLE_SHARE_CULL = 0.01
 
 
 def _cull_face(obj: Any, backfaces: str) -> str | None:

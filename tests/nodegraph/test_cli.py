@@ -111,4 +111,11 @@ def test_bench_help_reaches_the_named_benchmark(cli):
     r = cli("bench", "--help")
     assert r.exit_code == 0 and "shower-door, particles, accuracy" in r.output
     r = cli("bench", "nope")
-    assert r.exit_code == 2 and "neither a pipeline file nor a named benchmark" in r.output
+    assert r.exit_code == 2 and "neither a pipeline file, a shipped pipeline" in r.output
+    assert "nienhaus_sketchy" in r.output and "a named benchmark" in r.output
+
+
+def test_bench_takes_a_shipped_pipeline_by_name(cli):
+    # `sketchgraph bench pencil --scene M` as `sketchgraph run pencil` takes it
+    r = cli("bench", "pencil", "--help")
+    assert r.exit_code == 0 and "sketchgraph bench pencil" in r.output and "--scene" in r.output

@@ -25,3 +25,16 @@ def test_hatching_and_curvature_benchmarks_write_json(gl, tmp_path: Path):
     c = json.loads(out.read_text())
     assert c["benchmark"] == "curvature" and c["vertices"] > 0 and c["cached_from"] == "disk"
     assert all(c[k] >= 0 for k in ("cold_s", "cached_s", "compute_s", "libigl_s"))
+
+
+def test_pencil_shade_benchmark_compares_both_implementations(gl, tmp_path: Path):
+    out = tmp_path / "s.json"
+    res = CliRunner().invoke(main, ["bench", "pencil-shade", "--scene", "builtin:torus", "--frames", "2",
+                                    "--size", "96x80", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    s = json.loads(out.read_text())
+    assert s["benchmark"] == "pencil-shade" and s["size"] == [96, 80] and s["frames"] == 2
+    assert s["deferred_ms"] > 0 and s["geometry_shader_ms"] > 0 and s["copy_pass_ms"] > 0
+    assert s["speedup_min"] <= s["speedup"] <= s["speedup_max"]
+    # the geometry pass, the paper pass and the hatching pass; before: the geometry pass and the composite
+    assert s["deferred_draws"] == 3 and s["geometry_shader_draws"] == 2

@@ -19,7 +19,7 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import RunContext
-from nodegraph.primitives import plane
+from nodegraph.primitives import plane, sphere, torus
 from nodegraph.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
 from tests.helpers import assert_outputs_as_planned, run_minimal
@@ -157,6 +157,22 @@ def test_fixed_frame_directions_use_the_screen_fallback(gl, tam):
     np.testing.assert_allclose(a["shade"], b["shade"], atol=2e-3)
 
 
+@pytest.mark.parametrize("make", [lambda: plane(2.0, 12), lambda: sphere(1.0, 3), lambda: torus()])
+def test_corner_slots_give_every_triangle_three_different_slots(make):
+    from nodegraph_nodes.pencil_shade import corner_slots
+
+    mesh = make()
+    faces = np.asarray(mesh.faces)
+    rng = np.random.default_rng(0)
+    for tris in (faces, faces[rng.permutation(len(faces))]):  # any order of the triangles
+        slots = corner_slots(tris, mesh.n_vertices)
+        assert slots.shape == tris.shape
+        np.testing.assert_array_equal(np.sort(slots, axis=1), np.tile([0, 1, 2], (len(tris), 1)))
+        copies = len(np.unique(tris.astype(np.int64) * 3 + slots))
+        # a vertex has at most three copies; shared vertices keep most triangles' corners shared
+        assert mesh.n_vertices <= copies <= 2 * mesh.n_vertices, (copies, mesh.n_vertices)
+
+
 def test_tone_mapping_is_monotonic_reference():
     b = np.linspace(-0.5, 1.5, 401)
     t = reference.tone_index(b, 1.0, 20.0)
@@ -271,3 +287,93 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"image": "s.color", "shade": "s.shade", "blend": "s.blend"})
     assert assert_outputs_as_planned(ex, res, "s") == ["blend", "color", "shade"]
+
+
+@pytest.mark.parametrize("name", ["torus", "spot", "teapot", "ogre"])
+def test_same_pixels_as_the_geometry_shader(gl, name: str):
+    """The deferred implementation (corner slots, G-buffer, depth-tested full-screen pass) against what the
+    geometry-shader implementation drew (tests/golden/pencil_shade_gs, made by make_gs_reference.py before
+    it was replaced): shade, blend and color of pencil.yaml's `shade` node. The two differ by float rounding
+    (the G-buffer's angles are interpolated and divided where the geometry shader handed them on flat; the
+    projection is multiplied once on the CPU in float64) and, on ogre.obj, where back faces seen through its
+    small holes are now culled (one pixel of 256x256)."""
+    from nodegraph import imageio
+    from tests.helpers import GOLDEN, shared_mesh
+    from tests.nodes.pencil_shade.make_gs_reference import CASES
+    from tests.nodes.pencil_shade.make_gs_reference import render as render_pipeline
+
+    scene, size, frame = CASES[name]
+    if not scene.startswith("builtin:"):
+        shared_mesh(scene)
+    got = render_pipeline(scene, size, frame)
+    want = imageio.read(GOLDEN / "pencil_shade_gs" / f"{name}.exr")
+    assert got.shape == want.shape
+    covered = want[..., 4] >= 0
+    assert covered.mean() > 0.1  # an object to compare
+    diff = np.abs(got - want)
+    outliers = int((diff.max(axis=2) > 0.02).sum())
+    assert outliers <= max(2, 1e-4 * covered.size), outliers  # ogre: 1 (a hole)
+    assert int(((got[..., 4] >= 0) != covered).sum()) <= 2  # the same pixels covered
+    for channels, what in ((slice(0, 1), "shade"), (slice(1, 5), "blend"), (slice(5, 8), "color")):
+        d = diff[..., channels]
+        assert d.mean() < 1e-4 and np.percentile(d, 99.9) < 5e-3, (what, d.mean(), np.percentile(d, 99.9))
+
+
+def test_the_kept_geometry_shader_draws_the_stored_references(gl):
+    """geometry_shader.py (the previous implementation, the speed and pixel reference) still draws what it
+    drew when the references were made (bit for bit on this renderer; within rounding on another)."""
+    from nodegraph_nodes.pencil_shade import geometry_shader
+
+    from nodegraph import imageio
+    from tests.helpers import GOLDEN
+    from tests.nodes.pencil_shade.make_gs_reference import load
+
+    scene, size, frame = "builtin:torus", (160, 120), 0
+    pipe = load(scene, size)
+    out = _both_implementations(gl, pipe, pipe.scene, frame, frozenset({"shade", "blend", "color"}),
+                                only=geometry_shader.compute)
+    got = np.concatenate([out["shade"][..., :1], out["blend"], out["color"][..., :3]], axis=2)
+    want = imageio.read(GOLDEN / "pencil_shade_gs" / "torus.exr")
+    diff = np.abs(got - want)
+    assert diff.mean() < 1e-5 and (diff > 0.02).sum() <= 2, diff.max()
+
+
+def _both_implementations(gl, pipe, scene, frame, needed, only=None):
+    """The shade node's outputs (read back) for `scene` with pencil.yaml's inputs, by the node or by `only`."""
+    res = Executor(pipe, None, gl=gl, requested=[("tam", "tones"), ("curv", "out"), ("paper", "out"),
+                                                 ("contour", "out")]).run(frame)
+    ins = {"tam": res.values[("tam", "tones")], "curvature": res.values[("curv", "out")],
+           "paper": res.values[("paper", "out")], "contour": res.values[("contour", "out")]}
+    node = pipe.nodes["shade"]
+    ctx = RunContext(node, gl=gl, size=pipe.size, frame=frame, pipeline_seed=pipe.seed, scene=scene)
+    out = (only or (lambda n, c, i, w: n.compute(c, i, w)))(node, ctx, ins, needed)
+    return {k: v.read() for k, v in out.items()}
+
+
+@pytest.mark.parametrize("anchor, mirror, more", [("object", False, []), ("object", True, []), ("screen", False, []),
+                                                 ("object", False, ["shade.layers=3", "shade.texel_scale=2.5"])])
+def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mirror: bool, more: list[str]):
+    """builtin:primitives (ten objects: closed, open and a plane) live against the kept geometry-shader
+    implementation: per-object anchors from the G-buffer's object index, mirrored objects (front faces
+    clockwise) culled the same way, and three layers read from the mipmaps."""
+    from nodegraph_nodes.pencil_shade import geometry_shader
+
+    from nodegraph.scene import Scene, SceneObject
+
+    pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(200, 150), scene="builtin:primitives",
+                   overrides=[f"shade.anchor={anchor}", *more])
+    scene = pipe.scene
+    if mirror:  # every other object flipped in x about its own position (the curvature is object-space)
+        flip = np.diag([-1.0, 1.0, 1.0, 1.0])
+        objs = tuple(SceneObject(o.mesh, o.transform @ flip if i % 2 else o.transform, o.color, o.sketchy, o.name)
+                     for i, o in enumerate(scene.objects))
+        scene = Scene(scene.name, objs, scene.camera, light_direction=scene.light_direction)
+        assert any(o.mirrored for o in scene.objects)
+    needed = frozenset({"shade", "blend", "color"})
+    new = _both_implementations(gl, pipe, scene, 3, needed)
+    old = _both_implementations(gl, pipe, scene, 3, needed, only=geometry_shader.compute)
+    covered = old["blend"][..., 3] >= 0
+    assert covered.mean() > 0.1
+    for port in needed:
+        d = np.abs(new[port] - old[port])
+        assert d.mean() < 2e-4 and (d.max(axis=-1) > 0.02).mean() < 1e-3, (port, d.mean(), (d > 0.02).sum())

@@ -1,5 +1,5 @@
 #version 330
-// Final pencil image: hatching value times contour value (graphite over graphite darkens), graphite
+// The composite pass of the previous implementation (geometry_shader.py). Final pencil image: hatching value times contour value (graphite over graphite darkens), graphite
 // over paper whose relief shows faintly.
 #if defined FRAGMENT_SHADER
 in vec2 v_uv;
