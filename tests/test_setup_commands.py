@@ -24,6 +24,10 @@ def test_ci_runs_the_readme_test_command():
     ci = (ROOT / ".ci" / "run").read_text().splitlines()
     commands = [ln for ln in ci if ln.startswith("python3 -m venv .venv")]
     assert commands == [_setup_commands()[1]]
+    # an && list that fails before its last command does not stop a `set -e` script: its status must be
+    # checked on the next lines, or a failing pytest would let CI pass
+    at = ci.index(commands[0])
+    assert ci[at - 1] == "set +e" and ci[at + 1] == "status=$?" and 'exit "$status"' in ci[at + 3]
 
 
 def test_ci_installs_from_the_lock():
