@@ -272,10 +272,15 @@ def white_noise(kx: ArrayLike, ky: ArrayLike, kz: ArrayLike) -> NDArray[np.float
     return (h >> np.uint32(8)).astype(np.float64) / 16777216.0
 
 
-def white_offsets(width: int, height: int, seed: int, frame: int = 0) -> NDArray[np.float64]:
-    """(H, W, 2) uncorrelated offsets in [0, 1) (paper §3.4); row 0 = bottom."""
+def white_offsets(width: int, height: int, seed: int, frame: int = 0,
+                  cell_ratio: tuple[int, int] = (1, 1)) -> NDArray[np.float64]:
+    """(H, W, 2) uncorrelated offsets in [0, 1) (paper §3.4); row 0 = bottom. Pixel i reads grain cell
+    i * cell_ratio[0] // cell_ratio[1] (integers: exact on the GPU too), so with (reference size, shorter
+    side) a grain covers one pixel of the reference size whatever the image size."""
     _check_size(width, height)
-    xs, ys = np.meshgrid(np.arange(width, dtype=np.uint64), np.arange(height, dtype=np.uint64))
+    num, den = (int(c) for c in cell_ratio)
+    xs, ys = np.meshgrid(np.arange(width, dtype=np.uint64) * num // den,
+                         np.arange(height, dtype=np.uint64) * num // den)
     return np.stack([white_noise(xs, ys, white_stream(seed, frame, c)) for c in (0, 1)], axis=-1)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 from pydantic import Field
@@ -13,20 +14,20 @@ from .._shared import noise
 
 
 class PerlinNoise(Node):
-    """Screen-space uncertainty values (off_s, off_t). `kind: perlin` uses Ken Perlin's improved noise
-    (2002: his permutation table, quintic fade, 12 gradients) summed over octaves, with the paper's
-    off_s = turbulence(s, t) and off_t = turbulence(1 - s, 1 - t); neighbouring values are correlated,
-    so the drawing is coherent from frame to frame. `kind: white` gives uncorrelated values in [0, 1)
-    for roughened, chalk-like profiles (paper §3.4). The seed (from the pipeline seed and the node id)
-    shifts the noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times
-    `scale` / px_scale: `scale` is in cycles per pixel at the pipeline's reference size (docs/sizes.md), so
-    the noise has the same features at every image size. The paper creates the noise texture once, so by
-    default the values do not change with the frame (`hold: 0`); `hold: N` draws new noise every N frames
-    (the boil rate:
-    `hold: 1` reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling).
-    Turbulence is non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant;
-    `mode: fbm` gives signed values with mean 0 instead. A float64 CPU version of the same function is
-    in `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6."""
+    """Screen-space uncertainty values (off_s, off_t). `kind: perlin` uses Ken Perlin's improved noise (2002: his
+    permutation table, quintic fade, 12 gradients) summed over octaves, with the paper's off_s = turbulence(s,
+    t) and off_t = turbulence(1 - s, 1 - t); neighbouring values are correlated, so the drawing is coherent from
+    frame to frame. `kind: white` gives uncorrelated values in [0, 1) for roughened, chalk-like profiles (paper
+    §3.4), one per pixel of the reference size (a grain cell of 1 / px_scale pixels above it; per pixel at or
+    below it), so chalk frays alike at every size. The seed (from the pipeline seed and the node id) shifts the
+    noise domain; Perlin's table stays untouched. Noise coordinates are pixel centres times `scale` / px_scale:
+    `scale` is in cycles per pixel at the pipeline's reference size (docs/sizes.md), so the noise has the same
+    features at every image size. The paper creates the noise texture once, so by default the values do not
+    change with the frame (`hold: 0`); `hold: N` draws new noise every N frames (the boil rate: `hold: 1`
+    reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling). Turbulence is
+    non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant; `mode: fbm` gives
+    signed values with mean 0 instead. A float64 CPU version of the same function is in
+    `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6."""
 
     version = "1"
     shaders = ("perlin_noise.glsl",)  # includes improved_noise.glsl: hashed with it
@@ -34,7 +35,8 @@ class PerlinNoise(Node):
 
     class Params(NodeParams):
         kind: Literal["perlin", "white"] = Field("perlin", description="perlin: correlated improved noise; "
-                                                 "white: uncorrelated per-pixel values (chalk, paper §3.4).")
+                                                 "white: uncorrelated values, one per pixel of the reference size "
+                                                 "(chalk, paper §3.4).")
         mode: Literal["turbulence", "fbm"] = Field("turbulence", description="turbulence: sum of |noise| over "
                                                    "octaves (the paper's); fbm: signed sum.")
         scale: float = Field(0.01, gt=0, le=1, description="Noise frequency in cycles per pixel at the reference "
@@ -56,9 +58,7 @@ class PerlinNoise(Node):
 
     @property
     def context_keys(self) -> frozenset[str]:  # type: ignore[override]
-        keys = {"size", "seed"}
-        if self.params.kind == "perlin":
-            keys.add("px_scale")
+        keys = {"size", "seed", "px_scale"}
         if self.hold != 0:
             keys.add("frame")
         return frozenset(keys)
@@ -77,18 +77,30 @@ class PerlinNoise(Node):
                                     "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
                                     "u_seed": seed & 0xFFFFFFFF,
                                     "u_frame": ctx.noise_frame & 0xFFFFFFFF,
-                                    "u_size": (float(w), float(h))})
+                                    "u_size": (float(w), float(h)),
+                                    "u_cell_ratio": self.cell_ratio(ctx.size, ctx.reference_size)})
         return {"out": out}
+
+    @staticmethod
+    def cell_ratio(size: tuple[int, int], reference_size: int | None) -> tuple[int, int]:
+        """White noise: pixel i reads grain cell i * a // b, (a, b) = (reference size, shorter side) reduced;
+        (1, 1) at the reference size or without one."""
+        if reference_size is None:
+            return (1, 1)
+        a, b = int(reference_size), min(int(size[0]), int(size[1]))
+        g = math.gcd(a, b)
+        return (a // g, b // g)
 
     def frequency(self, px_scale: float) -> float:
         """Cycles per image pixel: `scale` / px_scale (`scale` itself at the reference size)."""
         return self.params.scale if px_scale == 1.0 else self.params.scale / px_scale
 
-    def reference(self, width: int, height: int, seed: int, frame: int = 0, px_scale: float = 1.0) -> Any:
+    def reference(self, width: int, height: int, seed: int, frame: int = 0, px_scale: float = 1.0,
+                  reference_size: int | None = None) -> Any:
         """The float64 CPU computation of this node's output, (H, W, 2)."""
         p = self.params
         if p.kind == "white":
-            return noise.white_offsets(width, height, seed, frame)
+            return noise.white_offsets(width, height, seed, frame, self.cell_ratio((width, height), reference_size))
         return noise.screen_offsets(width, height, self.frequency(px_scale), p.octaves, seed, p.mode)
 
 

@@ -11,12 +11,13 @@ uniform int u_mode;
 uniform uint u_seed;
 uniform uint u_frame;
 uniform vec2 u_size;
+uniform uvec2 u_cell_ratio;  // white: grain cell of pixel i = i * x / y (reference size / shorter side)
 layout(location = 0) out vec2 o_out;
 void main() {
 #if KIND == 0
     o_out = screen_offset(gl_FragCoord.xy, u_size, u_scale_split, u_seed_cell, u_seed_frac, u_octaves, u_mode);
 #else
-    o_out = white_offset(uvec2(gl_FragCoord.xy), u_seed, u_frame);
+    o_out = white_offset(uvec2(gl_FragCoord.xy) * u_cell_ratio.x / u_cell_ratio.y, u_seed, u_frame);
 #endif
 }
 #endif

@@ -57,6 +57,23 @@ def test_white_noise_pattern_follows_the_seed(gl):
     assert np.array_equal(a, node.reference(64, 64, derive_seed(1, "n", 0)).astype(np.float32))
 
 
+@pytest.mark.parametrize("size, reference_size, block", [((160, 120), 60, 2), ((96, 90), 30, 3)])
+def test_white_grain_is_a_pixel_of_the_reference_size(gl, size, reference_size, block):
+    """Above the reference size a white-noise grain covers 1 / px_scale pixels (2x2 at twice the size, 3x3 at
+    three times): the GPU equals the float64 CPU twin bit for bit, and that twin is the reference-size noise
+    repeated block by block, so chalk frays alike at every size."""
+    node = PerlinNoise("n", PerlinNoise.Params(kind="white"))
+    seed = derive_seed(5, "n", 0)
+    got = run_node(gl, node, {}, size, seed=5, reference_size=reference_size)["out"].read()
+    ref = node.reference(size[0], size[1], seed, reference_size=reference_size)
+    assert np.array_equal(got, ref.astype(np.float32))
+    small = node.reference(-(-size[0] // block), -(-size[1] // block), seed)  # the noise at the reference size
+    assert np.array_equal(ref, np.repeat(np.repeat(small, block, 0), block, 1)[:size[1], :size[0]])
+    # below it each pixel reads a grain of its own (cells 0, 2, 4, ...: still uncorrelated)
+    half = node.reference(40, 30, seed, reference_size=60)
+    assert np.array_equal(half, node.reference(80, 60, seed)[::2, ::2])
+
+
 # -- roster: smoke and shapes -----------------------------------------------------------------------
 def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
     nodes = """\
@@ -106,4 +123,4 @@ def test_white_noise_and_px_scale_in_the_key():
     white = PerlinNoise("n", PerlinNoise.Params(kind="white"))
     h = HashContext((400, 400), 0, 1, None, 800)
     assert h.values_for(perlin)["px_scale"] == 0.5
-    assert "px_scale" not in h.values_for(white)  # white noise is per pixel by nature
+    assert h.values_for(white)["px_scale"] == 0.5  # its grain is a pixel of the reference size
