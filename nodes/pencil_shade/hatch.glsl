@@ -1,13 +1,13 @@
 #version 330
-// Full-screen passes of the interior shading (Lee et al. 2006, §4.2.2) over the G-buffer of pencil_shade.glsl,
-// depth-tested against that pass's depth buffer, so that each pixel runs one of them: the object pass
-// (depth test ">", the triangle at the far plane: covered pixels) draws the hatching layers lighter first,
-// each the barycentric blend of the tonal art map sampled in the three corners' rotated frames (3-way
-// blending), graphite modulated by paper grain, layers multiplied so that crossings darken; the background
-// pass (BACKGROUND, depth test "<=": the rest) draws bare paper. For `color` both then multiply the
-// contours in and lay graphite over paper whose relief shows faintly. llvmpipe runs both sides of every
-// branch, but skips a block of pixels that fails the depth test before shading it: the split is what keeps
-// the background from paying for the lookups.
+// Full-screen passes of the interior shading (Lee et al. 2006, §4.2.2) over the G-buffer of pencil_shade.glsl:
+// first the background pass (BACKGROUND, no depth test) draws bare paper over the whole image; then the
+// object pass, depth-tested against the geometry pass's depth buffer (depth test ">", the triangle at the
+// far plane: covered pixels only) and scissored to the objects' boxes, draws over it the hatching layers
+// lighter first, each the barycentric blend of the tonal art map sampled in the three corners' rotated
+// frames (3-way blending), graphite modulated by paper grain, layers multiplied so that crossings darken.
+// For `color` both then multiply the contours in and lay graphite over paper whose relief shows faintly.
+// llvmpipe runs both sides of every branch, but skips a block of pixels that fails the depth test before
+// shading it: the split is what keeps the background from paying for the lookups.
 #if defined VERTEX_SHADER
 out vec2 v_uv;
 void main() {
