@@ -11,6 +11,7 @@ from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
+from .._shared import coverage
 from .._shared.params import Color
 from .._shared.params import Matrix2 as Matrix
 
@@ -91,8 +92,13 @@ class Sketch(Node):
         targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
         textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
         if "depth" in inputs:  # the key depends on the connection, so the colour does too, never on `needed`
-            textures["t_depth"] = inputs["depth"]
             defines["HAS_DEPTH"] = 1
+            if "depth" not in ports and coverage.same_coverage(inputs["depth"], inputs["shade"]):
+                # only "is a surface behind this texel" is asked, and the shade's alpha answers it exactly
+                # (nodes/_shared/coverage.py): one texture fewer in the pass, the same pixels
+                defines["COVER_FROM_SHADE"] = 1
+            else:
+                textures["t_depth"] = inputs["depth"]
         prog = ctx.program("sketch.glsl", defines)
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
