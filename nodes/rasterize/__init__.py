@@ -14,7 +14,6 @@ from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import SCENE, Texture
 
-from .._shared import coverage
 from .._shared.culling import HOLE_SHARE_CULL  # `auto` culls at most this share of holes
 
 # tone_bands -> (N.L thresholds (dark | middle | light), colour factors (dark, middle, light)); N.L with the
@@ -200,9 +199,6 @@ class Rasterize(Node):
             else:
                 targets.pop("normal")
             gl.release(scratch["normal"])
-        if "color" in targets and "depth" in targets and "depth" in main:
-            # one pass wrote both (tone bands keep the alpha): colour alpha > 0 exactly where depth < 1
-            coverage.record(targets["depth"], targets["color"])
         return targets
 
     def _enlarge(self, diag: float, model: np.ndarray, scene_diag: float) -> float:

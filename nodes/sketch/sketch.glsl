@@ -27,7 +27,7 @@ layout(location = LOC_DEPTH) out float o_depth;
 #ifdef HAS_DEPTH
 #ifdef COVER_FROM_SHADE
 // Only z >= 1 (no surface) matters and the shade map is the same G-buffer's colour: its alpha is > 0
-// exactly where the depth is < 1 (nodes/_shared/coverage.py), so the nearest shade texel answers it.
+// exactly where the depth is < 1 (Sketch.unread_inputs), so the nearest shade texel answers it.
 float depth_at(vec2 uv) {
     vec2 size = vec2(textureSize(t_shade, 0));
     return texelFetch(t_shade, ivec2(clamp(floor(uv * size), vec2(0.0), size - 1.0)), 0).a > 0.0 ? 0.0 : 1.0;
