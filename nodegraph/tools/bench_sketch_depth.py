@@ -3,31 +3,45 @@ not a test): A = the plan with the sketch's depth read (as before `Sketch.unread
 depth map, the G-buffer writes it), B = the plan as shipped (where the shade's alpha stands in, the depth is
 neither read nor made). Frames alternate A/B (order swapped every frame) along the scene's orbit, no readback.
 
-    python -m nodegraph_nodes.sketch.ab_bench --scene ../shared/meshes/ogre.obj [--frames 60] [PIPELINE]
+    sketchgraph bench sketch-depth --scene ../shared/meshes/ogre.obj [--frames 60] [--json F] [PIPELINE]
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import time
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..fsio import atomic_write_text
 
 
-def main(argv: list[str] | None = None) -> dict:
-    from nodegraph import gl as glmod
-    from nodegraph import pipeline as pl
-    from nodegraph.executor import Executor
-    from nodegraph.tools.bench import copy_pass_ms
+@click.command()
+@click.argument("pipeline", default="nienhaus_sketchy")
+@click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
+@click.option("--frames", default=60, show_default=True, help="Frames of each plan, alternating.")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+def command(pipeline: str, scene: str | None, frames: int, json_path: Path | None) -> None:
+    out = run(pipeline, scene, frames)
+    click.echo(json.dumps(out))
+    if json_path:
+        atomic_write_text(json_path, json.dumps(out, indent=2) + "\n")
 
-    from . import Sketch
 
-    ap = argparse.ArgumentParser()
-    ap.add_argument("pipeline", nargs="?", default="nienhaus_sketchy")
-    ap.add_argument("--scene")
-    ap.add_argument("--frames", type=int, default=60)
-    args = ap.parse_args(argv)
-    pipe = pl.load(args.pipeline, scene=args.scene)
+def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: int = 60) -> dict[str, Any]:
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
+    from .bench import copy_pass_ms
+
+    pipe = pl.load(pipeline, scene=scene)
+    sketches = {type(n) for n in pipe.nodes.values() if n.type_name == "sketch"}
+    if not sketches:
+        raise click.UsageError(f"{pipeline} has no sketch node")
+    Sketch = sketches.pop()  # noqa: N806 - the node class, patched for plan A
     gl = glmod.get()
     shipped = Sketch.unread_inputs
     try:
@@ -43,23 +57,18 @@ def main(argv: list[str] | None = None) -> dict:
     gl.finish()
     ms: dict[str, list[float]] = {"A": [], "B": []}
     d0 = gl.draws.total
-    for f in range(args.frames):
+    for f in range(frames):
         for v in ("AB" if f % 2 else "BA"):
             t0 = time.perf_counter()
             exs[v].run(f)
             gl.finish()
             ms[v].append((time.perf_counter() - t0) * 1000)
-    draws = (gl.draws.total - d0) / (2 * args.frames)
+    draws = (gl.draws.total - d0) / (2 * frames)
     copy = copy_pass_ms(gl, pipe.size)
     a, b = statistics.median(ms["A"]), statistics.median(ms["B"])
-    out = {"pipeline": args.pipeline, "scene": pipe.scene_spec, "frames": args.frames, "copy_pass_ms": copy,
+    out = {"pipeline": pipeline, "scene": pipe.scene_spec, "frames": frames, "copy_pass_ms": copy,
            "draws": draws, "A_ms": a, "B_ms": b, "B_over_A": b / a, "A_fps": 1000 / a, "B_fps": 1000 / b,
            "A_floor_ratio": a / (draws * copy), "B_floor_ratio": b / (draws * copy),
            "A_unread": {k: sorted(v) for k, v in ex_a.plan.unread.items()},
            "B_unread": {k: sorted(v) for k, v in ex_b.plan.unread.items()}}
-    print(json.dumps(out))
     return out
-
-
-if __name__ == "__main__":
-    main()
