@@ -371,7 +371,7 @@ def shared_frontier(pipe: Any, ref: tuple[str, str], key_sets: Sequence[dict[str
     for nid in p.order:
         if nid in same:
             continue
-        for _port, (src, sport) in sorted(pipe.connections[nid].items()):
+        for _port, (src, sport) in sorted(p.read_connections(nid).items()):
             s = source(src, sport)
             node = pipe.nodes[s[0]]
             if s[0] in same and s not in out and node.persist != "never" and not node.side_effect:

@@ -167,8 +167,10 @@ class Executor:
     def _compute(self, nid: str, keys: dict[str, str], stats: dict[str, NodeStat], pinned: set[tuple[str, str]],
                  frame: int) -> None:
         node = self.pipeline.nodes[nid]
-        inputs = {p: self._get(s, sp, keys, stats, pinned, frame)
-                  for p, (s, sp) in self.pipeline.connections[nid].items()}
+        # a connected input the plan found unread for the needed outputs is given as None (not computed)
+        inputs = {p: None for p in self.plan.unread.get(nid, ())}
+        inputs.update({p: self._get(s, sp, keys, stats, pinned, frame)
+                       for p, (s, sp) in self.plan.read_connections(nid).items()})
         needed = self.plan.needed[nid]
         ctx = RunContext(node, gl=lambda: self.gl, size=self.pipeline.size, frame=frame,
                          pipeline_seed=self.pipeline.seed, scene=self.pipeline.scene,
@@ -243,7 +245,7 @@ class Executor:
         (itself, and the inputs that are not on disk, transitively) and their measured ms this run; the ms is
         None when an input's cost is not known (a value kept in memory from before this executor saw it)."""
         need = {keys[nid]}
-        for s, sp in self.pipeline.connections[nid].values():
+        for s, sp in self.plan.read_connections(nid).values():
             while (s, sp) in self.plan.aliases:
                 s, sp = self.plan.aliases[(s, sp)]
             up = self._recompute.get((keys[s], sp))

@@ -19,6 +19,13 @@ class Plan:
     formats: dict[PortRef, str]  # texture outputs -> allocated format
     reasons: dict[str, list[str]] = field(default_factory=dict)  # node -> requested outputs that need it
     aliases: dict[PortRef, PortRef] = field(default_factory=dict)  # pass-through output -> its source
+    # node -> connected inputs that its run for the needed outputs does not read (`unread_inputs`)
+    unread: dict[str, frozenset[str]] = field(default_factory=dict)
+
+    def read_connections(self, nid: str) -> dict[str, PortRef]:
+        """The connections of `nid` that its run reads: input port -> source (as connected)."""
+        skip = self.unread.get(nid, frozenset())
+        return {p: ref for p, ref in self.pipeline.connections[nid].items() if p not in skip}
 
 
 def _aliases(pipe: Pipeline) -> dict[PortRef, PortRef]:
@@ -59,10 +66,23 @@ def plan(pipe: Pipeline, requested: list[PortRef] | None = None) -> Plan:
         src = aliases.get(ref, ref)
         needed[src[0]].add(src[1])
         consumers.setdefault(src, []).append(None)  # None: a requested output, full precision
+    unread: dict[str, frozenset[str]] = {}
     for nid in reversed(order):
         if not needed[nid]:
             continue
+        node = pipe.nodes[nid]
+        hook = getattr(node, "unread_inputs", None)
+        if hook is not None:
+            sources = {}
+            for in_port, ref in pipe.connections[nid].items():
+                src = aliases.get(ref, ref)
+                sources[in_port] = (pipe.nodes[src[0]].type_name, src[0], src[1])
+            skip = frozenset(hook(frozenset(needed[nid]), sources)) & set(pipe.connections[nid])
+            if skip:
+                unread[nid] = skip
         for in_port, ref in pipe.connections[nid].items():
+            if in_port in unread.get(nid, ()):
+                continue
             src = aliases.get(ref, ref)
             needed[src[0]].add(src[1])
             consumers.setdefault(src, []).append(pipe.nodes[nid].inputs[in_port].type.fmt)
@@ -73,4 +93,4 @@ def plan(pipe: Pipeline, requested: list[PortRef] | None = None) -> Plan:
             continue
         rank = max(types.precision(declared.fmt) if w is None else types.precision(w) for w in wants)
         formats[(nid, port)] = types.with_precision(declared.fmt, min(rank, types.precision(declared.fmt)))
-    return Plan(pipe, req, order, {n: frozenset(p) for n, p in needed.items()}, formats, reasons, aliases)
+    return Plan(pipe, req, order, {n: frozenset(p) for n, p in needed.items()}, formats, reasons, aliases, unread)

@@ -36,6 +36,7 @@ NAMED: dict[str, str] = {
     "uncertainty-cost": "nodegraph.tools.bench_lines:uncertainty_command",
     "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
     "sizes": "nodegraph.tools.sizes:command",
+    "sketch-depth": "nodegraph.tools.bench_sketch_depth:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -79,6 +79,20 @@ class Sketch(Node):
         p = self.params
         return list(p.edge_layers) or [EdgeLayer(matrix=p.edge_matrix, color=p.edge_color)]
 
+    def unread_inputs(self, needed: frozenset[str], sources: dict[str, tuple[str, str, str]]) -> set[str]:
+        """The planner's question: which connected inputs a run for `needed` does not read ({input: (source
+        node type, id, port)}). Without the `depth` output the depth map only answers "does a surface lie
+        behind this texel" (z < 1). When shade and depth are one rasterize node's `color` and `depth`, the
+        shade's alpha answers that exactly: both are written by the same fragments, alpha 1 (tone bands keep
+        it), and a written depth passed "<" against the cleared far plane 1.0, so it is below 1; elsewhere
+        alpha is 0 and depth 1. The depth is then not read (nor, if nothing else wants it, written by the
+        G-buffer pass): the same pixels with one texture fewer in this pass and one attachment fewer there."""
+        shade, depth = sources.get("shade"), sources.get("depth")
+        if ("depth" not in needed and shade is not None and depth is not None and shade[0] == depth[0] == "rasterize"
+                and shade[1] == depth[1] and (shade[2], depth[2]) == ("color", "depth")):
+            return {"depth"}
+        return set()
+
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         ports = [port for port in ("color", "offsets", "depth") if port in needed]
@@ -91,8 +105,11 @@ class Sketch(Node):
         targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
         textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
         if "depth" in inputs:  # the key depends on the connection, so the colour does too, never on `needed`
-            textures["t_depth"] = inputs["depth"]
             defines["HAS_DEPTH"] = 1
+            if inputs["depth"] is None:  # unread (see unread_inputs): the shade's alpha answers the far test
+                defines["COVER_FROM_SHADE"] = 1
+            else:
+                textures["t_depth"] = inputs["depth"]
         prog = ctx.program("sketch.glsl", defines)
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)

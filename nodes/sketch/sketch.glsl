@@ -25,12 +25,21 @@ layout(location = LOC_OFFSETS) out vec4 o_offsets;
 layout(location = LOC_DEPTH) out float o_depth;
 #endif
 #ifdef HAS_DEPTH
+#ifdef COVER_FROM_SHADE
+// Only z >= 1 (no surface) matters and the shade map is the same G-buffer's colour: its alpha is > 0
+// exactly where the depth is < 1 (Sketch.unread_inputs), so the nearest shade texel answers it.
+float depth_at(vec2 uv) {
+    vec2 size = vec2(textureSize(t_shade, 0));
+    return texelFetch(t_shade, ivec2(clamp(floor(uv * size), vec2(0.0), size - 1.0)), 0).a > 0.0 ? 0.0 : 1.0;
+}
+#else
 uniform sampler2D t_depth;
 // nearest lookup, as depth_sprite does: depth must not be blended across a silhouette
 float depth_at(vec2 uv) {
     vec2 size = vec2(textureSize(t_depth, 0));
     return texelFetch(t_depth, ivec2(clamp(floor(uv * size), vec2(0.0), size - 1.0)), 0).r;
 }
+#endif
 #endif
 void main() {
     vec2 off = texelFetch(t_offset, ivec2(gl_FragCoord.xy), 0).rg;  // same grid as the output: no filtering
