@@ -35,8 +35,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-UP_AXES = ("x", "y", "z")
-VIEWS = ("three-quarter", "front", "back", "left", "right", "top", "widest")
+from .views import UP_AXES, VIEWS
+
 Up = Literal["x", "y", "z"]
 View = Literal["three-quarter", "front", "back", "left", "right", "top", "widest"]
 
@@ -190,18 +190,6 @@ def view_direction(view: str, front: Any, up: Any = (0.0, 1.0, 0.0)) -> tuple[np
         raise ValueError(f"view: expected one of {', '.join(v for v in VIEWS if v != 'widest')}, found {view!r}")
     d = d / np.linalg.norm(d)
     return d, (-f if view == "top" else u)
-
-
-def click_options(f: Any) -> Any:
-    """`--view` and `--up` for a click command (run, inspect, bench, ...): keyword args `view`, `up`."""
-    import click
-
-    f = click.option("--up", type=click.Choice(UP_AXES + ("auto",)), default=None,
-                     help="The mesh file's up axis (default auto: from the format and the shape).")(f)
-    f = click.option("--view", type=click.Choice(VIEWS), default=None,
-                     help="Side a mesh file (or a scene file without a camera) is seen from (default "
-                     "three-quarter: front and a little to the right, from above).")(f)
-    return f
 
 
 def suffix_of(source: str | Path | None) -> str:
