@@ -14,7 +14,7 @@ import click
 
 from .errors import SketchgraphError
 from .render import frame_path, is_sequence, open_cache, open_pipeline, parse_frames, write_frame, write_value
-from .views import UP_AXES, VIEWS
+from .views import click_options as framing_options
 
 if TYPE_CHECKING:
     pass
@@ -47,11 +47,7 @@ def pipeline_options(f: Any) -> Any:
     f = click.option("--set", "overrides", multiple=True, metavar="NODE.PARAM=VALUE",
                      help="Override a node parameter (YAML value; repeatable).")(f)
     f = click.option("--size", metavar="WxH", help="Output size, e.g. 1200x900.")(f)
-    f = click.option("--up", type=click.Choice(UP_AXES + ("auto",)), default=None,
-                     help="The mesh file's up axis (default auto: from the format and the shape).")(f)
-    f = click.option("--view", type=click.Choice(VIEWS), default=None,
-                     help="Side a mesh file (or a scene file without a camera) is seen from (default "
-                     "three-quarter: front and a little to the right, from above).")(f)
+    f = framing_options(f)
     f = click.option("--scene", metavar="SCENE", help="builtin:NAME, a scene YAML or a mesh file.")(f)
     return f
 

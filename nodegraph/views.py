@@ -1,4 +1,4 @@
-"""The names of the framing choices (`--up`, `--view`, scene `up:`/`view:`), without NumPy: the command line
+"""The framing choices (`--up`, `--view`, scene `up:`/`view:`), without NumPy: the command line
 builds its options from them before anything heavy is imported (`sketchgraph --help`). The geometry that
 uses them is `nodegraph.framing`."""
 
@@ -6,3 +6,15 @@ from __future__ import annotations
 
 UP_AXES = ("x", "y", "z")
 VIEWS = ("three-quarter", "front", "back", "left", "right", "top", "widest")
+
+
+def click_options(f: object) -> object:
+    """`--view` and `--up` for a click command (run, inspect, bench, ...): keyword args `view`, `up`."""
+    import click
+
+    f = click.option("--up", type=click.Choice(UP_AXES + ("auto",)), default=None,
+                     help="The mesh file's up axis (default auto: from the format and the shape).")(f)
+    f = click.option("--view", type=click.Choice(VIEWS), default=None,
+                     help="Side a mesh file (or a scene file without a camera) is seen from (default "
+                     "three-quarter: front and a little to the right, from above).")(f)
+    return f

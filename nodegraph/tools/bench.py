@@ -58,7 +58,7 @@ def command_for(target: str) -> click.Command:
 
 
 def _pipeline_command(path: str) -> click.Command:
-    from ..framing import click_options as framing_options
+    from ..views import click_options as framing_options
 
     @click.command()
     @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
