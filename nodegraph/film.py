@@ -19,12 +19,15 @@ import threading
 from collections.abc import Callable, Iterable
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import SketchgraphError
 from .render import Bytes8, PngRows
+
+if TYPE_CHECKING:
+    from .gl import Yuv420Planes
 
 # extension -> (container format, codec, pixel format, default quality as CRF; None: not applicable)
 FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
@@ -33,6 +36,11 @@ FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
     ".gif": ("gif", "gif", "rgb8", None),  # GIF: a fixed 3-3-2 palette of 256 colours
 }
 
+
+YUV_TAGS = {"colorspace": 6, "color_range": 1}
+"""What the yuv420p films' frames are, tagged on the stream and every frame: BT.601 (AVCOL_SPC_SMPTE170M) at
+limited range (AVCOL_RANGE_MPEG), the conversion swscale applies to rgb24 -> yuv420p by default and the one
+`GL.read_yuv420` makes on the GPU; before they were tagged, these films said "unspecified"."""
 
 CODEC_OPTIONS: dict[str, dict[str, str]] = {"libx264": {"preset": "veryfast"}}
 """Encoder options beside the quality. H.264 at `veryfast`: 30 spot frames at 800x800, CRF 18, took 7.6 ms of
@@ -86,7 +94,8 @@ class _Worker:
 
 
 class FilmWriter:
-    """Frames (uint8 RGB with row 0 at the top, or `Bytes8`) into a film, encoded on a worker thread."""
+    """Frames (uint8 RGB with row 0 at the top, `Bytes8`, or for yuv420p films `GL.read_yuv420`'s planes) into
+    a film, encoded on a worker thread."""
 
     def __init__(self, path: str | Path, fps: float, size: tuple[int, int], crf: int | None = None):
         import av
@@ -102,6 +111,10 @@ class FilmWriter:
             if pix == "yuv420p":  # chroma subsampling needs even sizes: the last row/column is repeated
                 w, h = w + w % 2, h + h % 2
             self.stream.width, self.stream.height, self.stream.pix_fmt = w, h, pix
+            self.pix = pix
+            if pix == "yuv420p":
+                for name, value in YUV_TAGS.items():
+                    setattr(self.stream.codec_context, name, value)
             quality = default_crf if crf is None else crf
             options = dict(CODEC_OPTIONS.get(codec, {}))
             if quality is not None:
@@ -115,14 +128,22 @@ class FilmWriter:
         self.frames = 0
         self._worker = _Worker(self._encode)
 
-    def _encode(self, rgb: np.ndarray) -> None:
+    def _encode(self, rgb: Any) -> None:
         import av
 
+        from .gl import Yuv420Planes
+
         h, w = self.stream.height, self.stream.width
-        rgb = _rgb(rgb)
-        if rgb.shape[0] != h or rgb.shape[1] != w:
-            rgb = np.pad(rgb, ((0, h - rgb.shape[0]), (0, w - rgb.shape[1]), (0, 0)), mode="edge")
-        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+        if isinstance(rgb, Yuv420Planes):  # converted on the GPU: the planes go to the encoder as they are
+            frame = _yuv_frame(rgb)
+        else:
+            rgb = _rgb(rgb)
+            if rgb.shape[0] != h or rgb.shape[1] != w:
+                rgb = np.pad(rgb, ((0, h - rgb.shape[0]), (0, w - rgb.shape[1]), (0, 0)), mode="edge")
+            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+        if self.pix == "yuv420p":
+            for name, value in YUV_TAGS.items():
+                setattr(frame, name, value)
         for packet in self.stream.encode(frame):
             self.container.mux(packet)
 
@@ -199,9 +220,10 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
                   png_level: int | None = None) -> dict[str, Any]:
     """Render `frames` of `ref` with executor `ex` into a film or an image sequence (by `pattern`'s extension).
     Returns {"path", "frames", "skipped"}. The output key per frame is the node's key and the port.
-    Textures bound for 8-bit files are converted on the GPU and read back at 1 byte a channel (films as
-    `Bytes8`; PNG frames as the PNG's row bytes, `PngRows`, which zlib compresses as they are); everything
-    else about the file happens on the writer threads."""
+    Textures bound for 8-bit files are converted on the GPU: MP4 and WebM frames to their yuv420p planes
+    (`GL.read_yuv420`, 1.5 bytes a pixel, handed to the encoder without swscale), GIF frames to `Bytes8`, PNG
+    frames to the PNG's row bytes (`PngRows`, which zlib compresses as they are); everything else about the
+    file happens on the writer threads."""
     from .render import frame_path, is_sequence
 
     frame_list = list(frames)
@@ -210,7 +232,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
         film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
         try:
             for frame in loop:
-                film.write(_bytes8(ex, ex.run(frame).values[ref]))
+                film.write(_film_frame(ex, ex.run(frame).values[ref], film.pix))
             path = film.close()
         except BaseException:
             film.abort()
@@ -250,14 +272,31 @@ def _host(value: Any) -> Any:
     return value
 
 
-def _bytes8(ex: Any, value: Any) -> Any:
-    """A texture as `Bytes8` (converted on the GPU); anything else read back as `_host` does."""
+def _film_frame(ex: Any, value: Any, pix: str) -> Any:
+    """A texture as a film frame converted on the GPU: yuv420p planes (`GL.read_yuv420`) for a yuv420p film,
+    `Bytes8` otherwise; anything else read back as `_host` does."""
     from . import types
     from .values import Tex
 
     if isinstance(value, Tex):
+        if pix == "yuv420p":
+            return ex.gl.read_yuv420(value)
         return Bytes8(ex.gl.read_uint8(value), types.components(value.fmt))
     return _host(value)
+
+
+def _yuv_frame(p: Yuv420Planes) -> Any:
+    """A yuv420p `av.VideoFrame` of `p`'s planes (copied once into the frame's own, padded rows)."""
+    import av
+
+    w, h = p.size
+    frame = av.VideoFrame(w, h, "yuv420p")
+    y, u, v = (np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size) for plane in frame.planes)
+    y[0:h:2, :w] = p.y_even[:, :w]
+    y[1:h:2, :w] = p.y_odd[:, :w]
+    u[:h // 2, :w // 2] = p.u[:, :w // 2]
+    v[:h // 2, :w // 2] = p.v[:, :w // 2]
+    return frame
 
 
 def _png_rows(ex: Any, value: Any) -> Any:

@@ -210,6 +210,39 @@ class GL:
         target.read_into(out, alignment=1)
         return out[:total], c
 
+    def read_yuv420(self, tex: Tex) -> Yuv420Planes:
+        """A texture as a film frame's planes: BT.601 limited-range 4:2:0 (the conversion swscale applies to
+        rgb24 -> yuv420p by default) of the 8-bit values `read_uint8` gives (one channel is grey; otherwise
+        RGB, alpha dropped), the size rounded up to even by repeating the last column/row. Chroma is each 2x2
+        block's mean RGB converted (swscale filters rows [1 3 3 1] / 8 instead); every value rounded half to
+        even (pack8.glsl). One full-screen pass of a
+        fragment per 4 x 2 pixels, each fetched once, 1.5 bytes a pixel read back (rows padded to 4 bytes)."""
+        w, h = tex.size
+        ew, eh = w + w % 2, h + h % 2
+        line = -(-ew // 4) * 4  # bytes of a Y row as the pass writes it; chroma rows are half
+        c = 1 if types.components(tex.fmt) == 1 else 3
+        targets, fbo = self._yuv_targets((line // 4, eh // 2))
+        from .glsl import ENGINE_GLSL
+
+        prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
+        self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
+        planes = []
+        for t, width in zip(targets, (line, line, line // 2, line // 2), strict=True):
+            a = np.empty((eh // 2, width), np.uint8)
+            t.read_into(a, alignment=1)
+            planes.append(a)
+        return Yuv420Planes((ew, eh), *planes)
+
+    def _yuv_targets(self, size: tuple[int, int]) -> tuple[tuple[Any, ...], Any]:
+        """`read_yuv420`'s four integer textures (Y even rows, Y odd rows: RGBA8UI; U, V: RG8UI) of `size`
+        and their framebuffer, kept per size."""
+        key = ("yuv420", size)
+        entry = self.resources.get(key)
+        if entry is None:
+            targets = tuple(self.ctx.texture(size, n, dtype="u1") for n in (4, 4, 2, 2))
+            entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
+        return entry
+
     def _pack_target(self, size: tuple[int, int]) -> tuple[Any, Any]:
         """The RGBA8UI texture (and its framebuffer) of `size` that the pack passes draw into, kept per size."""
         key = ("pack8", size)
@@ -263,6 +296,18 @@ class GL:
         err = self.ctx.error
         if err != "GL_NO_ERROR":
             raise RuntimeError(f"OpenGL error: {err}")
+
+
+@dataclass
+class Yuv420Planes:
+    """`GL.read_yuv420`'s read-back: the frame's (even) size and its planes, rows top first, each row padded
+    to a multiple of 4 bytes (Y) or 2 (U, V): the even Y rows, the odd ones, U and V, each (height / 2, ...)."""
+
+    size: tuple[int, int]
+    y_even: np.ndarray
+    y_odd: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
 
 
 MESH_CACHE_ENTRIES = 64

@@ -121,3 +121,30 @@ def assert_one_line_located(exc: BaseException, where: str) -> None:
     text = str(exc)
     assert "\n" not in text.strip(), text
     assert text.startswith(where), text
+
+
+def yuv420_reference(rgb8: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """BT.601 limited-range 4:2:0 of 8-bit RGB (H, W, 3), rows top first, in float64 before rounding: the size
+    padded to even by repeating the last column/row, Y = 16 + 219/255 (0.299 R + 0.587 G + 0.114 B), chroma
+    from the mean RGB of each 2x2 block, Cb = 128 + 224/255 (B - Y') / 1.772, Cr = 128 + 224/255 (R - Y') / 1.402
+    (Y' the unscaled luma of the mean)."""
+    x = rgb8.astype(np.float64)
+    h, w = x.shape[:2]
+    x = np.pad(x, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge")
+    k = np.array([0.299, 0.587, 0.114])
+    y = 16.0 + 219.0 / 255.0 * (x @ k)
+    m = (x[0::2, 0::2] + x[0::2, 1::2] + x[1::2, 0::2] + x[1::2, 1::2]) / 4.0
+    luma = m @ k
+    cb = 128.0 + 224.0 / 255.0 * (m[..., 2] - luma) / 1.772
+    cr = 128.0 + 224.0 / 255.0 * (m[..., 0] - luma) / 1.402
+    return y, cb, cr
+
+
+def assert_rounds_to(got: np.ndarray, ref: np.ndarray, what: str = "") -> None:
+    """`got` (uint8) is `ref` (float64) rounded half to even and clamped to [0, 255]; where `ref` lies within
+    1e-3 of a tie (x.5), where float32 arithmetic may round the other way, it may be 1 off."""
+    want = np.clip(np.rint(ref), 0, 255)
+    near_tie = np.abs(np.abs(ref - np.floor(ref)) - 0.5) < 1e-3
+    diff = np.abs(got.astype(np.int64) - want.astype(np.int64))
+    bad = (diff > 1) | ((diff == 1) & ~near_tie)
+    assert not bad.any(), f"{what}: {int(bad.sum())} of {bad.size} values off, first at {np.argwhere(bad)[0]}"

@@ -7,6 +7,15 @@
 // each image row top first, as a filter byte 0 ("none") and then the row's grey (PNG_CHANNELS 1) or RGB
 // (PNG_CHANNELS 3) bytes. The stream is laid out 4 bytes a texel, row after row of the target texture, so
 // reading the target back gives the stream contiguous (padded with zeros past its end).
+//
+// With YUV420 defined (GL.read_yuv420), the outputs are a film frame's planes as H.264/VP9 take them: BT.601
+// limited range ("tv") 4:2:0, the conversion swscale applies to rgb24 -> yuv420p by default. The 8-bit RGB
+// values above (grey repeated for YUV420_CHANNELS 1) give Y = 16 + 219/255 (0.299 R + 0.587 G + 0.114 B),
+// Cb = 128 + 224/255 (B - Y') / 1.772, Cr = 128 + 224/255 (R - Y') / 1.402 (Y' the unscaled luma), chroma
+// from the mean of each 2x2 block's RGB (centre siting as swscale's; swscale filters rows [1 3 3 1] / 8),
+// each rounded half to even; past
+// the source's last column/row the last one is repeated (even sizes). A fragment covers 4 x 2 pixels, each
+// fetched once: 4 bytes of an even Y row (location 0), 4 of the odd row below (1), 2 of U (2), 2 of V (3).
 #if defined FRAGMENT_SHADER
 uniform sampler2D t_src;
 uniform int u_height;
@@ -17,7 +26,45 @@ vec4 bytes_of(vec4 x) {
     return mix(v, vec4(0.0), isnan(x));
 }
 
-#if defined PNG_ROWS
+#if defined YUV420
+uniform ivec2 u_src;  // the source texture's size
+layout(location = 1) out uvec4 o_odd;
+layout(location = 2) out uvec2 o_u;
+layout(location = 3) out uvec2 o_v;
+
+vec3 rgb8(int x, int y) {  // the 8-bit RGB of pixel (x, y), rows top first, clamped to the source
+    vec3 v = bytes_of(texelFetch(t_src, ivec2(min(x, u_src.x - 1), u_src.y - 1 - min(y, u_src.y - 1)), 0)).rgb;
+#if YUV420_CHANNELS == 1
+    v = v.rrr;
+#endif
+    return v;
+}
+
+const vec3 K_Y = vec3(0.299, 0.587, 0.114) * (219.0 / 255.0);
+const vec3 K_CB = vec3(-0.299, -0.587, 0.886) * (224.0 / 255.0 / 1.772);
+const vec3 K_CR = vec3(0.701, -0.587, -0.114) * (224.0 / 255.0 / 1.402);
+
+uvec4 luma(vec3 a, vec3 b, vec3 c, vec3 d) {
+    vec4 y = vec4(16.0) + vec4(dot(K_Y, a), dot(K_Y, b), dot(K_Y, c), dot(K_Y, d));
+    return uvec4(clamp(roundEven(y), 0.0, 255.0));
+}
+
+uvec2 chroma(vec3 k, vec3 m0, vec3 m1) {
+    return uvec2(clamp(roundEven(vec2(128.0) + vec2(dot(k, m0), dot(k, m1))), 0.0, 255.0));
+}
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy) * ivec2(4, 2);
+    vec3 a0 = rgb8(p.x, p.y), a1 = rgb8(p.x + 1, p.y), a2 = rgb8(p.x + 2, p.y), a3 = rgb8(p.x + 3, p.y);
+    vec3 b0 = rgb8(p.x, p.y + 1), b1 = rgb8(p.x + 1, p.y + 1), b2 = rgb8(p.x + 2, p.y + 1),
+         b3 = rgb8(p.x + 3, p.y + 1);
+    o_bytes = luma(a0, a1, a2, a3);
+    o_odd = luma(b0, b1, b2, b3);
+    vec3 m0 = (a0 + a1 + b0 + b1) * 0.25, m1 = (a2 + a3 + b2 + b3) * 0.25;
+    o_u = chroma(K_CB, m0, m1);
+    o_v = chroma(K_CR, m0, m1);
+}
+#elif defined PNG_ROWS
 uniform int u_width;        // the source texture's width
 uniform int u_target_width; // texels in a row of the target
 uniform int u_total;        // bytes in the stream: u_height * (1 + PNG_CHANNELS * u_width)

@@ -1,6 +1,7 @@
-"""`GL.read_uint8` and `GL.read_png_rows` (8-bit file values made on the GPU) against NumPy: x * 255 in float32
-rounded half to even and clamped, NaN as 0, rows top first; PNG rows as a filter byte 0 and the row's grey or
-RGB bytes. Files written from the rows decode (OpenImageIO) to the same values."""
+"""`GL.read_uint8`, `GL.read_png_rows` and `GL.read_yuv420` (8-bit file values made on the GPU) against NumPy:
+x * 255 in float32 rounded half to even and clamped, NaN as 0, rows top first; PNG rows as a filter byte 0 and
+the row's grey or RGB bytes; film planes as BT.601 limited-range 4:2:0 of those values. Files written from
+the rows decode (OpenImageIO) to the same values."""
 
 from __future__ import annotations
 
@@ -83,3 +84,53 @@ def test_every_png_level_decodes_to_the_same_values(rng, tmp_path, level):
     np.testing.assert_array_equal(np.rint(imageio.read(path)[::-1] * 255).astype(np.uint8), img)
     if level == 0:  # stored: the rows and a little framing
         assert path.stat().st_size > img.size
+
+
+def _planes(p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    w, h = p.size
+    y = np.empty((h, w), np.uint8)
+    y[0::2], y[1::2] = p.y_even[:, :w], p.y_odd[:, :w]
+    return y, p.u[:, :w // 2], p.v[:, :w // 2]
+
+
+@pytest.mark.parametrize("fmt", ["R8", "RGBA8", "R16F", "RG16F", "RGBA32F"])
+def test_read_yuv420_matches_numpy(gl, rng, fmt):
+    """The GPU's planes against float64 NumPy of the same conversion (tests.helpers.yuv420_reference) on the
+    8-bit values `read_uint8` gives: rounded half to even, 1 off allowed only within 1e-3 of a tie."""
+    from tests.helpers import assert_rounds_to, yuv420_reference
+
+    for w, h in SIZES + [(6, 6), (98, 64)]:  # odd and even sizes; heights 2 mod 4 and 0 mod 4
+        tex = _texture(gl, rng, fmt, w, h)
+        try:
+            u8 = _reference(tex)
+            rgb = np.repeat(u8[:, :, :1], 3, axis=2) if types.components(fmt) == 1 else u8[:, :, :3]
+            p = gl.read_yuv420(tex)
+        finally:
+            gl.release(tex)
+        assert p.size == (w + w % 2, h + h % 2)
+        for got, ref, name in zip(_planes(p), yuv420_reference(rgb), "YUV", strict=True):
+            assert got.shape == ref.shape
+            assert_rounds_to(got, ref, f"{fmt} {w}x{h} {name}")
+
+
+def test_read_yuv420_has_swscales_matrix_and_range(gl, rng):
+    """The matrix and range are swscale's default for rgb24 -> yuv420p (what PyAV did for the films before):
+    Y within 1 of swscale's (it rounds in fixed point). Chroma differs in the vertical filter only: swscale
+    averages 2 columns and filters rows with [1, 3, 3, 1] / 8, this pass takes the 2 x 2 box (same siting);
+    on frames whose columns are uniform, where the two agree, chroma is within 1 too."""
+    av = pytest.importorskip("av")
+    for uniform in (False, True):
+        a = rng.random((36, 64, 4), dtype=np.float32)
+        if uniform:
+            a[:] = a[:1]
+        tex = gl.upload(a, "RGBA8")
+        try:
+            rgb = np.ascontiguousarray(_reference(tex)[:, :, :3])
+            p = gl.read_yuv420(tex)
+        finally:
+            gl.release(tex)
+        sws = av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format="yuv420p")
+        for i, (got, plane) in enumerate(zip(_planes(p), sws.planes, strict=True)):
+            want = np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, :plane.width]
+            if i == 0 or uniform:
+                assert np.abs(got.astype(int) - want.astype(int)).max() <= 1, (uniform, i)
