@@ -16,6 +16,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from .errors import NodeError
 from .types import PortType
 
 
@@ -312,6 +313,15 @@ class RunContext:
 
     def seed_for_frame(self, frame: int) -> int:
         return derive_seed(self.pipeline_seed, self.node.id, frame)
+
+    def input_scene(self, inputs: Mapping[str, Any]) -> Any:
+        """The scene a node draws: its `scene` input where connected, else the pipeline's; a NodeError when
+        there is neither."""
+        scene = inputs.get("scene") or self.scene
+        if scene is None:
+            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.node.id,
+                            self.node.type_name)
+        return scene
 
     @property
     def camera(self) -> Any:

@@ -15,7 +15,6 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from nodegraph.errors import NodeError
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext, digest
 from nodegraph.types import ARRAYS, SCENE
 from nodegraph.values import Arrays
@@ -74,9 +73,7 @@ class Curvature(Node):
         return digest([base, [measured(o.mesh).content_hash() for o in ctx.scene.objects]])
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        scene = inputs.get("scene") or ctx.scene
-        if scene is None:
-            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
+        scene = ctx.input_scene(inputs)
         data: dict[str, np.ndarray] = {}
         done: dict[str, dict[str, np.ndarray]] = {}
         for index, obj in enumerate(scene.objects):

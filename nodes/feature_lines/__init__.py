@@ -127,9 +127,7 @@ class FeatureLines(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
-        scene = inputs.get("scene") or ctx.scene
-        if scene is None:
-            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
+        scene = ctx.input_scene(inputs)
         nd = inputs["normal_depth"]
         edges = inputs.get("edges")
         if edges is not None and edges.size != nd.size:

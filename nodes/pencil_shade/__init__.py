@@ -113,9 +113,7 @@ class PencilShade(Node):
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
-        scene = inputs.get("scene") or ctx.scene
-        if scene is None:
-            raise NodeError("needs a scene: connect `scene` or give the pipeline one", self.id, self.type_name)
+        scene = ctx.input_scene(inputs)
         curv = inputs["curvature"]
         tam = inputs["tam"]
         paper = inputs.get("paper")

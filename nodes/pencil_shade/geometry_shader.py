@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from nodegraph import origin
-from nodegraph.errors import NodeError
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.node import RunContext
 
@@ -31,9 +30,7 @@ def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozense
 
     p = node.params
     gl = ctx.gl
-    scene = inputs.get("scene") or ctx.scene
-    if scene is None:
-        raise NodeError("needs a scene: connect `scene` or give the pipeline one", node.id, node.type_name)
+    scene = ctx.input_scene(inputs)
     curv = inputs["curvature"]
     tam = inputs["tam"]
     paper = inputs.get("paper")
