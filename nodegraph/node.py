@@ -149,6 +149,12 @@ class Node:
         reads the source directly: the output shares the source's cache entry and the node does not run."""
         return {}
 
+    def unread_inputs(self, needed: frozenset[str], sources: dict[str, tuple[str, str, str]]) -> set[str]:
+        """Connected inputs a run for the `needed` outputs does not read (override), given each input's source
+        as {input: (source node type, id, port)}. The planner then passes them as None and asks nothing of
+        their sources for them."""
+        return set()
+
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         """(width, height, layers) of a texture output at image size `size`, for memory estimates such as
         `run --explain` (override where an output is not screen-sized, e.g. a tile or a texture array)."""

@@ -71,15 +71,13 @@ def plan(pipe: Pipeline, requested: list[PortRef] | None = None) -> Plan:
         if not needed[nid]:
             continue
         node = pipe.nodes[nid]
-        hook = getattr(node, "unread_inputs", None)
-        if hook is not None:
-            sources = {}
-            for in_port, ref in pipe.connections[nid].items():
-                src = aliases.get(ref, ref)
-                sources[in_port] = (pipe.nodes[src[0]].type_name, src[0], src[1])
-            skip = frozenset(hook(frozenset(needed[nid]), sources)) & set(pipe.connections[nid])
-            if skip:
-                unread[nid] = skip
+        sources = {}
+        for in_port, ref in pipe.connections[nid].items():
+            src = aliases.get(ref, ref)
+            sources[in_port] = (pipe.nodes[src[0]].type_name, src[0], src[1])
+        skip = frozenset(node.unread_inputs(frozenset(needed[nid]), sources)) & set(pipe.connections[nid])
+        if skip:
+            unread[nid] = skip
         for in_port, ref in pipe.connections[nid].items():
             if in_port in unread.get(nid, ()):
                 continue
