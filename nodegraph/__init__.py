@@ -4,6 +4,10 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from .blas import pin_kernel as _pin_blas_kernel  # noqa: E402
+
+_pin_blas_kernel()  # before anything loads NumPy: the same bytes on every x86-64 CPU (nodegraph/blas.py)
+
 from .errors import (  # noqa: E402
     CycleError,
     GLUnavailableError,

@@ -5,6 +5,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+# isort: off
+import nodegraph  # noqa: F401  (before NumPy: it pins OpenBLAS's kernels, nodegraph/blas.py)
+# isort: on
 import numpy as np
 import pytest
 

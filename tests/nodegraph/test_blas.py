@@ -1,0 +1,49 @@
+"""OpenBLAS is pinned to one kernel where nodegraph loads first, so results do not depend on the CPU family
+(nodegraph/blas.py): checked in fresh processes, asking OpenBLAS which kernel it runs."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from nodegraph import blas
+
+# the kernel the process's OpenBLAS (NumPy's bundled copy) runs, printed last
+CORE = """
+import ctypes, glob, numpy
+lib = ctypes.CDLL(glob.glob(numpy.__path__[0] + '.libs/libscipy_openblas64_*.so')[0])
+lib.scipy_openblas_get_corename64_.restype = ctypes.c_char_p
+print(lib.scipy_openblas_get_corename64_().decode())
+"""
+
+
+def _core(first: str, env_value: str | None = None) -> str:
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    if env_value is not None:
+        env["OPENBLAS_CORETYPE"] = env_value
+    out = subprocess.run([sys.executable, "-c", first + "\n" + CORE], env=env, capture_output=True, text=True,
+                         check=True)
+    return out.stdout.split()[-1]
+
+
+needs_avx2 = pytest.mark.skipif(not blas.cpu_flags() >= blas.NEEDS,
+                                reason="the pinned kernel needs a CPU with AVX2 and FMA")
+
+
+@needs_avx2
+def test_nodegraph_first_runs_the_pinned_kernel():
+    assert _core("import nodegraph") == blas.PINNED_CORE
+
+
+@needs_avx2
+def test_the_users_choice_is_kept():
+    # Sandybridge (AVX) runs on every CPU that runs the pinned one
+    assert _core("import nodegraph", env_value="Sandybridge") == "Sandybridge"
+
+
+def test_numpy_loaded_first_is_left_alone():
+    code = "import numpy, os, nodegraph\nassert 'OPENBLAS_CORETYPE' not in os.environ"
+    _core(code)  # raises CalledProcessError if the pin was set after NumPy had loaded OpenBLAS
