@@ -5,7 +5,7 @@
 // Inner edges: normal discontinuities (creases), measured as the chord |n_a - n_b| = 2 sin(angle/2).
 // OPERATOR 0 = four neighbours at distance r (depth by its second difference, so slanted planes
 // give none); OPERATOR 1 = 3x3 Sobel at distance r on the normal chords and the relative depth.
-// A width w = u_radius + u_frac that is not whole blends the stencils at r = u_radius and r = u_radius + 1
+// A width w = RADIUS + u_frac that is not whole (BLEND 1) blends the stencils at r = RADIUS and r = RADIUS + 1
 // by u_frac (r = 0 marks nothing): lines come out w pixels thick on average, so a width below one pixel
 // draws a faint line of intensity w instead of vanishing, and a whole width is the single stencil.
 #if defined FRAGMENT_SHADER
@@ -14,8 +14,8 @@ uniform float u_normal_threshold;
 uniform float u_depth_threshold;
 uniform float u_profile_intensity;
 uniform float u_inner_intensity;
-uniform int u_radius;   // whole part of the width in pixels
-uniform float u_frac;   // fractional part: weight of the stencil at u_radius + 1
+// RADIUS (define): whole part of the width in pixels; BLEND (define): 1 where the width has a fraction
+uniform float u_frac;   // fractional part: weight of the stencil at RADIUS + 1
 #ifdef LOC_OUT
 layout(location = LOC_OUT) out float o_out;
 #endif
@@ -74,14 +74,15 @@ void main() {
     float profile = 0.0;
     float inner = 0.0;
     if (g_c.w > 0.0) {
-        if (u_radius > 0)
-            measure(u_radius, profile, inner);
-        if (u_frac > 0.0) {
-            float profile1, inner1;
-            measure(u_radius + 1, profile1, inner1);
-            profile = mix(profile, profile1, u_frac);
-            inner = mix(inner, inner1, u_frac);
-        }
+#if RADIUS > 0
+        measure(RADIUS, profile, inner);
+#endif
+#if BLEND
+        float profile1, inner1;
+        measure(RADIUS + 1, profile1, inner1);
+        profile = mix(profile, profile1, u_frac);
+        inner = mix(inner, inner1, u_frac);
+#endif
     }
 #ifdef LOC_OUT
     o_out = max(profile * u_profile_intensity, inner * u_inner_intensity);
