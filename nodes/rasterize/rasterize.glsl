@@ -2,24 +2,31 @@
 // G-buffer pass (Nienhaus & Döllner §3.1, §4.2). Each enabled output is a define giving its
 // colour-attachment location, so a pass writes only the buffers the plan needs.
 #if defined VERTEX_SHADER
+// The matrices are multiplied once on the CPU in float64 (u_view u_model and u_proj u_view u_model), not per
+// vertex: on llvmpipe a per-vertex mat4 x mat4 is a measurable share of a dense mesh's draw.
 in vec3 in_pos;
 in vec3 in_normal;
+#if ENLARGE
 in vec3 in_smooth;   // welded, smooth vertex normal: the direction of enlargement (§4.2)
-uniform mat4 u_model;
-uniform mat4 u_view;
-uniform mat4 u_proj;
-uniform mat3 u_normal_view;  // inverse-transpose of (view * model), upper 3x3
 uniform float u_enlarge;     // object-space distance along the smooth normal
+#endif
+uniform mat4 u_mvp;          // u_proj u_view u_model
+uniform vec4 u_view_z;       // the third row of u_view u_model: view-space z of a point
+uniform mat3 u_normal_view;  // inverse-transpose of (view * model), upper 3x3
 out vec3 v_normal;
 out vec3 v_object;
 out float v_view_depth;
 void main() {
+#if ENLARGE
     vec3 p = in_pos + in_smooth * u_enlarge;
-    vec4 view = u_view * u_model * vec4(p, 1.0);
+#else
+    vec3 p = in_pos;
+#endif
+    vec4 q = vec4(p, 1.0);
     v_normal = u_normal_view * in_normal;
     v_object = p;
-    v_view_depth = -view.z;
-    gl_Position = u_proj * view;
+    v_view_depth = -dot(u_view_z, q);
+    gl_Position = u_mvp * q;
 }
 #elif defined FRAGMENT_SHADER
 in vec3 v_normal;
