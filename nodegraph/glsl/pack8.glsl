@@ -64,6 +64,48 @@ void main() {
     o_u = chroma(K_CB, m0, m1);
     o_v = chroma(K_CR, m0, m1);
 }
+#elif defined PNG_WIDE
+// The image rows, top first, without filter bytes: 16 bytes a fragment into an RGBA32UI target of
+// PNG_CHANNELS * width / 16 texels a row (used where that is whole: GL.read_png_rows adds the filter bytes
+// on the host, one contiguous copy a row). Fewer, wider fragments: each pixel is fetched 1.125 times (RGB)
+// or once (grey), against 1.5 times in twice the fragments of the 4-byte stream layout below.
+uniform int u_width;  // the source texture's width
+
+vec4 pixel(int px, int row) {  // the 8-bit values of pixel px of image row `row` (rows counted top first)
+    return bytes_of(texelFetch(t_src, ivec2(min(px, u_width - 1), u_height - 1 - row), 0));
+}
+
+uint pack4(vec4 b) { uvec4 u = uvec4(b); return u.x | (u.y << 8) | (u.z << 16) | (u.w << 24); }
+
+void main() {
+    ivec2 f = ivec2(gl_FragCoord.xy);
+    int row = f.y;
+#if PNG_CHANNELS == 1
+    int p = 16 * f.x;
+    vec4 q[4];
+    for (int k = 0; k < 4; ++k)
+        q[k] = vec4(pixel(p + 4 * k, row).r, pixel(p + 4 * k + 1, row).r, pixel(p + 4 * k + 2, row).r,
+                    pixel(p + 4 * k + 3, row).r);
+    o_bytes = uvec4(pack4(q[0]), pack4(q[1]), pack4(q[2]), pack4(q[3]));
+#else
+    // bytes 16 f.x .. 16 f.x + 15 of the row lie in pixels p .. p + 5 from byte `phase` of pixel p on
+    int b = 16 * f.x;
+    int p = b / 3;
+    int phase = b - 3 * p;
+    vec3 c0 = pixel(p, row).rgb, c1 = pixel(p + 1, row).rgb, c2 = pixel(p + 2, row).rgb,
+         c3 = pixel(p + 3, row).rgb, c4 = pixel(p + 4, row).rgb, c5 = pixel(p + 5, row).rgb;
+    // the 18 bytes of the six pixels, four at a time (the last two padded)
+    vec4 b0 = vec4(c0, c1.r), b1 = vec4(c1.gb, c2.rg), b2 = vec4(c2.b, c3), b3 = vec4(c4, c5.r),
+         b4 = vec4(c5.gb, 0.0, 0.0);
+    // shifted by `phase` bytes, branch-free (llvmpipe runs both sides of a branch its lanes disagree on)
+    bool one = phase == 1, two = phase == 2;
+    vec4 o0 = two ? vec4(b0.zw, b1.xy) : (one ? vec4(b0.yzw, b1.x) : b0);
+    vec4 o1 = two ? vec4(b1.zw, b2.xy) : (one ? vec4(b1.yzw, b2.x) : b1);
+    vec4 o2 = two ? vec4(b2.zw, b3.xy) : (one ? vec4(b2.yzw, b3.x) : b2);
+    vec4 o3 = two ? vec4(b3.zw, b4.xy) : (one ? vec4(b3.yzw, b4.x) : b3);
+    o_bytes = uvec4(pack4(o0), pack4(o1), pack4(o2), pack4(o3));
+#endif
+}
 #elif defined PNG_ROWS
 uniform int u_width;        // the source texture's width
 uniform int u_target_width; // texels in a row of the target

@@ -11,7 +11,9 @@ import pytest
 from nodegraph import imageio, types
 
 FORMATS = ["R8", "RGBA8", "R16F", "RG16F", "RGBA16F", "R32F", "RG32F", "RGBA32F"]
-SIZES = [(1, 1), (2, 3), (7, 5), (33, 17), (64, 9)]  # widths where the PNG row stream is and is not 4-aligned
+# widths where the PNG row stream is and is not 4-aligned, and multiples of 16 pixels, whose rows
+# `read_png_rows` makes in its wide pass (16 bytes a fragment, grey and RGB alike)
+SIZES = [(1, 1), (2, 3), (7, 5), (33, 17), (64, 9), (16, 2), (48, 3), (80, 4), (96, 1)]
 
 
 def _texture(gl, rng, fmt: str, w: int, h: int):
