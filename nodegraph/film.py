@@ -42,13 +42,16 @@ YUV_TAGS = {"colorspace": 6, "color_range": 1}
 limited range (AVCOL_RANGE_MPEG), the conversion swscale applies to rgb24 -> yuv420p by default and the one
 `GL.read_yuv420` makes on the GPU; before they were tagged, these films said "unspecified"."""
 
-CODEC_OPTIONS: dict[str, dict[str, str]] = {"libx264": {"preset": "veryfast", "threads": "1"}}
+CODEC_OPTIONS: dict[str, dict[str, str]] = {"libx264": {"preset": "veryfast", "threads": "1", "bf": "0"}}
 """Encoder options beside the quality. H.264 at `veryfast`: 30 spot frames at 800x800, CRF 18, took 7.6 ms of
 CPU a frame against 12.3 at x264's default `medium`, at the same size (217 KB against 219 KB) and 0.5 dB less
 PSNR (38.8 against 39.3 dB; docs/performance.md "Frame output"): encoding competes with llvmpipe for the
 same two cores. One x264 thread (frames stay on the writer thread, no frame-parallel copies): 60 frames
 6.7 ms of CPU a frame against 8.2 with x264's own threads, 434 KB against 439 KB at the same Y-PSNR (47.9 dB);
-`bench film` MP4/frames 0.735, 0.742 against 0.710, 0.721 in the same two runs."""
+`bench film` MP4/frames 0.735, 0.742 against 0.710, 0.721 in the same two runs. No B-frames (`bf` 0): 60 frames
+5.2-6.2 ms of CPU a frame against 6.5-6.8 with veryfast's three (four alternations), 447 KB against 434 KB,
+Y-PSNR 47.98 against 47.92 dB (the noise that changes every frame leaves B-frames little to predict);
+`bench film` extra CPU 12.4-13.5 against 14.4-14.5 ms a frame (three interleaved runs; the rates in the noise)."""
 
 
 def is_film(path: str | Path) -> bool:
