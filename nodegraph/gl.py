@@ -204,7 +204,7 @@ class GL:
         if (c * w) % 16 == 0:
             # rows 16 bytes a fragment (PNG_WIDE), the filter bytes added here in one copy: spot's 800x800 RGB
             # frame 3.2-3.4 ms of CPU (pass, read-back, copy) against 6.2-6.3 for the 4-byte stream pass below
-            target, fbo = self._wide_target((c * w // 16, h))
+            target, fbo = self._pack_target((c * w // 16, h), "u4")
             prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_WIDE": 1, "PNG_CHANNELS": c}, node="engine")
             self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w}, fbo=fbo)
             packed = np.empty((h, c * w), np.uint8)
@@ -257,21 +257,13 @@ class GL:
             entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
         return entry
 
-    def _wide_target(self, size: tuple[int, int]) -> tuple[Any, Any]:
-        """The RGBA32UI texture (and its framebuffer) of `size` that `read_png_rows`' wide pass draws into."""
-        key = ("pack8-wide", size)
+    def _pack_target(self, size: tuple[int, int], dtype: str = "u1") -> tuple[Any, Any]:
+        """The integer texture (and its framebuffer) of `size` that the pack passes draw into, kept per size and
+        type: RGBA8UI (`u1`), or RGBA32UI (`u4`) for `read_png_rows`' wide pass."""
+        key = ("pack8", size, dtype)
         entry = self.resources.get(key)
         if entry is None:
-            target = self.ctx.texture(size, 4, dtype="u4")
-            entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
-        return entry
-
-    def _pack_target(self, size: tuple[int, int]) -> tuple[Any, Any]:
-        """The RGBA8UI texture (and its framebuffer) of `size` that the pack passes draw into, kept per size."""
-        key = ("pack8", size)
-        entry = self.resources.get(key)
-        if entry is None:
-            target = self.ctx.texture(size, 4, dtype="u1")
+            target = self.ctx.texture(size, 4, dtype=dtype)
             entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
         return entry
 
