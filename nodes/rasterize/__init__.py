@@ -171,10 +171,9 @@ class Rasterize(Node):
                         _warn_enlarge_once(obj.mesh)
                     vao, diag, local = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
                     model = np.asarray(obj.transform, dtype=np.float64)
-                    mv = view @ model
-                    normal_view = np.linalg.inv(mv[:3, :3]).T
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
-                    model_view = u_view @ u_model
+                    model_view = u_view @ u_model  # the origins move only its translation
+                    normal_view = np.linalg.inv(model_view[:3, :3]).T
                     bind(prog, {}, {
                         "u_mvp": proj @ model_view, "u_view_z": tuple(float(c) for c in model_view[2]),
                         "u_normal_view": normal_view, "u_enlarge": self._enlarge(diag, model, scene_diag),
