@@ -75,7 +75,7 @@ def describe(path: Path) -> str:
     """One line about a pipeline: its `doc` field's first line, else the first clause of its leading comment."""
     try:
         text = path.read_text(encoding="utf-8")
-        data = yaml.safe_load(text)
+        data = yamlio.safe_load(text)
     except (OSError, yaml.YAMLError):
         return ""
     doc = data.get("doc") if isinstance(data, dict) else None

@@ -191,3 +191,86 @@ def test_load_memo_gives_own_copies_and_sees_edits(tmp_path) -> None:
     f.write_text("a: {b: [7, 8]}\n")  # same size
     os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
     assert yamlio.load(f) == {"a": {"b": [7, 8]}}
+
+
+# --- the libyaml-backed loader: the same values and marks as the pure-Python one -------------------------
+
+_fast = pytest.mark.skipif(yamlio._FastMarkedLoader is None, reason="this PyYAML was built without libyaml")
+
+
+def _same_tree(a: object, b: object, where: str) -> None:
+    assert type(a) is type(b) and a == b, where
+    if isinstance(a, dict):
+        assert (a.key_marks, a.value_marks, a.mark) == (b.key_marks, b.value_marks, b.mark), where  # type: ignore[attr-defined]
+        for k in a:
+            _same_tree(a[k], b[k], f"{where}.{k}")  # type: ignore[index]
+    elif isinstance(a, list):
+        assert (a.item_marks, a.mark) == (b.item_marks, b.mark), where  # type: ignore[attr-defined]
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same_tree(x, y, f"{where}[{i}]")
+
+
+def _both(text: str) -> tuple[object, object]:
+    import yaml
+
+    return (yaml.load(text, Loader=yamlio._FastMarkedLoader),  # noqa: S506 - SafeConstructor subclasses
+            yaml.load(text, Loader=yamlio._MarkedLoader))  # noqa: S506
+
+
+@_fast
+def test_libyaml_loader_matches_on_the_shipped_files() -> None:
+    root = Path(__file__).resolve().parents[2]
+    files = sorted([*root.glob("pipelines/*.yaml"), *root.glob("examples/**/*.yaml"), root / "gallery/gallery.yaml"])
+    assert len(files) > 5
+    import yaml
+
+    for f in files:
+        text = f.read_text(encoding="utf-8")
+        fast, slow = _both(text)
+        _same_tree(fast, slow, str(f))
+        assert yamlio.safe_load(text) == yaml.safe_load(text), f
+
+
+@_fast
+def test_libyaml_loader_matches_on_generated_documents() -> None:
+    import yaml
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    scalars = (st.none() | st.booleans() | st.integers(-10**12, 10**12)
+               | st.floats(allow_nan=False, allow_infinity=True) | st.text(max_size=12))
+    keys = st.text(min_size=1, max_size=8) | st.integers(-100, 100)
+    tree = st.recursive(scalars, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(keys, inner, max_size=4),
+                        max_leaves=20)
+
+    @settings(max_examples=150, deadline=None)
+    @given(doc=st.dictionaries(keys, tree, min_size=1, max_size=5), flow=st.booleans(), unicode=st.booleans())
+    def check(doc: dict, flow: bool, unicode: bool) -> None:
+        text = yaml.safe_dump(doc, default_flow_style=flow, allow_unicode=unicode, sort_keys=False)
+        fast, slow = _both(text)
+        _same_tree(fast, slow, text)
+        assert yamlio.safe_load(text) == yaml.safe_load(text)  # (not always `doc`: PyYAML folds a lone NEL)
+
+    check()
+
+
+@_fast
+def test_loads_parses_valid_text_once_with_libyaml(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*_: object) -> None:
+        raise AssertionError("the pure-Python loader ran on valid text")
+
+    monkeypatch.setattr(yamlio._MarkedLoader, "__init__", refuse)
+    assert yamlio.loads("a: [1, {b: c}]\n") == {"a": [1, {"b": "c"}]}
+
+
+@_fast
+def test_text_libyaml_refuses_reads_as_the_pure_python_error() -> None:
+    import yaml
+
+    with pytest.raises(yaml.YAMLError, match="mapping values are not allowed here"):  # libyaml: "in this context"
+        yamlio.safe_load("a: b: c\n")
+    for text, expected in (("a: [1, 2\n", "<string>:2:1: invalid YAML: expected ',' or ']', but got '<stream end>'"),
+                           ("a: b: c\n", "<string>:1:5: invalid YAML: mapping values are not allowed here")):
+        with pytest.raises(PipelineError) as info:
+            yamlio.loads(text)
+        assert str(info.value) == expected

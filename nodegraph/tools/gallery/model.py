@@ -14,6 +14,7 @@ from typing import Any
 
 import yaml
 
+from ... import yamlio
 from ...errors import SketchgraphError
 from .. import wedge as wedgemod
 
@@ -57,7 +58,7 @@ class Entry:
             files = scene_files(self.scene, Path.cwd())
         else:
             try:
-                data = yaml.safe_load(self.pipeline.read_text())
+                data = yamlio.safe_load(self.pipeline.read_text())
             except (OSError, yaml.YAMLError):
                 return []
             spec = data.get("scene", "builtin:cloister") if isinstance(data, dict) else "builtin:cloister"
@@ -153,7 +154,7 @@ def load(path: str | Path) -> Gallery:
         raise SketchgraphError(f"gallery file not found: {file}; the gallery lives in the repository "
                                "(gallery/gallery.yaml): run from the repository's root or pass --gallery FILE")
     try:
-        data = yaml.safe_load(file.read_text()) or {}
+        data = yamlio.safe_load(file.read_text()) or {}
     except yaml.YAMLError as exc:
         raise SketchgraphError(f"{file}: not valid YAML: {str(exc).splitlines()[0]}") from None
     if not isinstance(data, dict):
