@@ -127,14 +127,18 @@ def run(load: Callable[[list[str]], Pipeline], axes: list[Axis], output: str | N
 
 def sheet(cells: list[Cell], axes: list[Axis], title: str = "", cell: int = 256) -> np.ndarray:
     """The labelled sheet: column headers are the first param's values, row headers the second's."""
+    return viz.contact_sheet(**sheet_args(cells, axes, title, cell))
+
+
+def sheet_args(cells: list[Cell], axes: list[Axis], title: str = "", cell: int = 256) -> dict[str, Any]:
+    """The `viz.contact_sheet` arguments of `sheet` (the gallery names its sheet record by them)."""
     cols = axes[0]
     rows = axes[1] if len(axes) > 1 else None
     head = f"{title}  " if title else ""
     head += f"columns: {cols.param}" + (f"  rows: {rows.param}" if rows else "")
-    return viz.contact_sheet(
-        [viz.Cell(c.image, []) for c in cells], cell=cell, columns=len(cols.values), title=head,
-        column_labels=[f"{cols.param.split('.')[-1]}={label(v)}" for v in cols.values],
-        row_labels=[f"{rows.param.split('.')[-1]}={label(v)}" for v in rows.values] if rows else None)
+    return {"cells": [viz.Cell(c.image, []) for c in cells], "cell": cell, "columns": len(cols.values),
+            "title": head, "column_labels": [f"{cols.param.split('.')[-1]}={label(v)}" for v in cols.values],
+            "row_labels": [f"{rows.param.split('.')[-1]}={label(v)}" for v in rows.values] if rows else None}
 
 
 # -- on a Dask cluster (`--scheduler`) -------------------------------------------------------------------

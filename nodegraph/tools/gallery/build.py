@@ -119,14 +119,33 @@ def pixels_sha256(img8: np.ndarray) -> str:
     return h.hexdigest()
 
 
-def _write(img: np.ndarray, dest: Path, rel: str, what: str, files: dict[str, dict[str, Any]]) -> None:
-    from ..inspect_all import write_png
+def sheet_key(args: dict[str, Any]) -> str:
+    """The name of a contact sheet's record: everything `viz.contact_sheet(**args)` draws from (each cell's
+    picture by its SHA-256, its label lines, the title, labels and layout; the drawing code's version is in
+    the record's name, `views._suffix`)."""
+    def picture(img: np.ndarray | None) -> str | None:
+        if img is None:
+            return None
+        a = np.ascontiguousarray(img)
+        h = hashlib.sha256(f"{a.dtype.str}{a.shape}".encode())
+        h.update(memoryview(a).cast("B"))
+        return h.hexdigest()
 
-    path = dest / rel
-    path.parent.mkdir(parents=True, exist_ok=True)
-    img8 = write_png(path, img)
-    files[rel] = {"sha256": file_sha256(path), "pixels_sha256": pixels_sha256(img8),
-                  "size": [int(img8.shape[1]), int(img8.shape[0])], "what": what}
+    parts = {k: v for k, v in args.items() if k != "cells"}
+    parts["cells"] = [[picture(c.image), list(c.lines)] for c in args["cells"]]
+    return digest({"contact_sheet": parts})
+
+
+def _sheet(views: Views, args: dict[str, Any], dest: Path, rel: str, what: str,
+           files: dict[str, dict[str, Any]]) -> None:
+    """Write the contact sheet `viz.contact_sheet(**args)` as `rel`: its PNG bytes from the view cache where the
+    same sheet was drawn before (`sheet_key`), otherwise drawn, written and kept there."""
+    key = sheet_key(args)
+    png = views.png(key, "sheet", None)
+    if png is None:
+        png = _draw_png(viz.contact_sheet(**args), (dest / rel).parent)
+        views.put_png(key, "sheet", None, *png)
+    _record(*png, dest, rel, what, files)
 
 
 def _record(data: bytes, pixels: str, size: list[int], dest: Path, rel: str, what: str,
@@ -260,9 +279,9 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
         w, h = main.pipe.size
         sheet_cells = [viz.Cell(pics.view[r].panel.image, [f"{r[0]}.{r[1]}", f"{pics.view[r].fmt} "
                                                            f"{pics.view[r].panel.kind}"]) for r in refs]
-        _write(viz.contact_sheet(sheet_cells, cell=cell, title=f"{entry.name}: intermediates, {w}x{h}, frame "
-                                 f"{main.frame}"), dest, f"{base}/intermediates.png", "contact sheet of intermediates",
-               res.files)
+        _sheet(views, {"cells": sheet_cells, "cell": cell,
+                       "title": f"{entry.name}: intermediates, {w}x{h}, frame {main.frame}"},
+               dest, f"{base}/intermediates.png", "contact sheet of intermediates", res.files)
         cells: list[wedgemod.Cell] = []
         for v in ep.variants[1:]:
             vrefs = [v.pipe.outputs[o] for o in ep.outputs]
@@ -292,11 +311,11 @@ def render_entry(ep: EntryPlan, cache: Any, dest: Path, cell: int, inspect_dir: 
                     _record(*png, dest, f"{base}/wedge_r{v.row}c{v.col}.png", f"wedge cell {v.label}", res.files)
                     cells.append(wedgemod.Cell(v.row, v.col, v.overrides, v.label, thumb, computed, 0.0))
         if len(frame_cells) > 1:
-            _write(viz.contact_sheet(frame_cells, cell=cell, columns=min(len(frame_cells), 6),
-                                     title=f"{entry.name}: {ep.outputs[0]} by frame"),
+            _sheet(views, {"cells": frame_cells, "cell": cell, "columns": min(len(frame_cells), 6),
+                           "title": f"{entry.name}: {ep.outputs[0]} by frame"},
                    dest, f"{base}/frames.png", "contact sheet of frames", res.files)
         if cells and entry.wedge:
-            _write(wedgemod.sheet(cells, entry.wedge, entry.name, cell), dest, f"{base}/wedge.png",
+            _sheet(views, wedgemod.sheet_args(cells, entry.wedge, entry.name, cell), dest, f"{base}/wedge.png",
                    "wedge contact sheet", res.files)
     finally:
         if prev is not None:

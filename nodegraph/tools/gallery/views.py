@@ -1,11 +1,14 @@
 """Pictures of node outputs kept beside the node cache's entries, so that a gallery rebuild whose nodes are
 all cached reads neither the full-size EXR entries nor draws them again.
 
-Two kinds of record, each stored in the node cache (`Cache.store`, an `arrays` entry) under the content key of
-the node whose output it pictures:
+Records are stored in the node cache (`Cache.store`, an `arrays` entry) under the content key of the node
+whose output they picture:
 - `view`: the picture a contact sheet cell shows (`inspect_all.shown`: the buffer reduced to the cell's size,
   then colourised; float32, at most `cell` pixels a side), with its kind, note and format;
-- `png`: the bytes of an output's full-size PNG as the gallery writes it, with the SHA-256 of its pixels.
+- `png`: the bytes of an output's full-size PNG as the gallery writes it, with the SHA-256 of its pixels;
+- the same record under a contact sheet's own key (`build.sheet_key`: the SHA-256 of each cell's picture, the
+  label lines, title and layout) and the port name `sheet`: the sheet's PNG bytes, so a rebuild of unchanged
+  cells neither draws nor compresses the sheet again.
 
 The record's name holds everything the picture depends on besides the node's key: the port, the planned
 format, the visualisation versions, the cell size, the PNG level and the zlib and NumPy versions. So a record

@@ -103,6 +103,15 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     # every picture from the view cache: no node runs or loads, nothing misses
     assert all(s in ("view", "pass-through") for r in warm.results for s in r.node_status.values())
     assert cache.misses == misses and cache.hits > hits
+    # the contact sheets too: their PNG bytes are records named by their cells, labels and layout
+    drawn = []
+    real_sheet = viz.contact_sheet
+    viz.contact_sheet = lambda *a, **k: drawn.append(k.get("title")) or real_sheet(*a, **k)
+    try:
+        build(tiny, cache, force=True)
+    finally:
+        viz.contact_sheet = real_sheet
+    assert drawn == [] and tiny.manifest_path.read_bytes() == first
     # without the view records (a node cache of node entries only) the same bytes again, nodes from the cache
     for f in cache.root.glob("*/*.npz"):
         if ".view-" in f.name or ".png-" in f.name:
@@ -124,6 +133,24 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     tiny.entry("still").overrides.append("edges.width=1")
     changed = build(tiny, cache)
     assert statuses(changed)["still"] == "rendered" and statuses(changed)["orbit"] == "up to date"
+
+
+def test_sheet_key_names_every_input_of_the_sheet():
+    from nodegraph.tools.gallery.build import sheet_key
+
+    def cells(img: np.ndarray, fmt: str = "R16F image") -> list[viz.Cell]:
+        return [viz.Cell(img, ["a.out", fmt]), viz.Cell(None, ["b.out"])]
+
+    img = np.zeros((4, 5, 3), np.float32)
+    args = {"cells": cells(img), "cell": 48, "title": "t"}
+    key = sheet_key(args)
+    assert key == sheet_key({**args, "cells": cells(img.copy())})
+    moved = img.copy()
+    moved[1, 2, 0] = 0.5
+    variants = [{**args, "cells": cells(moved)}, {**args, "cells": cells(img, "RGBA8 image")},
+                {**args, "cells": cells(img.reshape(5, 4, 3))}, {**args, "cells": cells(img)[::-1]},
+                {**args, "title": "u"}, {**args, "cell": 64}, {**args, "columns": 1}]
+    assert len({key, *(sheet_key(v) for v in variants)}) == 1 + len(variants)
 
 
 def test_verify(gl, tiny, tmp_path, monkeypatch):
