@@ -71,7 +71,7 @@ class _Marking:
                 mark = self.peek_event().start_mark  # type: ignore[attr-defined]
                 raise _LimitError(None, None, f"nested more than {MAX_DEPTH} levels deep; expected at most "
                                   f"{MAX_DEPTH} levels of mappings and sequences", mark)
-            node = yaml.composer.Composer.compose_node(self, parent, index)  # type: ignore[arg-type]
+            node = super().compose_node(parent, index)  # type: ignore[misc]  # PyYAML's Composer, next in both MROs
             self._measure(node)
             return node
         finally:

@@ -123,16 +123,9 @@ def sheet_key(args: dict[str, Any]) -> str:
     """The name of a contact sheet's record: everything `viz.contact_sheet(**args)` draws from (each cell's
     picture by its SHA-256, its label lines, the title, labels and layout; the drawing code's version is in
     the record's name, `views._suffix`)."""
-    def picture(img: np.ndarray | None) -> str | None:
-        if img is None:
-            return None
-        a = np.ascontiguousarray(img)
-        h = hashlib.sha256(f"{a.dtype.str}{a.shape}".encode())
-        h.update(memoryview(a).cast("B"))
-        return h.hexdigest()
-
     parts = {k: v for k, v in args.items() if k != "cells"}
-    parts["cells"] = [[picture(c.image), list(c.lines)] for c in args["cells"]]
+    parts["cells"] = [[None if c.image is None else [c.image.dtype.str, pixels_sha256(c.image)], list(c.lines)]
+                      for c in args["cells"]]
     return digest({"contact_sheet": parts})
 
 
