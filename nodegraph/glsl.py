@@ -96,6 +96,7 @@ def _stamp(path: Path) -> tuple[float, int]:
 
 
 _DIGESTS: dict[str, tuple[str, tuple[tuple[Path, tuple[float, int]], ...]]] = {}
+_RESOLVED: dict[Path, Path] = {}  # a shader path as nodes name it -> its resolved path (resolving stats every part)
 
 
 def _digest(p: Path) -> tuple[str, tuple[Path, ...]]:
@@ -116,7 +117,11 @@ def _digest(p: Path) -> tuple[str, tuple[Path, ...]]:
 def source_digest(path: Path) -> str:
     """SHA-256 of a shader with its includes, cached while neither it nor any file it includes changes
     (checked by modification time and size, so editing only an include invalidates it too)."""
-    p = path.resolve()
+    p = _RESOLVED.get(path)
+    if p is None:
+        if len(_RESOLVED) >= 512:
+            _RESOLVED.clear()
+        p = _RESOLVED[path] = path.resolve()
     hit = _DIGESTS.get(str(p))
     if hit is not None and all(_stamp(f) == stamp for f, stamp in hit[1]):
         return hit[0]

@@ -222,6 +222,7 @@ class HashContext:
         self.seed = seed
         self.scene = posed(scene, frame)
         self.reference_size = None if reference_size is None else int(reference_size)
+        self._memo: dict[str, Any] = {}  # the values every node sees alike, computed once per context
 
     @property
     def px_scale(self) -> float:
@@ -235,6 +236,13 @@ class HashContext:
                 for k in sorted(node.context_keys) if not (k == "px_scale" and self.px_scale == 1.0)}
 
     def value(self, name: str, node_id: str) -> Any:
+        if name in ("scene", "camera"):  # the same for every node: the camera's matrices once per frame
+            if name not in self._memo:
+                self._memo[name] = self._value(name, node_id)
+            return self._memo[name]
+        return self._value(name, node_id)
+
+    def _value(self, name: str, node_id: str) -> Any:
         if name == "size":
             return list(self.size)
         if name == "frame":

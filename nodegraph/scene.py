@@ -56,6 +56,14 @@ def _unit(v: Any, what: str = "vector") -> np.ndarray:
     return a / n
 
 
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b of two 3-vectors, the same float64 operations as np.cross (so the same bits) at an eighth of its
+    cost on such short arrays; cameras are built and asked for their matrices every frame."""
+    a0, a1, a2 = (float(x) for x in a)
+    b0, b1, b2 = (float(x) for x in b)
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def translation(t: Any) -> np.ndarray:
     m = np.eye(4)
     m[:3, 3] = np.asarray(t, dtype=np.float64)
@@ -128,7 +136,7 @@ class Camera:
         forward = self.target - self.eye
         if np.linalg.norm(forward) == 0.0:
             raise ValueError("camera eye and target coincide")
-        if np.linalg.norm(np.cross(forward, self.up)) <= 1e-9 * np.linalg.norm(forward) * np.linalg.norm(self.up):
+        if np.linalg.norm(_cross3(forward, self.up)) <= 1e-9 * np.linalg.norm(forward) * np.linalg.norm(self.up):
             raise ValueError("camera up vector is parallel to the viewing direction (or zero)")
 
     @property
@@ -138,15 +146,20 @@ class Camera:
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(right, true up, forward) unit vectors in world space."""
         f = _unit(self.target - self.eye)
-        r = _unit(np.cross(f, self.up))
-        return r, np.cross(r, f), f
+        r = _unit(_cross3(f, self.up))
+        return r, _cross3(r, f), f
 
     def view_matrix(self) -> np.ndarray:
-        r, u, f = self.basis()
-        m = np.eye(4)
-        m[0, :3], m[1, :3], m[2, :3] = r, u, -f
-        m[:3, 3] = -m[:3, :3] @ self.eye
-        return m
+        """World -> view (4, 4); computed once per camera (the keys and the nodes of a frame all ask), a copy
+        returned each time."""
+        m = self.__dict__.get("_view")
+        if m is None:
+            r, u, f = self.basis()
+            m = np.eye(4)
+            m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+            m[:3, 3] = -m[:3, :3] @ self.eye
+            object.__setattr__(self, "_view", m)
+        return m.copy()
 
     def tan_half(self, aspect: float = 1.0) -> tuple[float, float]:
         """tan of the half field of view across x and y. `fov_y_deg` spans the shorter image side, so a

@@ -9,8 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from nodegraph import primitives
+from nodegraph import scene as scene_module
 from nodegraph.errors import MeshError, PipelineError
 from nodegraph.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
 from nodegraph.scene import (
@@ -383,6 +386,21 @@ def test_shared_crease_splitting() -> None:
 
 
 # --- camera -------------------------------------------------------------------------------------
+
+
+def test_camera_view_matrix_is_computed_once_and_handed_out_as_copies() -> None:
+    cam = Camera(eye=(1.0, 2.0, 5.0), target=(0.5, 0.0, -1.0), up=(0.1, 1, 0), fov_y_deg=40)
+    first = cam.view_matrix()
+    expected = first.copy()
+    first[:] = 0.0  # a caller that writes into its matrix must not change the camera's
+    assert np.array_equal(cam.view_matrix(), expected)
+    assert cam.view_matrix() is not cam.view_matrix()
+
+
+@given(st.lists(st.floats(-1e6, 1e6), min_size=6, max_size=6))
+def test_camera_cross_product_has_the_bits_of_np_cross(v: list[float]) -> None:
+    a, b = np.array(v[:3]), np.array(v[3:])
+    assert np.array_equal(scene_module._cross3(a, b), np.cross(a, b))
 
 
 def test_camera_conventions() -> None:
