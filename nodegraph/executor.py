@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -80,6 +81,7 @@ class Executor:
         self._own_ms: dict[str, float] = {}
         self._recompute: dict[tuple[str, str], frozenset[str]] = {}
         self._deferred: list[tuple[Node, str, str, Any]] = []  # entries to write when the run's nodes are done
+        self._before_wait: Callable[[], None] | None = None  # see `run`
 
     @property
     def cache(self) -> Cache | None:
@@ -111,8 +113,16 @@ class Executor:
         return keys
 
     # -- run -------------------------------------------------------------------------------
-    def run(self, frame: int = 0) -> RunResult:
+    def run(self, frame: int = 0, before_wait: Callable[[], None] | None = None) -> RunResult:
+        """Compute the requested outputs of `frame`. `before_wait` is called once, at the first point where this
+        run may have to wait for its own GPU work: just before the first node that reads inputs is computed,
+        or at the end of the run if none is. A frame loop reads the previous frame back there: llvmpipe
+        rasterises a pass while the next one is issued unless that one reads its output, so the previous
+        frame's last pass runs while this frame's first, geometry pass is issued (docs/performance.md, "Back
+        to back"). The previous frame's values are still held then; they go back to the pool at this run's
+        end."""
         self._host.clear()
+        self._before_wait = before_wait
         keys = self.keys(frame)
         stats = {nid: NodeStat(nid, self.pipeline.nodes[nid].type_name, keys[nid]) for nid in self.plan.order}
         pinned: set[tuple[str, str]] = set()
@@ -122,6 +132,9 @@ class Executor:
                 values[ref] = self._get(ref[0], ref[1], keys, stats, pinned, frame)
         finally:  # what was computed is kept even when a later node fails
             self._store_deferred()
+            hook, self._before_wait = self._before_wait, None
+        if hook is not None:
+            hook()
         self._evict(pinned)
         if self._cache is not None and self.mode == "loop":
             self._cache.report_write_errors()
@@ -177,6 +190,9 @@ class Executor:
                          formats={p: f for (n, p), f in self.plan.formats.items() if n == nid},
                          reference_size=self.pipeline.reference_size)
         weigh = self._weighing()
+        if self._before_wait is not None and self.plan.read_connections(nid):
+            hook, self._before_wait = self._before_wait, None
+            hook()
         t0 = time.perf_counter()
         try:
             outs = node.compute(ctx, inputs, needed)

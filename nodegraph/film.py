@@ -228,16 +228,26 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     Textures bound for 8-bit files are converted on the GPU: MP4 and WebM frames to their yuv420p planes
     (`GL.read_yuv420`, 1.5 bytes a pixel, handed to the encoder without swscale), GIF frames to `Bytes8`, PNG
     frames to the PNG's row bytes (`PngRows`, which zlib compresses as they are); everything else about the
-    file happens on the writer threads."""
+    file happens on the writer threads. Each frame is converted and read back during the next frame's run,
+    once that frame's first pass is issued (`Executor.run`'s `before_wait`), so the GPU finishes one frame
+    while the next is set up; the last frame, and the frame before a failing one, are read back at the end."""
     from .render import frame_path, is_sequence
 
     frame_list = list(frames)
     loop = bar(frame_list) if bar is not None else frame_list
     if is_film(pattern):
         film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
+        held: list[Any] = []  # the last frame's value, until the next run reads it back
+
+        def hand_over() -> None:
+            while held:
+                film.write(_film_frame(ex, held.pop(0), film.pix))
+
         try:
             for frame in loop:
-                film.write(_film_frame(ex, ex.run(frame).values[ref], film.pix))
+                value = ex.run(frame, before_wait=hand_over).values[ref]  # hands the last frame over
+                held.append(value)
+            hand_over()
             path = film.close()
         except BaseException:
             film.abort()
@@ -249,17 +259,31 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     seq = SequenceWriter(pattern, resume and many, png_level)
     sequence = is_sequence(pattern, many)
     skipped = 0
-    try:
-        for frame in loop:
-            path = frame_path(pattern, frame, many)
-            # the resume digest needs this frame's keys; without a manifest the run computes them once, itself
-            key = frame_digest(ex.keys(frame)[ref[0]], ref[1], path.suffix) if seq.manifest is not None else ""
-            if seq.up_to_date(frame, key, path):
-                skipped += 1
-                continue
-            value = ex.run(frame).values[ref]
+    pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run reads it back
+
+    def hand_over() -> None:
+        while pending:
+            path, value, frame, key = pending.pop(0)
             seq.write(path, _png_rows(ex, value) if sequence and path.suffix.lower() == ".png" else _host(value),
                       frame, key)
+
+    try:
+        try:
+            for frame in loop:
+                path = frame_path(pattern, frame, many)
+                # the resume digest needs this frame's keys; without a manifest the run computes them once, itself
+                key = frame_digest(ex.keys(frame)[ref[0]], ref[1], path.suffix) if seq.manifest is not None else ""
+                if seq.up_to_date(frame, key, path):
+                    skipped += 1
+                    continue
+                value = ex.run(frame, before_wait=hand_over).values[ref]  # hands the last frame over
+                pending.append((path, value, frame, key))
+        except BaseException:
+            # nothing rendered is lost: the frame before the failing one is still written (then the error)
+            with contextlib.suppress(Exception):
+                hand_over()
+            raise
+        hand_over()
     finally:
         seq.close()
     return {"path": frame_path(pattern, frame_list[0], many) if frame_list else Path(pattern),

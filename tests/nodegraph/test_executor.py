@@ -239,3 +239,49 @@ def test_a_recompute_for_a_missing_port_leaves_the_values_already_handed_out_int
     np.testing.assert_allclose(res.values[("ab", "out")].read(), 0.75)
     np.testing.assert_allclose(res.values[("ab", "half")].read(), 0.375)
     np.testing.assert_allclose(res.values[("abc", "out")].read(), 2.75)
+
+
+def test_before_wait_runs_once_before_the_first_node_that_reads_inputs(gl):
+    pipe = load()
+    order: list[str] = []
+    for nid, node in pipe.nodes.items():
+        def traced(ctx: Any, inputs: dict[str, Any], needed: frozenset[str], _c=node.compute, _n=nid) -> Any:
+            order.append(_n)
+            return _c(ctx, inputs, needed)
+        node.compute = traced
+    ex = Executor(pipe, None, requested=[("abc", "out")], gl=gl, mode="loop")
+    ex.run(0, before_wait=lambda: order.append("hook"))
+    first_reader = min(order.index("ab"), order.index("abc"))
+    assert order.count("hook") == 1 and order.index("hook") == first_reader - 1
+    assert set(order[:first_reader - 1]) <= {"a", "b", "c"}  # only nodes without inputs before it
+
+
+def test_before_wait_runs_at_the_end_when_nothing_reads_inputs_and_sees_the_last_frames_values(gl):
+    pipe = load()
+    ex = Executor(pipe, None, requested=[("abc", "out")], gl=gl, mode="loop")
+    last = ex.run(0).values[("abc", "out")]
+    seen: list[Any] = []
+    # the same key: every value comes from memory, nothing is computed, the hook runs at the run's end, and
+    # the previous run's value it reads back is still the one handed out (not yet back in the pool)
+    ex.run(1, before_wait=lambda: seen.append(last.read()))
+    assert len(seen) == 1
+    np.testing.assert_allclose(seen[0], 2.75)
+
+
+def test_before_wait_is_not_called_when_the_run_fails(gl):
+    pipe = load()
+
+    def broken(ctx: Any, inputs: dict[str, Any], needed: frozenset[str]) -> Any:
+        raise RuntimeError("boom")
+
+    pipe.nodes["a"].compute = broken
+    calls: list[int] = []
+    ex = Executor(pipe, None, requested=[("abc", "out")], gl=gl, mode="loop")
+    with pytest.raises(Exception, match="boom"):
+        ex.run(0, before_wait=lambda: calls.append(1))
+    assert calls == []
+    ex2 = Executor(load(), None, requested=[("abc", "out")], gl=gl, mode="loop")
+    ex2.run(0)  # and a later run without a hook does not call an old one
+    ex2.run(1, before_wait=lambda: calls.append(2))
+    ex2.run(2)
+    assert calls == [2]

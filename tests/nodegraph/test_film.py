@@ -115,3 +115,58 @@ def test_film_from_gpu_planes_decodes_to_the_frames(gl, tmp_path, ext, min_psnr,
     assert psnr >= min_psnr, psnr
     if w % 2:  # the repeated column decodes close to the last one
         assert np.abs(rgb[0][:h, w].astype(int) - rgb[0][:h, w - 1].astype(int)).mean() < 3.0
+
+
+def _animated(tmp_path, size=(48, 40)):
+    from nodegraph import pipeline as pl
+
+    box = gf.animated_box(tmp_path / "box.glb")
+    pipe = pl.load("nienhaus_sketchy", size=size, scene=str(box))
+    return pipe, pipe.outputs[next(iter(pipe.outputs))]
+
+
+def test_sequence_read_back_during_the_next_run_has_the_bytes_of_frames_written_one_by_one(gl, tmp_path,
+                                                                                        monkeypatch):
+    from nodegraph.executor import Executor
+    from nodegraph.render import write_frame
+
+    pipe, ref = _animated(tmp_path)
+    frames = [0, 1, 2, 3, 4]
+    runs: list[bool] = []
+    real_run = Executor.run
+
+    def run(self, frame=0, before_wait=None):
+        runs.append(before_wait is not None)
+        return real_run(self, frame, before_wait)
+
+    ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl)
+    monkeypatch.setattr(Executor, "run", run)
+    done = film.render_frames(ex, ref, frames, str(tmp_path / "seq" / "f_####.png"))
+    monkeypatch.undo()
+    assert done["frames"] == 5 and runs == [True] * 5  # every frame handed over by the next run (or the end)
+    for f in frames:
+        one = Executor(pipe, None, requested=[ref], gl=gl).run(f).values[ref]
+        write_frame(one, tmp_path / "one" / f"f_{f:04d}.png", gl)
+        assert (tmp_path / "seq" / f"f_{f:04d}.png").read_bytes() == (tmp_path / "one" / f"f_{f:04d}.png").read_bytes()
+    assert len({(tmp_path / "seq" / f"f_{f:04d}.png").read_bytes() for f in frames}) == 5  # the box moves
+
+
+@pytest.mark.parametrize("failing", ["gbuf", "sketch"])  # before the hand-over point of the run, and after it
+def test_a_failing_frame_still_writes_the_frame_before_it(gl, tmp_path, failing):
+    from nodegraph.errors import NodeError
+    from nodegraph.executor import Executor
+
+    pipe, ref = _animated(tmp_path)
+    node = pipe.nodes[failing]
+    real = node.compute
+
+    def compute(ctx, inputs, needed):
+        if ctx.frame == 3:
+            raise NodeError("broken on purpose", failing, node.type_name)
+        return real(ctx, inputs, needed)
+
+    node.compute = compute
+    ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl)
+    with pytest.raises(NodeError, match="broken on purpose"):
+        film.render_frames(ex, ref, range(6), str(tmp_path / "f_####.png"))
+    assert sorted(p.name for p in tmp_path.glob("f_*.png")) == ["f_0000.png", "f_0001.png", "f_0002.png"]
