@@ -1,7 +1,8 @@
 """`sketchgraph bench film`: the cost of writing frames, measured three ways in one run.
 
 The same frames of a pipeline are rendered (no disk cache, as `--frames` in a loop):
-- `frames`: rendered only (the GPU is waited for after each frame; nothing is read back);
+- `frames`: rendered only, back to back (nothing is read back; the GPU is waited for once, at the end, so
+  one frame's first pass is issued while the last frame's last pass runs, as `render_frames` does too);
 - `png`: through `film.render_frames` into an image sequence `f_####.png` (the `run --frames` path);
 - `mp4`: through `film.render_frames` into an H.264 film.
 
@@ -58,7 +59,7 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
         c0, t0 = cpu(), time.perf_counter()
         for f in frame_list:
             ex.run(f)
-            gl.finish()
+        gl.finish()
         dt = time.perf_counter() - t0
         cpu_s["frames"].append(cpu() - c0)
         ex.clear_memory()

@@ -1,0 +1,25 @@
+"""`sketchgraph bench PIPELINE` runs and writes its JSON (a smoke test: no timing is asserted)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from nodegraph.cli import main
+
+
+def test_pipeline_benchmark_reports_both_frame_rates_and_the_draws(gl, tmp_path: Path):
+    out = tmp_path / "b.json"
+    res = CliRunner().invoke(main, ["bench", "nienhaus_sketchy", "--scene", "builtin:torus", "--frames", "3",
+                                    "--size", "96x80", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    b = json.loads(out.read_text())
+    assert b["size"] == [96, 80] and b["frames"] == 3
+    assert b["fps"] > 0 and b["fps_back_to_back"] > 0 and b["copy_pass_ms"] > 0
+    assert abs(b["fps"] - 1000.0 / b["ms_per_frame"]) < 1e-6 * b["fps"]
+    # the G-buffer, the edges, the sketch pass (the depth sprite passes it through); noise is made once
+    assert b["draws"] == {"fullscreen": 2.0, "geometry": 1.0, "total": 3.0}
+    assert b["floor_ratio"] == b["ms_per_frame"] / (3.0 * b["copy_pass_ms"])
+    assert set(b["nodes"]) == {"gbuf", "edges", "sketch"}
