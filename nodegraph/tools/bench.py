@@ -7,7 +7,8 @@ read back runs them), the median frame time, the median time of every node, the 
 plain full-screen RGBA16F copy pass measured in the same run (the floor for one pass), and the time
 of the image-space stages in their float64 NumPy references on the same G-buffer. `draws` counts the
 full-screen passes and geometry draws of one frame as the GL wrapper issued them (`GL.draws`), and
-`floor_ratio` is ms per frame / (draws x copy pass): 1.0 would mean every draw costs a plain copy.
+`floor_ratio` is ms per frame / (draws x copy pass): 1.0 would mean every draw costs a plain copy
+(`floor_ratio_back_to_back`: the same with the back-to-back time a frame).
 """
 
 from __future__ import annotations
@@ -152,6 +153,8 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
         "ms_per_frame_over_copy_pass": median / copy_ms,
         "draws": draws,
         "floor_ratio": median / (draws["total"] * copy_ms) if draws["total"] else None,
+        "floor_ratio_back_to_back": (back_to_back_s * 1000.0 / frames) / (draws["total"] * copy_ms)
+        if draws["total"] else None,
     }
     if numpy_ms is not None:
         out.update(numpy_reference_ms=numpy_ms, image_space_gpu_ms=gpu_ms, speedup_vs_numpy=numpy_ms / gpu_ms)

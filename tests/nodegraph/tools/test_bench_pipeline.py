@@ -22,4 +22,5 @@ def test_pipeline_benchmark_reports_both_frame_rates_and_the_draws(gl, tmp_path:
     # the G-buffer, the edges, the sketch pass (the depth sprite passes it through); noise is made once
     assert b["draws"] == {"fullscreen": 2.0, "geometry": 1.0, "total": 3.0}
     assert b["floor_ratio"] == b["ms_per_frame"] / (3.0 * b["copy_pass_ms"])
+    assert abs(b["floor_ratio_back_to_back"] * b["fps_back_to_back"] * 3.0 * b["copy_pass_ms"] - 1000.0) < 1e-6
     assert set(b["nodes"]) == {"gbuf", "edges", "sketch"}
