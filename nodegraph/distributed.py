@@ -298,15 +298,30 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         ref = ref_of(pipe, spec.output)
         ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0], cache=state.cache_for(cache_root))
         out = []
+        # each frame is written during the next one's run, once that run's first pass is issued, as
+        # `film.render_frames` does; a frame's `ms` is its own run and its own write, not the overlap
+        pending: list[tuple[int, Any, float]] = []
+        handed = [0.0]
+
+        def hand_over() -> None:
+            t2 = time.perf_counter()
+            while pending:
+                frame, result, run_ms = pending.pop(0)
+                t3 = time.perf_counter()
+                target = render.frame_path(pattern, frame, many)
+                path = (render.write_frame(result.values[ref], target, lambda: ex.gl)
+                        if render.is_sequence(pattern, many) else render.write_value(result.values[ref], target))
+                out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
+                            "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
+                            "ms": run_ms + (time.perf_counter() - t3) * 1000})
+            handed[0] += (time.perf_counter() - t2) * 1000
+
         for frame in frames:
             t1 = time.perf_counter()
-            result = ex.run(frame)
-            target = render.frame_path(pattern, frame, many)
-            path = (render.write_frame(result.values[ref], target, lambda: ex.gl) if render.is_sequence(pattern, many)
-                    else render.write_value(result.values[ref], target))
-            out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
-                        "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
-                        "ms": (time.perf_counter() - t1) * 1000})
+            handed[0] = 0.0
+            result = ex.run(frame, before_wait=hand_over)
+            pending.append((frame, result, (time.perf_counter() - t1) * 1000 - handed[0]))
+        hand_over()
         if ex.cache is not None:
             ex.cache.flush()
     except SketchgraphError as exc:
