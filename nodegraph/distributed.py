@@ -301,9 +301,10 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         # each frame is written during the next one's run, once that run's first pass is issued, as
         # `film.render_frames` does; a frame's `ms` is its own run and its own write, not the overlap
         pending: list[tuple[int, Any, float]] = []
-        handed = [0.0]
+        handed_ms = 0.0  # time the current run spent writing the frame before it
 
         def hand_over() -> None:
+            nonlocal handed_ms
             t2 = time.perf_counter()
             while pending:
                 frame, result, run_ms = pending.pop(0)
@@ -314,13 +315,13 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
                 out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
                             "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
                             "ms": run_ms + (time.perf_counter() - t3) * 1000})
-            handed[0] += (time.perf_counter() - t2) * 1000
+            handed_ms += (time.perf_counter() - t2) * 1000
 
         for frame in frames:
             t1 = time.perf_counter()
-            handed[0] = 0.0
+            handed_ms = 0.0
             result = ex.run(frame, before_wait=hand_over)
-            pending.append((frame, result, (time.perf_counter() - t1) * 1000 - handed[0]))
+            pending.append((frame, result, (time.perf_counter() - t1) * 1000 - handed_ms))
         hand_over()
         if ex.cache is not None:
             ex.cache.flush()
