@@ -4,9 +4,11 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from .blas import limit_threads as _limit_blas_threads  # noqa: E402
 from .blas import pin_kernel as _pin_blas_kernel  # noqa: E402
 
 _pin_blas_kernel()  # before anything loads NumPy: the same bytes on every x86-64 CPU (nodegraph/blas.py)
+_limit_blas_threads()  # and one OpenBLAS thread: no thread pool spinning beside llvmpipe's (nodegraph/blas.py)
 
 from .errors import (  # noqa: E402
     CycleError,

@@ -10,7 +10,14 @@ the same results on all of them; nothing here leans on BLAS for speed (4x4 trans
 
 OpenBLAS reads the choice (`OPENBLAS_CORETYPE`) once, when NumPy loads it, so the pin is set when
 `nodegraph` is imported first (the `sketchgraph` command, Dask workers, the tests), never over a value the
-user set; a program that imported NumPy before `nodegraph` keeps its CPU's kernels (docs/api.md)."""
+user set; a program that imported NumPy before `nodegraph` keeps its CPU's kernels (docs/api.md).
+
+OpenBLAS also runs on one thread (`OPENBLAS_NUM_THREADS=1`, set the same way): its thread pool starts when
+NumPy loads and spins for a while, 0.15 s of CPU per process on the 2-core machine (an AMD EPYC: `import
+numpy` 0.24-0.32 s of CPU against 0.13 on one thread; the first image with a warm cache 1.46-1.55 s against
+1.27-1.35), which is a sixth of a first image and, in a frame loop, time taken from llvmpipe's own threads;
+the products here are 4x4 transforms and N x 3 by 3 x 3, below the size where OpenBLAS splits work anyway,
+and one thread gives the same bits (it splits rows and columns, never the summed dimension)."""
 
 from __future__ import annotations
 
@@ -19,6 +26,7 @@ import platform
 import sys
 
 PINNED_CORE = "Haswell"
+THREADS = "1"
 NEEDS = frozenset({"avx2", "fma"})
 
 
@@ -41,3 +49,11 @@ def pin_kernel() -> str | None:
             and platform.machine().lower() in ("x86_64", "amd64") and cpu_flags() >= NEEDS):
         os.environ["OPENBLAS_CORETYPE"] = PINNED_CORE
     return os.environ.get("OPENBLAS_CORETYPE")
+
+
+def limit_threads() -> str | None:
+    """Set OPENBLAS_NUM_THREADS to `THREADS` where that still takes effect and the user set none; the value
+    in force afterwards (None: OpenBLAS chooses, one thread a core)."""
+    if "OPENBLAS_NUM_THREADS" not in os.environ and "numpy" not in sys.modules:
+        os.environ["OPENBLAS_NUM_THREADS"] = THREADS
+    return os.environ.get("OPENBLAS_NUM_THREADS")
