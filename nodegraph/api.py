@@ -264,7 +264,7 @@ class Pipe:
     def write(self, path: str | Path, output: str | None = None, frame: int = 0) -> Path:
         """Write an output to a file (PNG, EXR, SVG for strokes), as `sketchgraph run -o` does."""
         ref = self._ref(output)
-        return render.write_value(self._run([ref], frame).values[ref], Path(path))
+        return render.write_frame(self._run([ref], frame).values[ref], Path(path), lambda: self.session.gl)
 
     def _repr_png_(self) -> bytes:
         """Jupyter shows a pipeline as its first output."""

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from .errors import SketchgraphError
-from .render import frame_path, is_sequence, open_cache, open_pipeline, parse_frames, write_frame, write_value
+from .render import frame_path, open_cache, open_pipeline, parse_frames, write_frame, write_value
 from .views import click_options as framing_options
 
 if TYPE_CHECKING:
@@ -94,8 +94,8 @@ def cache_options(f: Any) -> Any:
               "lower is better; default 18 / 32).")
 @click.option("--resume", is_flag=True, help="Image sequences: skip frames an earlier (killed) run finished: the "
               "sidecar manifest beside the pattern says which, checked against keys and file hashes.")
-@click.option("--png-level", type=click.IntRange(0, 9), default=None, metavar="0-9", help="zlib level of PNG "
-              "frame sequences (default 1: fastest measured at nearly the size of 6; docs/performance.md).")
+@click.option("--png-level", type=click.IntRange(0, 9), default=None, metavar="0-9", help="zlib level of the PNGs "
+              "written (default 1: fastest measured at nearly the size of 6; docs/performance.md).")
 @pipeline_options
 @cache_options
 @out_dir_options
@@ -176,10 +176,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     target = frame_path(pattern, frame, False)
     try:
         result = ex.run(frame)
-        if is_sequence(pattern, False):
-            path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
-        else:
-            path = write_value(result.values[ref], target)
+        path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
         if not quiet:
             click.echo(f"wrote {path}  ({summary(result)})")
     finally:

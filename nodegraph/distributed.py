@@ -310,8 +310,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
                 frame, result, run_ms = pending.pop(0)
                 t3 = time.perf_counter()
                 target = render.frame_path(pattern, frame, many)
-                path = (render.write_frame(result.values[ref], target, lambda: ex.gl)
-                        if render.is_sequence(pattern, many) else render.write_value(result.values[ref], target))
+                path = render.write_frame(result.values[ref], target, lambda: ex.gl)
                 out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
                             "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
                             "ms": run_ms + (time.perf_counter() - t3) * 1000})

@@ -231,7 +231,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     file happens on the writer threads. Each frame is converted and read back during the next frame's run,
     once that frame's first pass is issued (`Executor.run`'s `before_wait`), so the GPU finishes one frame
     while the next is set up; the last frame, and the frame before a failing one, are read back at the end."""
-    from .render import frame_path, is_sequence
+    from .render import frame_path
 
     frame_list = list(frames)
     loop = bar(frame_list) if bar is not None else frame_list
@@ -257,15 +257,13 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     from .frames_manifest import frame_digest
 
     seq = SequenceWriter(pattern, resume and many, png_level)
-    sequence = is_sequence(pattern, many)
     skipped = 0
     pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run reads it back
 
     def hand_over() -> None:
         while pending:
             path, value, frame, key = pending.pop(0)
-            seq.write(path, _png_rows(ex, value) if sequence and path.suffix.lower() == ".png" else _host(value),
-                      frame, key)
+            seq.write(path, _png_rows(ex, value) if path.suffix.lower() == ".png" else _host(value), frame, key)
 
     try:
         try:

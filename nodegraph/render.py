@@ -145,17 +145,13 @@ class PngRows:
                                       imageio.PNG_LEVEL if level is None else level)
 
 
-def is_sequence(pattern: str, many: bool) -> bool:
-    """Whether frames go to a sequence of files (several frames, or a `####` pattern): those PNGs are written
-    by `write_frame`; a single named image keeps `write_value` (OpenImageIO's PNG writer)."""
-    return many or "#" in pattern
-
-
 def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:
-    """One frame of a sequence: a texture bound for a PNG is converted to 8 bits and laid out as PNG rows on
-    the GPU (`PngRows`), then compressed by `imageio.write_png_rows` (as `film.SequenceWriter` does);
-    anything else goes to `write_value`. Serial and distributed sequences give the same bytes. `gl`: the GL
-    wrapper, or a function giving it (called only for a texture)."""
+    """A rendered image, alone or one frame of a sequence: a texture bound for a PNG is converted to 8 bits and
+    laid out as PNG rows on the GPU (`PngRows`), then compressed by `imageio.write_png_rows` at `png_level`
+    (as `film.SequenceWriter` does); anything else goes to `write_value`. The same pixels as `write_value`
+    (OpenImageIO's PNG writer, which single images used before: 74-114 ms of CPU for the default 800x800
+    image against 5 ms at level 1, and 153 KB against 149 KB), and serial and distributed sequences give the
+    same bytes. `gl`: the GL wrapper, or a function giving it (called only for a texture)."""
     from .values import Tex
 
     if isinstance(value, Tex) and path.suffix.lower() == ".png":
