@@ -24,9 +24,7 @@ import numpy as np
 
 from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_matrices, skin_weights, trs_matrix
 from .errors import MeshError, PipelineError
-from .meshes import Mesh, MeshWarning
-
-GLTF_EXTENSIONS = (".gltf", ".glb")
+from .meshes import GLTF_EXTENSIONS, Mesh, MeshWarning
 
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}

@@ -19,7 +19,7 @@ _INTERP = {"linear": "LINEAR", "step": "STEP", "smooth": "SMOOTH"}
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class KeySpec(_Spec):

@@ -22,6 +22,7 @@ from .errors import MeshError
 from .fsio import check_input, clean, show_path
 
 SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
+GLTF_EXTENSIONS = (".gltf", ".glb")  # read by nodegraph.gltf
 
 # Normal given to vertices that have no well-defined one (unreferenced, only degenerate faces).
 FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])

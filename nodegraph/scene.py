@@ -16,7 +16,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -35,8 +35,10 @@ from . import framing, keyframes, primitives, yamlio
 from .animation import DEFAULT_FPS, Animator, CameraAnim, ObjectAnim
 from .errors import Location, MeshError, PipelineError
 from .fsio import show_path
-from .gltf import GLTF_EXTENSIONS, GltfInstance, load_any_mesh, load_asset
-from .meshes import SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
+from .meshes import GLTF_EXTENSIONS, SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
+
+if TYPE_CHECKING:
+    from .gltf import GltfInstance
 
 SCENE_EXTENSIONS = (".yaml", ".yml")
 DEFAULT_MESH_COLOR = (0.91, 0.78, 0.55)  # warm light ochre
@@ -449,7 +451,7 @@ Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive),
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # every float finite
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)  # every float finite
 
 
 class TransformSpec(_Spec):
@@ -725,6 +727,8 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
                                     "relative to the scene file)", loc) from None
             except (OSError, ValueError):
                 pass  # load_mesh says what is wrong
+            from .gltf import load_any_mesh  # imported where a mesh file is read: 8-22 ms a process otherwise
+
             try:
                 mesh = load_any_mesh(mesh_path)
             except MeshError as exc:
@@ -1099,6 +1103,8 @@ class _Moving:
 
     def add_gltf(self, objects: list[SceneObject], spec: Any, path: Path, root: np.ndarray, color_given: bool,
                  prefix: bool = True) -> None:
+        from .gltf import GltfInstance, load_asset
+
         asset = load_asset(path)
         inst = GltfInstance(asset, np.asarray(root, dtype=np.float64), asset.animation(spec.animation))
         first = len(objects)
