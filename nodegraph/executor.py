@@ -425,7 +425,7 @@ def as_read(data: Any, fmt: str) -> Any:
     dt = types.numpy_dtype(fmt)
     arr = np.asarray(data)
     if dt == np.uint8 and arr.dtype != np.uint8:
-        arr = np.clip(np.rint(arr * 255.0), 0, 255)
+        arr = np.clip(np.rint(np.asarray(arr, np.float32) * 255.0), 0, 255)  # half entries scaled in float32
     raw = arr.astype(dt, copy=False)
     if dt == np.float32:
         return np.ascontiguousarray(raw)

@@ -455,7 +455,7 @@ def _to_bytes(data: np.ndarray, fmt: str) -> bytes:
     dt = types.numpy_dtype(fmt)
     arr = np.asarray(data)
     if dt == np.uint8 and arr.dtype != np.uint8:
-        arr = np.clip(np.rint(arr * 255.0), 0, 255)
+        arr = np.clip(np.rint(np.asarray(arr, np.float32) * 255.0), 0, 255)  # half entries scaled in float32
     return np.ascontiguousarray(arr.astype(dt, copy=False)).tobytes()
 
 
