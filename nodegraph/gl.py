@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from . import types
+from . import footprint, types
 from .errors import GLUnavailableError, SketchgraphError
 from .glsl import ProgramCache
-from .values import Tex, TexArray
+from .values import Footprint, Tex, TexArray
 
 _INSTALL_HINT = ("install Mesa's EGL and OpenGL drivers (Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri; "
                  "Fedora: dnf install mesa-libEGL mesa-dri-drivers)")
@@ -152,18 +152,36 @@ class GL:
         return self.programs.get(path, defines, node)
 
     def fullscreen(self, program: Any, targets: list[Tex], textures: dict[str, Any] | None = None,
-                   uniforms: dict[str, Any] | None = None, fbo: Any = None) -> None:
-        """Draw the full-screen triangle with `program` into `targets` (MRT in the listed order)."""
+                   uniforms: dict[str, Any] | None = None, fbo: Any = None,
+                   rect: tuple[int, int, int, int] | None = None,
+                   blanks: list[tuple[float, ...]] | None = None) -> None:
+        """Draw the full-screen triangle with `program` into `targets` (MRT in the listed order). `rect` and
+        `blanks` (one value for each target): the caller knows the pass gives `blanks[i]` in target i everywhere
+        outside `rect` ((x, y, w, h)); then each target is cleared to its blank value, the pass draws inside
+        `rect` only, and the targets get that footprint (`nodegraph.footprint`). A `rect` holding the whole
+        image, or footprints switched off, draws the whole image as without one."""
         fbo = fbo or self.framebuffer(targets)
-        fbo.use()
         w, h = targets[0].size if targets else fbo.size
+        scissor = rect if footprint.ENABLED and not footprint.covers_image(rect, (w, h)) else None
+        if scissor is not None:
+            if blanks is None or len(blanks) != len(targets):
+                raise SketchgraphError("fullscreen: a rect needs one blank value for each target")
+            for tex, blank in zip(targets, blanks, strict=True):
+                self.framebuffer([tex]).clear(*(tuple(blank) + (0.0,) * (4 - len(blank))))
+                tex.footprint = Footprint(scissor, tuple(float(b) for b in blank))
+            fbo.scissor = scissor
+        fbo.use()
         self.ctx.viewport = (0, 0, w, h)
         bind(program, textures or {}, uniforms or {})
         vao = self._empty_vao.get(id(program))
         if vao is None:
             vao = self.ctx.vertex_array(program, [])
             self._empty_vao[id(program)] = vao
-        vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+        try:
+            vao.render(mode=self.ctx.TRIANGLES, vertices=3)
+        finally:
+            if scissor is not None:
+                fbo.scissor = None  # framebuffers are shared: leave it as the others expect
         self.draws.fullscreen += 1
 
     def read_uint8(self, tex: Tex) -> np.ndarray:

@@ -9,12 +9,26 @@ import numpy as np
 from . import types
 
 
+@dataclass(frozen=True)
+class Footprint:
+    """Where a texture's content may differ from one value: outside `rect` ((x, y, w, h) in pixels, rows from the
+    bottom) every texel holds `blank` (one value a channel). Given by the node that made the texture when it
+    knows (the G-buffer outside the objects' projected boxes); `nodegraph.footprint` explains the use."""
+
+    rect: tuple[int, int, int, int]
+    blank: tuple[float, ...]
+
+
 @dataclass(eq=False)
 class Tex:
-    """A 2D texture on the GPU (row 0 is the bottom row, OpenGL's convention)."""
+    """A 2D texture on the GPU (row 0 is the bottom row, OpenGL's convention). `footprint`: where its content can
+    differ from a blank value, when its node knows (None: anywhere). `absmax`: a bound on |value| for each
+    channel, when its node knows one (noise)."""
 
     texture: object  # moderngl.Texture
     fmt: str
+    footprint: Footprint | None = None
+    absmax: tuple[float, ...] | None = None
 
     @property
     def size(self) -> tuple[int, int]:

@@ -40,6 +40,7 @@ NAMED: dict[str, str] = {
     "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
     "sizes": "nodegraph.tools.sizes:command",
     "sketch-depth": "nodegraph.tools.bench_sketch_depth:command",
+    "footprint": "nodegraph.tools.bench_sketch_depth:footprint_command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
@@ -159,6 +160,22 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
     if numpy_ms is not None:
         out.update(numpy_reference_ms=numpy_ms, image_space_gpu_ms=gpu_ms, speedup_vs_numpy=numpy_ms / gpu_ms)
     return out
+
+
+def alternate(gl: Any, runs: dict[str, Any], frames: int) -> tuple[dict[str, list[float]], float]:
+    """Frames 0..frames-1 of two ways of rendering (name -> function of the frame), alternating (which goes first
+    swapped every frame) so the machine's drift hits both alike, each frame waited for; the ms of each frame by
+    way, and the draws a frame (`GL.draws`) over both ways."""
+    a, b = runs
+    ms: dict[str, list[float]] = {a: [], b: []}
+    d0 = gl.draws.total
+    for f in range(frames):
+        for way in ((b, a) if f % 2 else (a, b)):
+            t0 = time.perf_counter()
+            runs[way](f)
+            gl.finish()
+            ms[way].append((time.perf_counter() - t0) * 1000)
+    return ms, (gl.draws.total - d0) / (2 * max(frames, 1))
 
 
 def copy_pass_ms(gl: Any, size: tuple[int, int], passes: int = 30) -> float:

@@ -1,16 +1,23 @@
-"""Interleaved A/B of whole frames of a pipeline with a sketch, in one process, printing JSON (a benchmark,
-not a test): A = the plan with the sketch's depth read (as before `Sketch.unread_inputs`: the sketch reads the
-depth map, the G-buffer writes it), B = the plan as shipped (where the shade's alpha stands in, the depth is
-neither read nor made). Frames alternate A/B (order swapped every frame) along the scene's orbit, no readback.
+"""Interleaved A/B of whole frames of a pipeline, in one process, printing JSON (benchmarks, not tests). Frames
+alternate A/B (order swapped every frame) along the scene's orbit, no readback.
+
+`bench sketch-depth`: A = the plan with the sketch's depth read (as before `Sketch.unread_inputs`: the sketch
+reads the depth map, the G-buffer writes it), B = the plan as shipped (where the shade's alpha stands in, the
+depth is neither read nor made).
 
     sketchgraph bench sketch-depth --scene ../shared/meshes/ogre.obj [--frames 60] [--json F] [PIPELINE]
+
+`bench footprint`: A = every full-screen pass over the whole image (`nodegraph.footprint.ENABLED` off), B = as
+shipped (passes whose output is blank outside the objects' projected boxes draw only inside them; the same
+pixels). Also reports the share of the image the last node's output footprint covered, over the frames.
+
+    sketchgraph bench footprint --scene ../shared/meshes/ogre.obj [--frames 60] [--json F] [PIPELINE]
 """
 
 from __future__ import annotations
 
 import json
 import statistics
-import time
 from pathlib import Path
 from typing import Any
 
@@ -19,23 +26,28 @@ import click
 from ..fsio import atomic_write_text
 
 
-@click.command()
-@click.argument("pipeline", default="nienhaus_sketchy")
-@click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
-@click.option("--frames", default=60, show_default=True, help="Frames of each plan, alternating.")
-@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
-def command(pipeline: str, scene: str | None, frames: int, json_path: Path | None) -> None:
-    out = run(pipeline, scene, frames)
-    click.echo(json.dumps(out))
-    if json_path:
-        atomic_write_text(json_path, json.dumps(out, indent=2) + "\n")
+def _ab_command(run_ab: Any) -> click.Command:
+    """The command of an A/B benchmark `run_ab(pipeline, scene, frames)`: prints its JSON, writes it with --json."""
+
+    @click.command()
+    @click.argument("pipeline", default="nienhaus_sketchy")
+    @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
+    @click.option("--frames", default=60, show_default=True, help="Frames of each way, alternating.")
+    @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+    def command(pipeline: str, scene: str | None, frames: int, json_path: Path | None) -> None:
+        out = run_ab(pipeline, scene, frames)
+        click.echo(json.dumps(out))
+        if json_path:
+            atomic_write_text(json_path, json.dumps(out, indent=2) + "\n")
+
+    return command
 
 
 def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: int = 60) -> dict[str, Any]:
     from .. import gl as glmod
     from .. import pipeline as pl
     from ..executor import Executor
-    from .bench import copy_pass_ms
+    from .bench import alternate, copy_pass_ms
 
     pipe = pl.load(pipeline, scene=scene)
     sketches = {type(n) for n in pipe.nodes.values() if n.type_name == "sketch"}
@@ -55,15 +67,7 @@ def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: in
         for f in range(-3, 0):
             ex.run(f)
     gl.finish()
-    ms: dict[str, list[float]] = {"A": [], "B": []}
-    d0 = gl.draws.total
-    for f in range(frames):
-        for v in ("AB" if f % 2 else "BA"):
-            t0 = time.perf_counter()
-            exs[v].run(f)
-            gl.finish()
-            ms[v].append((time.perf_counter() - t0) * 1000)
-    draws = (gl.draws.total - d0) / (2 * frames)
+    ms, draws = alternate(gl, {"B": exs["B"].run, "A": exs["A"].run}, frames)
     copy = copy_pass_ms(gl, pipe.size)
     a, b = statistics.median(ms["A"]), statistics.median(ms["B"])
     out = {"pipeline": pipeline, "scene": pipe.scene_spec, "frames": frames, "copy_pass_ms": copy,
@@ -72,3 +76,48 @@ def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: in
            "A_unread": {k: sorted(v) for k, v in ex_a.plan.unread.items()},
            "B_unread": {k: sorted(v) for k, v in ex_b.plan.unread.items()}}
     return out
+
+
+def run_footprint(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: int = 60) -> dict[str, Any]:
+    from .. import footprint
+    from .. import gl as glmod
+    from .. import pipeline as pl
+    from ..executor import Executor
+    from .bench import alternate, copy_pass_ms
+
+    pipe = pl.load(pipeline, scene=scene)
+    ref = pipe.outputs[next(iter(pipe.outputs))]
+    gl = glmod.get()
+    exs = {v: Executor(pipe, None, mode="loop", requested=[ref], memory_limit=256 * 1024**2) for v in "AB"}
+    shares: list[float] = []
+
+    def way(v: str) -> Any:
+        def render(frame: int) -> None:
+            footprint.ENABLED = v == "B"
+            try:
+                value = exs[v].run(frame).values[ref]
+            finally:
+                footprint.ENABLED = True
+            fp = getattr(value, "footprint", None)
+            if v == "B":
+                w, h = value.size
+                shares.append(1.0 if fp is None else fp.rect[2] * fp.rect[3] / (w * h))
+        return render
+
+    runs = {"A": way("A"), "B": way("B")}
+    for f in range(-3, 0):
+        for render in runs.values():
+            render(f)
+    gl.finish()
+    shares.clear()
+    ms, draws = alternate(gl, runs, frames)
+    copy = copy_pass_ms(gl, pipe.size)
+    a, b = statistics.median(ms["A"]), statistics.median(ms["B"])
+    return {"pipeline": pipeline, "scene": pipe.scene_spec, "frames": frames, "renderer": gl.renderer,
+            "copy_pass_ms": copy, "draws": draws, "A_ms": a, "B_ms": b, "B_over_A": b / a, "A_fps": 1000 / a,
+            "B_fps": 1000 / b, "A_floor_ratio": a / (draws * copy), "B_floor_ratio": b / (draws * copy),
+            "output_footprint_share": statistics.fmean(shares) if shares else 1.0}
+
+
+command = _ab_command(run)
+footprint_command = _ab_command(run_footprint)

@@ -7,6 +7,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
@@ -67,12 +68,17 @@ class EdgeDetect(Node):
         prog = ctx.program("edge_detect.glsl", defines)
         size = inputs["normal_depth"].size
         targets = {port: ctx.target(port, size) for port in ports}
+        # a pixel whose own texel is background (w <= 0) marks nothing: outside the G-buffer's footprint every
+        # output is 0, and the pass draws only inside it
+        fp = footprint.of(inputs["normal_depth"])
+        rect = fp.rect if fp is not None and len(fp.blank) == 4 and fp.blank[3] <= 0.0 else None
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures={"t_normal_depth": inputs["normal_depth"]},
                           uniforms={"u_normal_threshold": p.normal_threshold, "u_depth_threshold": p.depth_threshold,
                                     "u_profile_intensity": p.profile_intensity,
                                     "u_inner_intensity": p.inner_intensity,
-                                    "u_frac": frac})
+                                    "u_frac": frac},
+                          rect=rect, blanks=[(0.0,)] * len(ports))
         return targets
 
     def radius(self, px_scale: float) -> tuple[int, float]:

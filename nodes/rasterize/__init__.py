@@ -8,11 +8,12 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_serializer, model_validator
 
-from nodegraph import origin
+from nodegraph import footprint, origin
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.types import SCENE, Texture
+from nodegraph.types import SCENE, Texture, components
+from nodegraph.values import Footprint
 
 from .._shared.culling import HOLE_SHARE_CULL  # `auto` culls at most this share of holes
 
@@ -128,6 +129,7 @@ class Rasterize(Node):
         bands = self.params.tone_bands if "color" in needed else 0
         # bands: the colour and an exact (float32) normal go to scratch textures, then a pass bands the colour
         ports = [p for p in _OUTPUTS if p in needed or (bands and p == "normal")]
+        rects: list[tuple[int, int, int, int] | None] = []  # each object's pixel box: the outputs' footprint
         targets = {p: ctx.target(p, filter="nearest" if p == "object_id" else "linear") for p in ports}
         scratch = {}
         if bands:
@@ -169,14 +171,17 @@ class Rasterize(Node):
                 for obj in objects:
                     if self.params.enlarge > 0:
                         _warn_enlarge_once(obj.mesh)
-                    vao, diag, local = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
+                    vao, diag, local, points = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
                     model = np.asarray(obj.transform, dtype=np.float64)
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
                     model_view = u_view @ u_model  # the origins move only its translation
                     normal_view = np.linalg.inv(model_view[:3, :3]).T
+                    enlarge = self._enlarge(diag, model, scene_diag)
+                    rects.append(_pixel_box(proj @ model_view, points,
+                                            enlarge if self.params.enlarge > 0 else 0.0, (w, h)))
                     bind(prog, {}, {
                         "u_mvp": proj @ model_view, "u_view_z": tuple(float(c) for c in model_view[2]),
-                        "u_normal_view": normal_view, "u_enlarge": self._enlarge(diag, model, scene_diag),
+                        "u_normal_view": normal_view, "u_enlarge": enlarge,
                         "u_color": tuple(float(c) for c in obj.color),
                         "u_light": tuple(float(c) for c in light), "u_object_id": float(obj.index + 1),
                         "u_ambient": float(self.params.ambient)})
@@ -200,6 +205,11 @@ class Rasterize(Node):
             else:
                 targets.pop("normal")
             gl.release(scratch["normal"])
+        rect = footprint.union(rects) if main else None
+        if rect is not None:  # outside the objects' boxes every output holds its clear value
+            for p, tex in targets.items():
+                if not (bands and p in ("color", "normal")):  # banded: made by a full-screen pass of their own
+                    tex.footprint = Footprint(rect, _OUTPUTS[p][0][:components(tex.fmt)])
         return targets
 
     def _enlarge(self, diag: float, model: np.ndarray, scene_diag: float) -> float:
@@ -250,20 +260,39 @@ def _cull_face(obj: Any, backfaces: str) -> str | None:
     return "front" if bool(getattr(obj, "mirrored", False)) else "back"
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, np.ndarray]:
+def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, np.ndarray, tuple]:
     """The program's vertex array over the mesh's buffers (per mesh content and crease angle), the
-    mesh's bounding-box diagonal and the object-space origin its positions are relative to."""
+    mesh's bounding-box diagonal, the object-space origin its positions are relative to, and the box of the
+    positions drawn with the largest component of an enlargement direction (lo, hi, s)."""
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
         bmin, bmax = mesh.bounds()
         local = origin.mesh_origin(mesh)
-        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"), "in_normal": (ra.normals, "3f"),
-                           "in_smooth": (enlarge_normals(mesh, crease_angle), "3f")}, ra.indices,
-                          meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin))), "origin": local})
+        pos, smooth = origin.positions(mesh, ra, local), enlarge_normals(mesh, crease_angle)
+        # the drawn positions and directions as (3, N) rows, projected each frame for the outputs' footprint
+        points = (np.ascontiguousarray(pos.T, dtype=np.float32), np.ascontiguousarray(smooth.T, dtype=np.float32))
+        return MeshArrays({"in_pos": (pos, "3f"), "in_normal": (ra.normals, "3f"), "in_smooth": (smooth, "3f")},
+                          ra.indices, meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin))),
+                                            "origin": local, "points": points})
 
     entry = gl.mesh_buffers(("rasterize.mesh", mesh.content_hash(), float(crease_angle)), build)
-    return entry.vao(prog), entry.meta["diag"], entry.meta["origin"]
+    return entry.vao(prog), entry.meta["diag"], entry.meta["origin"], entry.meta["points"]
+
+
+BOX_MARGIN = 2
+"""Pixels added around an object's projected vertices: the rasteriser snaps them to a sub-pixel grid."""
+
+
+def _pixel_box(mvp: np.ndarray, points: tuple[np.ndarray, np.ndarray], enlarge: float,
+               size: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """The pixels an object can cover: the box of its drawn vertices' projections, moved along their
+    enlargement directions as the vertex stage moves them (None: one lies behind the eye). Ogre's 62k vertices
+    take about 0.6 ms a frame."""
+    pos, smooth = points
+    if enlarge > 0:
+        pos = pos + np.float32(enlarge) * smooth
+    return footprint.project_points(mvp, pos, size, BOX_MARGIN)
 
 
 def _rest_geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, float, np.ndarray]:

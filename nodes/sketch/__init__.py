@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from nodegraph import footprint
 from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
@@ -113,13 +114,46 @@ class Sketch(Node):
         prog = ctx.program("sketch.glsl", defines)
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
+        shade_matrix = np.asarray(p.shade_matrix, dtype=np.float32)
+        rect = self._rect(ports, textures, [shade_matrix, *mats], size)
+        blanks = {"color": (*p.paper, 0.0), "depth": (1.0,)}
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures=textures,
-                          uniforms={"u_shade_matrix": np.asarray(p.shade_matrix, dtype=np.float32),
+                          uniforms={"u_shade_matrix": shade_matrix,
                                     "u_edge_matrix": mats, "u_edge_color": colors,
                                     "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),
-                                    "u_paper": tuple(p.paper)})
+                                    "u_paper": tuple(p.paper)},
+                          rect=rect, blanks=[blanks.get(port, ()) for port in ports])
         return targets
+
+    @staticmethod
+    def _rect(ports: list[str], textures: dict[str, Any], matrices: list[np.ndarray],
+              size: tuple[int, int]) -> tuple[int, int, int, int] | None:
+        """Where the pass can draw anything but paper: every lookup at a shifted coordinate lands on a blank
+        texel (no edge, no shade coverage, no surface behind) at a pixel farther than the largest shift (matrix
+        times the offset's bound, plus the bilinear footprint) from the footprints of the maps read there; such
+        a pixel is paper with coverage 0 and depth 1. None (the whole image) when the offsets' bound or a map's
+        footprint is unknown, or the `offsets` output is wanted (it differs everywhere)."""
+        bound = getattr(textures["t_offset"], "absmax", None)
+        if "offsets" in ports or bound is None or len(bound) < 2:
+            return None
+        rects = []
+        for name, tex in textures.items():
+            if name == "t_offset":
+                continue
+            fp = footprint.of(tex)
+            if fp is None or tex.size != size:
+                return None
+            blank = fp.blank
+            ok = {"t_edges": blank[0] == 0.0,
+                  "t_shade": len(blank) == 4 and blank[3] == 0.0 and all(np.isfinite(blank)),
+                  "t_depth": blank[0] >= 1.0}.get(name, False)
+            if not ok:
+                return None
+            rects.append(fp.rect)
+        a = np.abs(np.asarray(bound[:2], dtype=np.float64))
+        shift = np.max([np.abs(np.asarray(m, dtype=np.float64)) @ a for m in matrices], axis=0) * np.asarray(size)
+        return footprint.grow(footprint.union(rects), int(np.ceil(shift[0])) + 2, int(np.ceil(shift[1])) + 2, size)
 
 
 NODE = Sketch

@@ -24,3 +24,14 @@ def test_pipeline_benchmark_reports_both_frame_rates_and_the_draws(gl, tmp_path:
     assert b["floor_ratio"] == b["ms_per_frame"] / (3.0 * b["copy_pass_ms"])
     assert abs(b["floor_ratio_back_to_back"] * b["fps_back_to_back"] * 3.0 * b["copy_pass_ms"] - 1000.0) < 1e-6
     assert set(b["nodes"]) == {"gbuf", "edges", "sketch"}
+
+
+def test_footprint_benchmark_compares_both_ways(gl, tmp_path: Path):
+    out = tmp_path / "f.json"
+    res = CliRunner().invoke(main, ["bench", "footprint", "--scene", "builtin:torus", "--frames", "2",
+                                    "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    b = json.loads(out.read_text())
+    assert b["frames"] == 2 and b["draws"] == 3.0 and b["A_ms"] > 0 and b["B_ms"] > 0
+    assert b["B_over_A"] == b["B_ms"] / b["A_ms"]
+    assert 0.0 < b["output_footprint_share"] < 1.0  # the torus leaves part of the view to the paper

@@ -1,0 +1,201 @@
+"""Footprints (nodegraph/footprint.py): the pixel rectangles hold every projected point, passes drawn inside one
+give the pixels of the whole pass, and the G-buffer's footprint holds every covered pixel (built-in scene, the
+shared meshes, enlarged geometry, a skinned glTF along its animation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nodegraph import footprint
+from nodegraph import pipeline as pl
+from nodegraph.executor import Executor
+from nodegraph.glsl import ENGINE_GLSL
+from tests import gltf_files as gf
+from tests.helpers import shared_mesh
+
+SIZE = (160, 120)
+
+
+def _perspective(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random projection x view and points in front of its eye."""
+    rng = np.random.default_rng(seed)
+    f, n, far = 1.0 / np.tan(np.radians(rng.uniform(20, 80)) / 2), 0.1, 100.0
+    proj = np.array([[f * 0.75, 0, 0, 0], [0, f, 0, 0], [0, 0, (far + n) / (n - far), 2 * far * n / (n - far)],
+                     [0, 0, -1, 0]])
+    rot, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    view = np.eye(4)
+    view[:3, :3] = rot
+    pts_view = np.stack([rng.uniform(-3, 3, 50), rng.uniform(-3, 3, 50), rng.uniform(-20, -1, 50)])
+    pts = rot.T @ pts_view  # world points whose view-space z lies in [-20, -1]
+    return proj @ view, pts
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 3))
+def test_projected_points_lie_inside_the_rect(seed, margin):
+    mvp, pts = _perspective(seed)
+    rect = footprint.project_points(mvp, pts, SIZE, margin)
+    assert rect is not None
+    clip = mvp @ np.vstack([pts, np.ones(pts.shape[1])])
+    px = (clip[:2] / clip[3] + 1.0) * 0.5 * np.array(SIZE)[:, None]
+    inside = (px[0] >= rect[0] - 1e-9) & (px[0] <= rect[0] + rect[2] + 1e-9)
+    inside &= (px[1] >= rect[1] - 1e-9) & (px[1] <= rect[1] + rect[3] + 1e-9)
+    on_image = (px[0] >= 0) & (px[0] <= SIZE[0]) & (px[1] >= 0) & (px[1] <= SIZE[1])
+    assert inside[on_image].all()
+    # tight: the rectangle's sides lie within margin + 1 pixel of the extreme projected points (clipped)
+    lo = np.clip(px.min(axis=1), 0, SIZE)
+    assert rect[0] >= lo[0] - margin - 1 and rect[1] >= lo[1] - margin - 1
+
+
+def test_points_on_or_behind_the_eye_plane_give_no_rect():
+    proj = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, -1.002, -0.2002], [0, 0, -1, 0]])  # w = -z
+    front = np.array([[0.5, -1.0], [0.2, 0.3], [-2.0, -5.0]])
+    assert footprint.project_points(proj, front, SIZE, 0) is not None
+    for z in (0.0, 1.0):  # on the eye's plane, behind the eye
+        assert footprint.project_points(proj, np.hstack([front, [[0.0], [0.0], [z]]]), SIZE, 0) is None
+    assert footprint.project_points(proj, np.zeros((3, 0)), SIZE, 0) == (0, 0, 0, 0)
+
+
+def test_union_and_grow():
+    assert footprint.union([(10, 20, 5, 5), (0, 0, 0, 0), (12, 10, 10, 4)]) == (10, 10, 12, 15)
+    assert footprint.union([(1, 1, 2, 2), None]) is None
+    assert footprint.union([]) == (0, 0, 0, 0)
+    assert footprint.grow((10, 10, 5, 5), 3, 20, SIZE) == (7, 0, 11, 35)
+    assert footprint.grow((150, 100, 10, 20), 5, 5, SIZE) == (145, 95, 15, 25)
+    assert footprint.grow((3, 3, 0, 0), 5, 5, SIZE) == (3, 3, 0, 0)
+    assert footprint.covers_image((0, 0) + SIZE, SIZE) and not footprint.covers_image((1, 0) + SIZE, SIZE)
+
+
+def test_a_scissored_pass_clears_to_the_blank_value_outside(gl, rng):
+    src = gl.upload(rng.random((SIZE[1], SIZE[0], 4)).astype(np.float32), "RGBA32F")
+    prog = gl.program(ENGINE_GLSL / "copy.glsl", node="test")
+    whole, part = gl.texture(SIZE, "RGBA32F"), gl.texture(SIZE, "RGBA32F")
+    gl.fullscreen(prog, [whole], {"t_in": src})
+    rect = (30, 20, 50, 40)
+    gl.fullscreen(prog, [part], {"t_in": src}, rect=rect, blanks=[(0.25, 0.5, 0.75, 1.0)])
+    a, b = whole.read(), part.read()
+    x, y, w, h = rect
+    np.testing.assert_array_equal(b[y:y + h, x:x + w], a[y:y + h, x:x + w])
+    outside = np.ones(SIZE[::-1], bool)
+    outside[y:y + h, x:x + w] = False
+    assert (b[outside] == [0.25, 0.5, 0.75, 1.0]).all()
+    assert part.footprint.rect == rect and part.footprint.blank == (0.25, 0.5, 0.75, 1.0)
+    assert whole.footprint is None
+    # the whole image as the rect, or footprints switched off: the plain pass, no footprint
+    full = gl.texture(SIZE, "RGBA32F")
+    gl.fullscreen(prog, [full], {"t_in": src}, rect=(0, 0) + SIZE, blanks=[(0.0,) * 4])
+    assert full.footprint is None
+    for t in (src, whole, part, full):
+        gl.release(t)
+
+
+def _run(gl, text: str, refs: list[tuple[str, str]], frames=(0, 5, 11)) -> list[dict]:
+    """Each frame's values read back before the next frame runs (a frame loop hands the last frame's textures
+    to the next), as {ref: (pixels as float32 and as stored, footprint, absmax)}."""
+    ex = Executor(pl.loads(text, "t.yaml"), None, mode="loop", requested=refs, gl=gl)
+    out = []
+    for f in frames:
+        values = ex.run(f).values
+        out.append({r: Read(values[r].read(), values[r].read_native(), values[r].footprint, values[r].absmax)
+                    for r in refs})
+    return out
+
+
+class Read:
+    def __init__(self, pixels, native, fp, absmax):
+        self.pixels, self.native, self.footprint, self.absmax = pixels, native, fp, absmax
+
+
+def _scene(name: str) -> str:
+    return name if name.startswith("builtin:") else str(shared_mesh(name))
+
+
+GBUF = ("pipeline: t\nsize: [{w}, {h}]\nscene: {scene}\nnodes:\n  g: {{type: rasterize, params: {params}}}\n"
+        "outputs:\n  nd: g.normal_depth\n  c: g.color\n  d: g.depth\n")
+
+
+def _assert_covered_inside(values: dict) -> None:
+    nd, c, d = values[("g", "normal_depth")], values[("g", "color")], values[("g", "depth")]
+    for tex, covered in ((nd, nd.pixels[..., 3] > 0), (c, c.pixels[..., 3] > 0), (d, d.pixels[..., 0] < 1)):
+        fp = tex.footprint
+        assert fp is not None
+        x, y, w, h = fp.rect
+        mask = np.zeros(covered.shape, bool)
+        mask[y:y + h, x:x + w] = True
+        assert covered.any() and not (covered & ~mask).any(), "a covered pixel lies outside the footprint"
+        assert mask.mean() < 1.0, "the objects should leave part of the image uncovered"
+    assert nd.footprint.blank == (0.0, 0.0, 0.0, 0.0) and d.footprint.blank == (1.0,)
+
+
+@pytest.mark.parametrize("name", ["spot.obj", "ogre.obj", "teapot.obj", "fandisk.obj"])
+@pytest.mark.parametrize("params", ["{}", "{enlarge: 0.05}"])
+def test_the_gbuffer_footprint_holds_every_covered_pixel(gl, name, params):
+    text = GBUF.format(w=SIZE[0], h=SIZE[1], scene=_scene(name), params=params)
+    for values in _run(gl, text, [("g", "normal_depth"), ("g", "color"), ("g", "depth")]):
+        _assert_covered_inside(values)
+
+
+def test_the_footprint_follows_a_skinned_mesh(gl, tmp_path):
+    path = gf.skinned_tube(tmp_path / "tube.glb")
+    text = GBUF.format(w=SIZE[0], h=SIZE[1], scene=path, params="{}")
+    for values in _run(gl, text, [("g", "normal_depth"), ("g", "color"), ("g", "depth")], frames=(0, 6, 12, 18)):
+        _assert_covered_inside(values)
+
+
+SKETCHY = """pipeline: t
+size: [{w}, {h}]
+scene: {scene}
+nodes:
+  g: {{type: rasterize}}
+  e: {{type: edge_detect, in: {{normal_depth: g.normal_depth}}, params: {{width: 2}}}}
+  n: {{type: perlin_noise, params: {noise}}}
+  s:
+    type: sketch
+    in: {{edges: e.out, shade: g.color, offset: n.out, depth: g.depth}}
+    params: {{edge_matrix: {em}, shade_matrix: {sm}}}
+outputs:
+  image: s.color
+"""
+
+
+SHIPPED = ("[[0.01, 0.0], [0.0, 0.01]]", "[[-0.016, 0.004], [-0.004, -0.016]]")  # nienhaus_sketchy's matrices
+WIDE = ("[[0.06, 0.02], [0.0, 0.06]]", "[[-0.06, 0.0], [0.03, -0.06]]")  # shifts of 6-13 pixels at 160 x 120
+
+
+@pytest.mark.parametrize("name", ["builtin:cloister", "spot.obj", "teapot.obj", "cow.obj"])
+@pytest.mark.parametrize(("noise", "matrices"), [("{scale: 0.01, octaves: 4}", SHIPPED), ("{kind: white}", SHIPPED),
+                                                 ("{hold: 1, octaves: 3}", SHIPPED), ("{kind: white}", WIDE),
+                                                 ("{scale: 0.05, octaves: 2}", WIDE)])
+def test_sketch_and_edges_drawn_inside_their_footprint_give_the_whole_pass(gl, name, noise, matrices):
+    # the colour (shade alpha standing in for the depth) and, asked for too, the depth read from the map; white
+    # noise with wide matrices puts near-largest shifts next to every side of the objects
+    text = SKETCHY.format(w=SIZE[0], h=SIZE[1], scene=_scene(name), noise=noise, em=matrices[0], sm=matrices[1])
+    for refs in ([("s", "color"), ("e", "out")], [("s", "color"), ("s", "depth"), ("e", "out")]):
+        with_fp = _run(gl, text, refs)
+        footprint.ENABLED = False
+        try:
+            whole = _run(gl, text, refs)
+        finally:
+            footprint.ENABLED = True
+        for a, b in zip(with_fp, whole, strict=True):
+            for ref in refs:
+                np.testing.assert_array_equal(a[ref].native, b[ref].native, err_msg=str(ref))
+                assert b[ref].footprint is None
+        if name != "builtin:cloister":  # the cloister's ground fills the view: nothing to leave out
+            assert all(v[("s", "color")].footprint is not None for v in with_fp)
+            assert all(v[("e", "out")].footprint is not None for v in with_fp)
+
+
+def test_noise_held_for_the_sequence_is_measured_and_changing_noise_bounded(gl):
+    text = ("pipeline: t\nsize: [96, 64]\nscene: builtin:box\nnodes:\n  n: {type: perlin_noise, params: {hold: %d}}\n"
+            "outputs:\n  o: n.out\n")
+    held = _run(gl, text % 0, [("n", "out")], frames=(0,))[0][("n", "out")]
+    a = np.abs(held.pixels).max(axis=(0, 1))
+    assert held.absmax == (float(a[0]), float(a[1]))
+    for values in _run(gl, text % 1, [("n", "out")], frames=(0, 1, 2, 3)):
+        tex = values[("n", "out")]
+        assert (np.abs(tex.pixels).max(axis=(0, 1)) <= np.asarray(tex.absmax)).all()
+        assert tex.absmax == (3.75, 3.75)  # 2 x (1 + 1/2 + 1/4 + 1/8): the analytic bound of 4 octaves
