@@ -224,6 +224,27 @@ class GL:
             # frame 3.2-3.4 ms of CPU (pass, read-back, copy) against 6.2-6.3 for the 4-byte stream pass below
             target, fbo = self._pack_target((c * w // 16, h), "u4")
             prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_WIDE": 1, "PNG_CHANNELS": c}, node="engine")
+            fp = footprint.of(tex)
+            part = None if fp is None or footprint.covers_image(fp.rect, (w, h)) else fp.rect
+            if part is not None:
+                # blank outside the footprint: only the fragments over it are packed and read back, the rest of
+                # each row is the blank pixel's bytes repeated (the default image on spot: 38% of the image)
+                x, y, pw, ph = part
+                f0, f1 = (c * x) // 16, -(-(c * (x + pw)) // 16)
+                r0, r1 = h - (y + ph), h - y  # the stream's rows run top first, the texture's from the bottom
+                stream = np.empty((h, 1 + c * w), np.uint8)
+                stream[:, 0] = 0
+                stream[:, 1:] = np.tile(self._blank_bytes(tex, fp, c), w)
+                if f1 > f0 and r1 > r0:
+                    fbo.scissor = (f0, r0, f1 - f0, r1 - r0)
+                    try:
+                        self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w}, fbo=fbo)
+                    finally:
+                        fbo.scissor = None
+                    packed = np.empty((r1 - r0, 16 * (f1 - f0)), np.uint8)
+                    fbo.read_into(packed, viewport=(f0, r0, f1 - f0, r1 - r0), components=4, alignment=1, dtype="u4")
+                    stream[r0:r1, 1 + 16 * f0:1 + 16 * f1] = packed
+                return stream.reshape(-1), c
             self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w}, fbo=fbo)
             packed = np.empty((h, c * w), np.uint8)
             target.read_into(packed, alignment=1)
@@ -241,6 +262,27 @@ class GL:
         out = np.empty(rows * w * 4, np.uint8)
         target.read_into(out, alignment=1)
         return out[:total], c
+
+    def _blank_bytes(self, tex: Tex, fp: Footprint, channels: int) -> np.ndarray:
+        """The 8-bit file values (`channels` of them) of a texel of `tex` outside its footprint: read once from the
+        texture, at a corner outside the rectangle, and kept per format and blank value (the stored blank is the
+        format's rounding of `fp.blank`, which the read takes as it is)."""
+        key = ("blank8", tex.fmt, fp.blank, channels)
+        hit = self.resources.get(key)
+        if hit is None:
+            w, h = tex.size
+            x, y, rw, rh = fp.rect
+            corner = next((cx, cy) for cx in (0, w - 1) for cy in (0, h - 1)
+                          if not (x <= cx < x + rw and y <= cy < y + rh))
+            comps = types.components(tex.fmt)
+            texel = np.empty(comps, np.float32)  # the value the pack pass fetches, as a float
+            self.framebuffer([tex]).read_into(texel, viewport=(*corner, 1, 1), components=comps, alignment=1,
+                                              dtype="f4")
+            from .imageio import to_uint8
+
+            px = to_uint8(np.concatenate([texel, np.zeros(3, np.float32)]))
+            hit = self.resources[key] = px[:1] if channels == 1 else px[:3]
+        return hit
 
     def read_yuv420(self, tex: Tex) -> Yuv420Planes:
         """A texture as a film frame's planes: BT.601 limited-range 4:2:0 (the conversion swscale applies to

@@ -55,6 +55,31 @@ def test_read_uint8_and_png_rows_match_numpy(gl, rng, fmt):
             gl.release(tex)
 
 
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt):
+    # only the footprint's fragments are packed and read back, the rest is the blank texel's bytes repeated:
+    # the same rows as the whole pass for rectangles inside, at and across the edges, and an empty one
+    from nodegraph.values import Footprint
+
+    c = types.components(fmt)
+    for (w, h), rect in [((80, 12), (7, 2, 30, 5)), ((80, 12), (0, 0, 80, 5)), ((96, 9), (50, 0, 46, 9)),
+                         ((48, 3), (1, 1, 1, 1)), ((64, 9), (10, 4, 0, 0)), ((160, 30), (33, 7, 91, 20))]:
+        blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
+        values = _texture(gl, rng, fmt, w, h).read()
+        x, y, rw, rh = rect
+        filled = np.broadcast_to(np.asarray(blank, np.float32), values.shape).copy()
+        filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
+        tex = gl.upload(filled, fmt)
+        try:
+            whole, cw = gl.read_png_rows(tex)
+            tex.footprint = Footprint(rect, blank)
+            part, cp = gl.read_png_rows(tex)
+            assert cw == cp
+            np.testing.assert_array_equal(part, whole, err_msg=f"{fmt} {w}x{h} {rect}")
+        finally:
+            gl.release(tex)
+
+
 def test_a_png_from_gpu_rows_is_the_png_of_the_values(gl, rng, tmp_path):
     tex = _texture(gl, rng, "RGBA16F", 37, 11)
     try:
