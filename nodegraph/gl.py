@@ -299,13 +299,71 @@ class GL:
         from .glsl import ENGINE_GLSL
 
         prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
+        widths = (line, line, line // 2, line // 2)
+        part = self._yuv_part(tex, line)
+        if part is not None:
+            # blank outside the footprint: only the fragments over it are converted and read back, the rest of
+            # each plane is the blank pixel's Y, U and V (made once by the pass on a fragment outside)
+            (f0, g0, f1, g1), blank = part
+            planes = [np.full((eh // 2, width), b, np.uint8) for width, b in zip(widths, blank, strict=True)]
+            if f1 > f0 and g1 > g0:
+                fbo.scissor = (f0, g0, f1 - f0, g1 - g0)
+                try:
+                    self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
+                finally:
+                    fbo.scissor = None
+                for i, (plane, comps) in enumerate(zip(planes, (4, 4, 2, 2), strict=True)):
+                    sub = np.empty((g1 - g0, comps * (f1 - f0)), np.uint8)
+                    fbo.read_into(sub, viewport=(f0, g0, f1 - f0, g1 - g0), components=comps, attachment=i,
+                                  alignment=1, dtype="u1")
+                    plane[g0:g1, comps * f0:comps * f1] = sub
+            return Yuv420Planes((ew, eh), *planes)
         self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
         planes = []
-        for t, width in zip(targets, (line, line, line // 2, line // 2), strict=True):
+        for t, width in zip(targets, widths, strict=True):
             a = np.empty((eh // 2, width), np.uint8)
             t.read_into(a, alignment=1)
             planes.append(a)
         return Yuv420Planes((ew, eh), *planes)
+
+    def _yuv_part(self, tex: Tex, line: int) -> tuple[tuple[int, int, int, int], tuple[int, ...]] | None:
+        """For `read_yuv420` of a texture with a footprint (even size, rows a multiple of 4 pixels): the fragments
+        (x0, y0, x1, y1) of the pass that touch the footprint, and the blank pixel's (Y, Y, U, V), found by the
+        pass on a corner fragment outside and kept per format and blank value; None: convert the whole frame."""
+        fp = footprint.of(tex)
+        w, h = tex.size
+        if fp is None or footprint.covers_image(fp.rect, (w, h)) or w % 4 or h % 2 or line != w:
+            return None
+        x, y, pw, ph = fp.rect
+        nx, ny = w // 4, h // 2  # fragment (i, j): pixels 4i..4i+3 of the image rows 2j, 2j+1 counted from the top
+        frags = (x // 4, (h - y - ph) // 2, -(-(x + pw) // 4), -(-(h - y) // 2))
+        if pw <= 0 or ph <= 0:
+            frags = (0, 0, 0, 0)
+        key = ("blank_yuv", tex.fmt, fp.blank)
+        blank = self.resources.get(key)
+        if blank is None:
+            corner = next(((i, j) for i in (0, nx - 1) for j in (0, ny - 1)
+                           if not (frags[0] <= i < frags[2] and frags[1] <= j < frags[3])), None)
+            if corner is None:
+                return None
+            targets, fbo = self._yuv_targets((nx, ny))
+            c = 1 if types.components(tex.fmt) == 1 else 3
+            from .glsl import ENGINE_GLSL
+
+            prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
+            fbo.scissor = (*corner, 1, 1)
+            try:
+                self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
+            finally:
+                fbo.scissor = None
+            values = []
+            for i, comps in enumerate((4, 4, 2, 2)):
+                texel = np.empty(comps, np.uint8)
+                fbo.read_into(texel, viewport=(*corner, 1, 1), components=comps, attachment=i, alignment=1,
+                              dtype="u1")
+                values.append(int(texel[0]))
+            blank = self.resources[key] = tuple(values)
+        return frags, blank
 
     def _yuv_targets(self, size: tuple[int, int]) -> tuple[tuple[Any, ...], Any]:
         """`read_yuv420`'s four integer textures (Y even rows, Y odd rows: RGBA8UI; U, V: RG8UI) of `size`

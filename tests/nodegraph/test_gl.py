@@ -80,6 +80,32 @@ def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt)
             gl.release(tex)
 
 
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_yuv420_planes_of_a_texture_with_a_footprint_are_the_whole_planes(gl, rng, fmt):
+    # only the fragments over the footprint are converted and read back, the rest is the blank pixel's Y, U, V
+    # (odd sizes and rows of a width not a multiple of 4 convert the whole frame)
+    from nodegraph.values import Footprint
+
+    c = types.components(fmt)
+    for (w, h), rect in [((80, 12), (7, 2, 30, 5)), ((96, 64), (0, 0, 50, 64)), ((160, 48), (33, 7, 91, 20)),
+                         ((64, 30), (5, 5, 0, 0)), ((82, 30), (5, 5, 20, 9)), ((33, 17), (3, 3, 9, 9))]:
+        blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
+        values = _texture(gl, rng, fmt, w, h).read()
+        x, y, rw, rh = rect
+        filled = np.broadcast_to(np.asarray(blank, np.float32), values.shape).copy()
+        filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
+        tex = gl.upload(filled, fmt)
+        try:
+            whole = gl.read_yuv420(tex)
+            tex.footprint = Footprint(rect, blank)
+            part = gl.read_yuv420(tex)
+            for plane in ("y_even", "y_odd", "u", "v"):
+                np.testing.assert_array_equal(getattr(part, plane), getattr(whole, plane),
+                                              err_msg=f"{fmt} {w}x{h} {rect} {plane}")
+        finally:
+            gl.release(tex)
+
+
 def test_a_png_from_gpu_rows_is_the_png_of_the_values(gl, rng, tmp_path):
     tex = _texture(gl, rng, "RGBA16F", 37, 11)
     try:
