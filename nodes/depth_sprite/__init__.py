@@ -6,6 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
@@ -88,12 +89,20 @@ class DepthSprite(Node):
             gl.fullscreen(ctx.program("depth_sprite.glsl", {**sprite_defines, "OVER_PAPER": 1}), [color, depth],
                           textures, uniforms)
             return {"color": color, "depth": depth}
+        # the sprite's depth is the far plane outside its footprint, where "<" passes nowhere: the sprite pass
+        # draws inside it only (the same pixels)
+        fp = footprint.of(inputs.get("sketch_depth"))
+        sprite_rect = fp.rect if fp is not None and fp.blank[0] >= 1.0 else None
         with gl.depth_test("1") as state:  # first lay down the ordinary geometry's colour and depth
             gl.fullscreen(ctx.program("depth_sprite.glsl", {"PASS": 0}), [color, depth], textures, uniforms,
                           fbo=fbo)
             state.depth_func("<")
-            gl.fullscreen(ctx.program("depth_sprite.glsl", sprite_defines), [color, depth], textures, uniforms,
-                          fbo=fbo)
+            fbo.scissor = sprite_rect
+            try:
+                gl.fullscreen(ctx.program("depth_sprite.glsl", sprite_defines), [color, depth], textures, uniforms,
+                              fbo=fbo)
+            finally:
+                fbo.scissor = None  # framebuffers are shared: leave it as the others expect
         return {"color": color, "depth": depth}
 
 

@@ -199,3 +199,29 @@ def test_noise_held_for_the_sequence_is_measured_and_changing_noise_bounded(gl):
         tex = values[("n", "out")]
         assert (np.abs(tex.pixels).max(axis=(0, 1)) <= np.asarray(tex.absmax)).all()
         assert tex.absmax == (3.75, 3.75)  # 2 x (1 + 1/2 + 1/4 + 1/8): the analytic bound of 4 octaves
+
+
+def test_the_depth_sprite_over_geometry_draws_the_sprite_inside_its_footprint(gl):
+    # sketchy_composite: ordinary geometry laid down over the whole image, the sprite where its depth is below
+    # the far plane, which is inside the sketch depth's footprint
+    from tests.helpers import ROOT
+
+    refs = [("sprite", "color"), ("sprite", "depth")]
+    out = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            ex = Executor(pl.load(str(ROOT / "pipelines" / "sketchy_composite.yaml"), size=SIZE), None, mode="loop",
+                          requested=[*refs, ("sketch", "depth")], gl=gl)
+            out[on] = []
+            for f in (0, 9):
+                values = ex.run(f).values
+                out[on].append([values[r].read_native() for r in refs])
+                if on:  # the sprite pass was scissored: the sketch depth has a footprint smaller than the image
+                    fp = values[("sketch", "depth")].footprint
+                    assert fp is not None and fp.blank == (1.0,) and not footprint.covers_image(fp.rect, SIZE)
+        finally:
+            footprint.ENABLED = True
+    for a, b in zip(out[True], out[False], strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
