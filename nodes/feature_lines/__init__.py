@@ -8,10 +8,11 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from nodegraph import origin
+from nodegraph import footprint, origin
 from nodegraph.errors import NodeError
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import ARRAYS, SCENE, Texture
+from nodegraph.values import Footprint
 
 from .._shared.curvature import object_field
 from . import lines
@@ -152,12 +153,18 @@ class FeatureLines(Node):
             per_object.append((obj, model, self.segments(ctx, inputs["curvature"], index, obj.mesh, eye_obj, kinds)))
         line_width, line_scale = self.drawn_width(ctx.px_scale)
         targets = {port: ctx.target(port, nd.size) for port in ("out", *_KINDS) if port in needed}
+        # where each port can be drawn on: its segments' projected points grown by half the quad's width (the
+        # quads' ends reach that far past the points), and the edges' footprint where they are copied in
+        margin = int(np.ceil(0.5 * line_width * np.sqrt(2.0))) + 2
+        rects: dict[str, list[tuple[int, int, int, int] | None]] = {port: [] for port in targets}
         for port, target in targets.items():
             with_edges = port == "out" and edges is not None
             fbo = gl.framebuffer([target], gl.depth_buffer((w, h)))
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             if with_edges:  # no depth test: the copy leaves the cleared depth as it is
                 gl.fullscreen(ctx.program("edges.glsl"), [target], textures={"t_edges": edges}, fbo=fbo)
+                fp = footprint.of(edges)
+                rects[port].append(fp.rect if fp is not None and fp.blank == (0.0,) else None)
             prog = ctx.program("feature_lines.glsl", {"EDGES": int(with_edges)})
             fbo.use()
             gl.ctx.viewport = (0, 0, w, h)
@@ -175,10 +182,15 @@ class FeatureLines(Node):
                     pts = np.concatenate([s.points for s, _ in parts]).reshape(-1, 3) - local
                     inten = np.concatenate([s.intensity * wt for s, wt in parts]).reshape(-1)
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
+                    rects[port].append(footprint.project_points(proj @ u_view @ u_model, pts.T, (w, h), margin))
                     _draw(gl, prog, textures, {"u_model": u_model, "u_view": u_view, "u_proj": proj,
                                                "u_viewport": (float(w), float(h)), "u_width": float(line_width),
                                                "u_depth_tolerance": p.depth_tolerance, "u_scale": line_scale},
                           pts, inten)
+        for port, target in targets.items():  # cleared to 0, drawn on only there
+            rect = footprint.union(rects[port])
+            if rect is not None:
+                target.footprint = Footprint(rect, (0.0,))
         return targets
 
     def drawn_width(self, px_scale: float) -> tuple[float, float]:

@@ -225,3 +225,54 @@ def test_the_depth_sprite_over_geometry_draws_the_sprite_inside_its_footprint(gl
     for a, b in zip(out[True], out[False], strict=True):
         for x, y in zip(a, b, strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("pipeline", ["sketchy_lines", "repeated_edges"])
+def test_feature_lines_are_drawn_inside_their_footprint(gl, pipeline):
+    # the lines' footprint (their projected points grown by the quads' reach, and the edges copied in) holds
+    # every line pixel, and the sketch over it gives the whole pass's pixels
+    from tests.helpers import ROOT
+
+    refs = [("lines", "out"), ("sketch", "color")]
+    out = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            ex = Executor(pl.load(str(ROOT / "pipelines" / f"{pipeline}.yaml"), size=SIZE,
+                                  scene=str(shared_mesh("spot.obj"))), None, mode="loop", requested=refs, gl=gl)
+            out[on] = []
+            for f in (0, 13):
+                values = ex.run(f).values
+                out[on].append([values[r].read_native() for r in refs])
+                if on:
+                    lines = values[("lines", "out")]
+                    fp = lines.footprint
+                    assert fp is not None and fp.blank == (0.0,) and not footprint.covers_image(fp.rect, SIZE)
+                    x, y, w, h = fp.rect
+                    drawn = lines.read()[..., 0] != 0
+                    inside = np.zeros(drawn.shape, bool)
+                    inside[y:y + h, x:x + w] = True
+                    assert drawn.any() and not (drawn & ~inside).any()
+                    assert values[("sketch", "color")].footprint is not None
+        finally:
+            footprint.ENABLED = True
+    for a, b in zip(out[True], out[False], strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("name", ["spot.obj", "cow.obj", "builtin:torus"])
+def test_lines_alone_lie_inside_their_footprint(gl, name):
+    # without edges copied in, the footprint is the segments' own: every line pixel (quads 4 pixels wide)
+    text = (f"pipeline: t\nsize: [160, 120]\nscene: {_scene(name)}\nnodes:\n  g: {{type: rasterize}}\n"
+            "  c: {type: curvature, params: {smoothing: 0}}\n"
+            "  l: {type: feature_lines, in: {curvature: c.out, normal_depth: g.normal_depth},"
+            " params: {width: 4, ridge_intensity: 1.0, valley_intensity: 1.0}}\noutputs:\n  o: l.out\n")
+    for values in _run(gl, text, [("l", "out")], frames=(0, 7, 21)):
+        lines = values[("l", "out")]
+        assert lines.footprint is not None and lines.footprint.blank == (0.0,)
+        x, y, w, h = lines.footprint.rect
+        drawn = lines.pixels[..., 0] != 0
+        inside = np.zeros(drawn.shape, bool)
+        inside[y:y + h, x:x + w] = True
+        assert drawn.any() and not (drawn & ~inside).any()
