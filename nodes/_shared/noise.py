@@ -132,6 +132,13 @@ def improved_noise(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> NDArray[np.float
                        _lerp(u, _grad(p[AB + 1], x, y - 1, z - 1), _grad(p[BB + 1], x - 1, y - 1, z - 1))))
 
 
+def octaves_bound(octaves: int) -> float:
+    """A bound on |turbulence| and |fbm| of `octaves` octaves (any point, any seed): improved noise lies in
+    (-2, 2) (each corner's gradient term is +-u +-v with |u|, |v| < 1, blended with weights summing to 1), and
+    octave i is divided by 2^i. Consumers that shift lookups by the noise use it (sketch's footprint)."""
+    return 2.0 * (2.0 - 2.0 ** (1 - int(octaves)))
+
+
 def _check_octaves(octaves: int) -> int:
     if isinstance(octaves, bool) or not isinstance(octaves, int | np.integer) or octaves < 0:
         raise ValueError(f"octaves: expected an integer >= 0, got {octaves!r}")

@@ -81,6 +81,9 @@ class ObjectNoise(Node):
                                 "u_seed_frac": tuple(float(f) for f in frac),
                                 "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
                                 "u_background": tuple(float(b) for b in p.background)})
+        # |value| bound for consumers that shift lookups by it (sketch's footprint): the noise, or the background
+        b = noise.octaves_bound(p.octaves)
+        out.absmax = tuple(max(b, abs(float(v))) for v in p.background)
         return {"out": out}
 
     def reference(self, position: np.ndarray, seed: int, scene: Any = None) -> np.ndarray:

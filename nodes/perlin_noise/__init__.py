@@ -88,14 +88,13 @@ class PerlinNoise(Node):
         near the objects). Noise kept for the whole sequence (`hold` 0, the default: made once a run) is read
         back once and measured, exactly (4-octave turbulence reaches about 1.3-1.6 of the bound below); noise
         that changes is not read back (a read-back waits for the GPU) and gets the analytic bound: white noise
-        lies in [0, 1), improved noise in (-2, 2) (each corner's gradient term is +-u +-v with |u|, |v| < 1,
-        blended with weights summing to 1), so octave i, divided by 2^i, adds under 2 / 2^i."""
+        lies in [0, 1), turbulence and fbm within `noise.octaves_bound`."""
         if self.params.kind == "white":
             return (1.0, 1.0)
         if self.hold == 0:
             a = np.abs(out.read()).max(axis=(0, 1))
             return (float(a[0]), float(a[1]))
-        b = 2.0 * (2.0 - 2.0 ** (1 - self.params.octaves))
+        b = noise.octaves_bound(self.params.octaves)
         return (b, b)
 
     @staticmethod

@@ -276,3 +276,29 @@ def test_lines_alone_lie_inside_their_footprint(gl, name):
         inside = np.zeros(drawn.shape, bool)
         inside[y:y + h, x:x + w] = True
         assert drawn.any() and not (drawn & ~inside).any()
+
+
+def test_object_space_noise_is_bounded_and_its_sketch_drawn_inside_the_footprint(gl):
+    from tests.helpers import ROOT
+
+    refs = [("noise", "out"), ("sketch", "color")]
+    out = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            ex = Executor(pl.load(str(ROOT / "pipelines" / "object_space_uncertainty.yaml"), size=SIZE,
+                                  scene=str(shared_mesh("spot.obj"))), None, mode="loop", requested=refs, gl=gl)
+            out[on] = []
+            for f in (0, 8, 16):
+                values = ex.run(f).values
+                out[on].append([values[r].read_native() for r in refs])
+                noise = values[("noise", "out")]
+                assert (np.abs(noise.read()).max(axis=(0, 1)) <= np.asarray(noise.absmax)).all()
+                if on:
+                    fp = values[("sketch", "color")].footprint
+                    assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
+        finally:
+            footprint.ENABLED = True
+    for a, b in zip(out[True], out[False], strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
