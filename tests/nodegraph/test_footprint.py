@@ -201,64 +201,64 @@ def test_noise_held_for_the_sequence_is_measured_and_changing_noise_bounded(gl):
         assert tex.absmax == (3.75, 3.75)  # 2 x (1 + 1/2 + 1/4 + 1/8): the analytic bound of 4 octaves
 
 
-def test_the_depth_sprite_over_geometry_draws_the_sprite_inside_its_footprint(gl):
-    # sketchy_composite: ordinary geometry laid down over the whole image, the sprite where its depth is below
-    # the far plane, which is inside the sketch depth's footprint
+def _both_ways(gl, pipeline: str, scene: str | None, refs, compared, frames, check) -> None:
+    """A shipped pipeline's frames with footprints on and off: `compared` refs byte-identical both ways, and
+    `check(values)` run on each frame's values with footprints on (before the next frame reuses them)."""
     from tests.helpers import ROOT
 
-    refs = [("sprite", "color"), ("sprite", "depth")]
     out = {}
     for on in (True, False):
         footprint.ENABLED = on
         try:
-            ex = Executor(pl.load(str(ROOT / "pipelines" / "sketchy_composite.yaml"), size=SIZE), None, mode="loop",
-                          requested=[*refs, ("sketch", "depth")], gl=gl)
+            ex = Executor(pl.load(str(ROOT / "pipelines" / f"{pipeline}.yaml"), size=SIZE, scene=scene), None,
+                          mode="loop", requested=refs, gl=gl)
             out[on] = []
-            for f in (0, 9):
+            for f in frames:
                 values = ex.run(f).values
-                out[on].append([values[r].read_native() for r in refs])
-                if on:  # the sprite pass was scissored: the sketch depth has a footprint smaller than the image
-                    fp = values[("sketch", "depth")].footprint
-                    assert fp is not None and fp.blank == (1.0,) and not footprint.covers_image(fp.rect, SIZE)
+                out[on].append([values[r].read_native() for r in compared])
+                if on:
+                    check(values)
         finally:
             footprint.ENABLED = True
     for a, b in zip(out[True], out[False], strict=True):
         for x, y in zip(a, b, strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+def _assert_drawn_inside(tex, pixels) -> None:
+    x, y, w, h = tex.footprint.rect
+    drawn = pixels[..., 0] != 0
+    inside = np.zeros(drawn.shape, bool)
+    inside[y:y + h, x:x + w] = True
+    assert drawn.any() and not (drawn & ~inside).any()
+
+
+def test_the_depth_sprite_over_geometry_draws_the_sprite_inside_its_footprint(gl):
+    # sketchy_composite: ordinary geometry laid down over the whole image, the sprite where its depth is below
+    # the far plane, which is inside the sketch depth's footprint
+    refs = [("sprite", "color"), ("sprite", "depth")]
+
+    def check(values):  # the sprite pass was scissored: the sketch depth has a footprint smaller than the image
+        fp = values[("sketch", "depth")].footprint
+        assert fp is not None and fp.blank == (1.0,) and not footprint.covers_image(fp.rect, SIZE)
+
+    _both_ways(gl, "sketchy_composite", None, [*refs, ("sketch", "depth")], refs, (0, 9), check)
 
 
 @pytest.mark.parametrize("pipeline", ["sketchy_lines", "repeated_edges"])
 def test_feature_lines_are_drawn_inside_their_footprint(gl, pipeline):
     # the lines' footprint (their projected points grown by the quads' reach, and the edges copied in) holds
     # every line pixel, and the sketch over it gives the whole pass's pixels
-    from tests.helpers import ROOT
-
     refs = [("lines", "out"), ("sketch", "color")]
-    out = {}
-    for on in (True, False):
-        footprint.ENABLED = on
-        try:
-            ex = Executor(pl.load(str(ROOT / "pipelines" / f"{pipeline}.yaml"), size=SIZE,
-                                  scene=str(shared_mesh("spot.obj"))), None, mode="loop", requested=refs, gl=gl)
-            out[on] = []
-            for f in (0, 13):
-                values = ex.run(f).values
-                out[on].append([values[r].read_native() for r in refs])
-                if on:
-                    lines = values[("lines", "out")]
-                    fp = lines.footprint
-                    assert fp is not None and fp.blank == (0.0,) and not footprint.covers_image(fp.rect, SIZE)
-                    x, y, w, h = fp.rect
-                    drawn = lines.read()[..., 0] != 0
-                    inside = np.zeros(drawn.shape, bool)
-                    inside[y:y + h, x:x + w] = True
-                    assert drawn.any() and not (drawn & ~inside).any()
-                    assert values[("sketch", "color")].footprint is not None
-        finally:
-            footprint.ENABLED = True
-    for a, b in zip(out[True], out[False], strict=True):
-        for x, y in zip(a, b, strict=True):
-            np.testing.assert_array_equal(x, y)
+
+    def check(values):
+        lines = values[("lines", "out")]
+        fp = lines.footprint
+        assert fp is not None and fp.blank == (0.0,) and not footprint.covers_image(fp.rect, SIZE)
+        _assert_drawn_inside(lines, lines.read())
+        assert values[("sketch", "color")].footprint is not None
+
+    _both_ways(gl, pipeline, str(shared_mesh("spot.obj")), refs, refs, (0, 13), check)
 
 
 @pytest.mark.parametrize("name", ["spot.obj", "cow.obj", "builtin:torus"])
@@ -271,34 +271,16 @@ def test_lines_alone_lie_inside_their_footprint(gl, name):
     for values in _run(gl, text, [("l", "out")], frames=(0, 7, 21)):
         lines = values[("l", "out")]
         assert lines.footprint is not None and lines.footprint.blank == (0.0,)
-        x, y, w, h = lines.footprint.rect
-        drawn = lines.pixels[..., 0] != 0
-        inside = np.zeros(drawn.shape, bool)
-        inside[y:y + h, x:x + w] = True
-        assert drawn.any() and not (drawn & ~inside).any()
+        _assert_drawn_inside(lines, lines.pixels)
 
 
 def test_object_space_noise_is_bounded_and_its_sketch_drawn_inside_the_footprint(gl):
-    from tests.helpers import ROOT
-
     refs = [("noise", "out"), ("sketch", "color")]
-    out = {}
-    for on in (True, False):
-        footprint.ENABLED = on
-        try:
-            ex = Executor(pl.load(str(ROOT / "pipelines" / "object_space_uncertainty.yaml"), size=SIZE,
-                                  scene=str(shared_mesh("spot.obj"))), None, mode="loop", requested=refs, gl=gl)
-            out[on] = []
-            for f in (0, 8, 16):
-                values = ex.run(f).values
-                out[on].append([values[r].read_native() for r in refs])
-                noise = values[("noise", "out")]
-                assert (np.abs(noise.read()).max(axis=(0, 1)) <= np.asarray(noise.absmax)).all()
-                if on:
-                    fp = values[("sketch", "color")].footprint
-                    assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
-        finally:
-            footprint.ENABLED = True
-    for a, b in zip(out[True], out[False], strict=True):
-        for x, y in zip(a, b, strict=True):
-            np.testing.assert_array_equal(x, y)
+
+    def check(values):
+        noise = values[("noise", "out")]
+        assert (np.abs(noise.read()).max(axis=(0, 1)) <= np.asarray(noise.absmax)).all()
+        fp = values[("sketch", "color")].footprint
+        assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
+
+    _both_ways(gl, "object_space_uncertainty", str(shared_mesh("spot.obj")), refs, refs, (0, 8, 16), check)

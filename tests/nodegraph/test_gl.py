@@ -55,15 +55,13 @@ def test_read_uint8_and_png_rows_match_numpy(gl, rng, fmt):
             gl.release(tex)
 
 
-@pytest.mark.parametrize("fmt", FORMATS)
-def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt):
-    # only the footprint's fragments are packed and read back, the rest is the blank texel's bytes repeated:
-    # the same rows as the whole pass for rectangles inside, at and across the edges, and an empty one
+def _blank_outside(gl, rng, fmt: str, cases):
+    """For each ((w, h), rect): a texture of `fmt` holding random values inside `rect` and one random blank value
+    outside, with no footprint yet, the footprint to give it, and a label; released after use."""
     from nodegraph.values import Footprint
 
     c = types.components(fmt)
-    for (w, h), rect in [((80, 12), (7, 2, 30, 5)), ((80, 12), (0, 0, 80, 5)), ((96, 9), (50, 0, 46, 9)),
-                         ((48, 3), (1, 1, 1, 1)), ((64, 9), (10, 4, 0, 0)), ((160, 30), (33, 7, 91, 20))]:
+    for (w, h), rect in cases:
         blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
         values = _texture(gl, rng, fmt, w, h).read()
         x, y, rw, rh = rect
@@ -71,39 +69,37 @@ def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt)
         filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
         tex = gl.upload(filled, fmt)
         try:
-            whole, cw = gl.read_png_rows(tex)
-            tex.footprint = Footprint(rect, blank)
-            part, cp = gl.read_png_rows(tex)
-            assert cw == cp
-            np.testing.assert_array_equal(part, whole, err_msg=f"{fmt} {w}x{h} {rect}")
+            yield tex, Footprint(rect, blank), f"{fmt} {w}x{h} {rect}"
         finally:
             gl.release(tex)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt):
+    # only the footprint's fragments are packed and read back, the rest is the blank texel's bytes repeated:
+    # the same rows as the whole pass for rectangles inside, at and across the edges, and an empty one
+    cases = [((80, 12), (7, 2, 30, 5)), ((80, 12), (0, 0, 80, 5)), ((96, 9), (50, 0, 46, 9)),
+             ((48, 3), (1, 1, 1, 1)), ((64, 9), (10, 4, 0, 0)), ((160, 30), (33, 7, 91, 20))]
+    for tex, fp, label in _blank_outside(gl, rng, fmt, cases):
+        whole, cw = gl.read_png_rows(tex)
+        tex.footprint = fp
+        part, cp = gl.read_png_rows(tex)
+        assert cw == cp
+        np.testing.assert_array_equal(part, whole, err_msg=label)
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_yuv420_planes_of_a_texture_with_a_footprint_are_the_whole_planes(gl, rng, fmt):
     # only the fragments over the footprint are converted and read back, the rest is the blank pixel's Y, U, V
     # (odd sizes and rows of a width not a multiple of 4 convert the whole frame)
-    from nodegraph.values import Footprint
-
-    c = types.components(fmt)
-    for (w, h), rect in [((80, 12), (7, 2, 30, 5)), ((96, 64), (0, 0, 50, 64)), ((160, 48), (33, 7, 91, 20)),
-                         ((64, 30), (5, 5, 0, 0)), ((82, 30), (5, 5, 20, 9)), ((33, 17), (3, 3, 9, 9))]:
-        blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
-        values = _texture(gl, rng, fmt, w, h).read()
-        x, y, rw, rh = rect
-        filled = np.broadcast_to(np.asarray(blank, np.float32), values.shape).copy()
-        filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
-        tex = gl.upload(filled, fmt)
-        try:
-            whole = gl.read_yuv420(tex)
-            tex.footprint = Footprint(rect, blank)
-            part = gl.read_yuv420(tex)
-            for plane in ("y_even", "y_odd", "u", "v"):
-                np.testing.assert_array_equal(getattr(part, plane), getattr(whole, plane),
-                                              err_msg=f"{fmt} {w}x{h} {rect} {plane}")
-        finally:
-            gl.release(tex)
+    cases = [((80, 12), (7, 2, 30, 5)), ((96, 64), (0, 0, 50, 64)), ((160, 48), (33, 7, 91, 20)),
+             ((64, 30), (5, 5, 0, 0)), ((82, 30), (5, 5, 20, 9)), ((33, 17), (3, 3, 9, 9))]
+    for tex, fp, label in _blank_outside(gl, rng, fmt, cases):
+        whole = gl.read_yuv420(tex)
+        tex.footprint = fp
+        part = gl.read_yuv420(tex)
+        for plane in ("y_even", "y_odd", "u", "v"):
+            np.testing.assert_array_equal(getattr(part, plane), getattr(whole, plane), err_msg=f"{label} {plane}")
 
 
 def test_a_png_from_gpu_rows_is_the_png_of_the_values(gl, rng, tmp_path):
