@@ -260,10 +260,11 @@ def _cull_face(obj: Any, backfaces: str) -> str | None:
     return "front" if bool(getattr(obj, "mirrored", False)) else "back"
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[Any, float, np.ndarray, tuple]:
+def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float
+              ) -> tuple[Any, float, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """The program's vertex array over the mesh's buffers (per mesh content and crease angle), the
-    mesh's bounding-box diagonal, the object-space origin its positions are relative to, and the box of the
-    positions drawn with the largest component of an enlargement direction (lo, hi, s)."""
+    mesh's bounding-box diagonal, the object-space origin its positions are relative to, and the drawn
+    positions and enlargement directions as (3, N) float32 rows (for `_pixel_box`)."""
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
