@@ -270,10 +270,8 @@ class GL:
         key = ("blank8", tex.fmt, fp.blank, channels)
         hit = self.resources.get(key)
         if hit is None:
-            w, h = tex.size
             x, y, rw, rh = fp.rect
-            corner = next((cx, cy) for cx in (0, w - 1) for cy in (0, h - 1)
-                          if not (x <= cx < x + rw and y <= cy < y + rh))
+            corner = _corner_outside((x, y, x + rw, y + rh), tex.size)
             comps = types.components(tex.fmt)
             texel = np.empty(comps, np.float32)  # the value the pack pass fetches, as a float
             self.framebuffer([tex]).read_into(texel, viewport=(*corner, 1, 1), components=comps, alignment=1,
@@ -300,7 +298,7 @@ class GL:
 
         prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
         widths = (line, line, line // 2, line // 2)
-        part = self._yuv_part(tex, line)
+        part = self._yuv_part(tex, line, prog, fbo)
         if part is not None:
             # blank outside the footprint: only the fragments over it are converted and read back, the rest of
             # each plane is the blank pixel's Y, U and V (made once by the pass on a fragment outside)
@@ -326,10 +324,12 @@ class GL:
             planes.append(a)
         return Yuv420Planes((ew, eh), *planes)
 
-    def _yuv_part(self, tex: Tex, line: int) -> tuple[tuple[int, int, int, int], tuple[int, ...]] | None:
+    def _yuv_part(self, tex: Tex, line: int, prog: Any, fbo: Any
+                  ) -> tuple[tuple[int, int, int, int], tuple[int, ...]] | None:
         """For `read_yuv420` of a texture with a footprint (even size, rows a multiple of 4 pixels): the fragments
-        (x0, y0, x1, y1) of the pass that touch the footprint, and the blank pixel's (Y, Y, U, V), found by the
-        pass on a corner fragment outside and kept per format and blank value; None: convert the whole frame."""
+        (x0, y0, x1, y1) of the pass (`prog` into `fbo`) that touch the footprint, and the blank pixel's
+        (Y, Y, U, V), found by the pass on a corner fragment outside and kept per format and blank value; None:
+        convert the whole frame."""
         fp = footprint.of(tex)
         w, h = tex.size
         if fp is None or footprint.covers_image(fp.rect, (w, h)) or w % 4 or h % 2 or line != w:
@@ -342,15 +342,9 @@ class GL:
         key = ("blank_yuv", tex.fmt, fp.blank)
         blank = self.resources.get(key)
         if blank is None:
-            corner = next(((i, j) for i in (0, nx - 1) for j in (0, ny - 1)
-                           if not (frags[0] <= i < frags[2] and frags[1] <= j < frags[3])), None)
+            corner = _corner_outside(frags, (nx, ny))
             if corner is None:
                 return None
-            targets, fbo = self._yuv_targets((nx, ny))
-            c = 1 if types.components(tex.fmt) == 1 else 3
-            from .glsl import ENGINE_GLSL
-
-            prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
             fbo.scissor = (*corner, 1, 1)
             try:
                 self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
@@ -429,6 +423,13 @@ class GL:
         err = self.ctx.error
         if err != "GL_NO_ERROR":
             raise RuntimeError(f"OpenGL error: {err}")
+
+
+def _corner_outside(cells: tuple[int, int, int, int], size: tuple[int, int]) -> tuple[int, int] | None:
+    """A corner cell of a (w, h) grid outside cells [x0, x1) x [y0, y1), or None (they hold every corner)."""
+    x0, y0, x1, y1 = cells
+    w, h = size
+    return next(((i, j) for i in (0, w - 1) for j in (0, h - 1) if not (x0 <= i < x1 and y0 <= j < y1)), None)
 
 
 @dataclass

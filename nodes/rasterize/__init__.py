@@ -176,11 +176,11 @@ class Rasterize(Node):
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
                     model_view = u_view @ u_model  # the origins move only its translation
                     normal_view = np.linalg.inv(model_view[:3, :3]).T
+                    mvp = proj @ model_view
                     enlarge = self._enlarge(diag, model, scene_diag)
-                    rects.append(_pixel_box(proj @ model_view, points,
-                                            enlarge if self.params.enlarge > 0 else 0.0, (w, h)))
+                    rects.append(_pixel_box(mvp, points, enlarge if self.params.enlarge > 0 else 0.0, (w, h)))
                     bind(prog, {}, {
-                        "u_mvp": proj @ model_view, "u_view_z": tuple(float(c) for c in model_view[2]),
+                        "u_mvp": mvp, "u_view_z": tuple(float(c) for c in model_view[2]),
                         "u_normal_view": normal_view, "u_enlarge": enlarge,
                         "u_color": tuple(float(c) for c in obj.color),
                         "u_light": tuple(float(c) for c in light), "u_object_id": float(obj.index + 1),
