@@ -13,7 +13,7 @@ form), clipped to the image; an empty one is (x, y, 0, 0)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -101,3 +101,40 @@ def covers_image(rect: Rect | None, size: tuple[int, int]) -> bool:
     """Whether `rect` is the whole image (or unknown): a pass gains nothing from it."""
     return rect is None or (rect[0] <= 0 and rect[1] <= 0 and rect[0] + rect[2] >= size[0]
                             and rect[1] + rect[3] >= size[1])
+
+
+def blank_results(gl: Any, key: Any, inputs: Sequence[tuple[str, tuple[float, ...]]],
+                  run: Callable[[list[Any]], list[Any]]) -> list[tuple[float, ...]] | None:
+    """What a chain of passes writes at a pixel where everything it reads holds its blank value, for passes
+    whose output depends on the pixel only through what they fetch (filters, not noise by position).
+
+    `run` draws the passes on 1x1 textures of `inputs` (format and blank value each, in order) and returns
+    its 1x1 outputs; their texels are read back once and kept by `key` for the GL context. The programs and
+    uniforms are the full image's, and every fetch of a 1x1 texture, clamped, returns its one texel, so the
+    values carry the same bits the passes give outside their inputs' footprints (a sum of equal terms in
+    the same order). A pass's own formula for such a constant would have to match the shader's rounding and
+    signs (depth_edges gives its gradient -0.0 on a constant depth, and force_field's field differs between a
+    -0.0 and a 0.0 gradient); this asks the shader. None when a value is not finite."""
+    # by the blank values' bits: -0.0 == 0.0 (and hashes alike), but a pass may give different bits for them
+    cache_key = ("blank-results", key, tuple((fmt, np.asarray(blank, np.float32).tobytes()) for fmt, blank in inputs))
+    if cache_key in gl.resources:
+        return gl.resources[cache_key]
+    from . import types
+
+    sources = [gl.texture((1, 1), fmt, data=np.asarray(blank, np.float32).reshape(1, 1, -1), filter="nearest")
+               for fmt, blank in inputs]
+    outputs: list[Any] = []
+    try:
+        outputs = run(sources)
+        values = []
+        for tex in outputs:
+            comps = types.components(tex.fmt)
+            texel = np.empty(comps, np.float32)
+            gl.framebuffer([tex]).read_into(texel, viewport=(0, 0, 1, 1), components=comps, alignment=1, dtype="f4")
+            values.append(tuple(float(v) for v in texel))
+    finally:
+        for tex in sources + outputs:
+            gl.release(tex)
+    result = values if all(np.isfinite(v).all() for v in values) else None
+    gl.resources[cache_key] = result
+    return result

@@ -6,6 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
+from nodegraph import footprint
 from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
@@ -108,29 +109,61 @@ class DepthEdges(Node):
         return kernels.kernels(2.0, px_scale if self.params.reference_height == "pipeline" else 1.0)
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        p = self.params
-        gl = ctx.gl
         depth = inputs["depth"]
         size = depth.size
-        linear = p.mode == "linear"
+        ports = [port for port in _PORTS if port in needed]
         k = self.kernels(ctx.px_scale)
+        fp = footprint.of(depth)
+        rects = blanks = None
+        if fp is not None:
+            # outside the depth's footprint grown by the window (along x for the x pass, then along y) every
+            # fetch reads the blank depth: the outputs there are what the passes give on a constant
+            win = k.tent_r + k.sobel_r
+            across_rect = footprint.grow(fp.rect, win, 0, size)
+            rects = (across_rect, footprint.grow(across_rect, 0, win, size))
+            # linear depth's background 0 maps to 1 whatever the range: an animated camera's near and far planes
+            # need no new evaluation each frame
+            ranged = self.params.mode == "linear" and fp.blank[0] != 0.0
+            key = ("depth_edges", self.params.model_dump_json(), tuple(ports), depth.fmt, fp.blank, size[1],
+                   ctx.px_scale, self.depth_range(ctx) if ranged else None)
+            blanks = footprint.blank_results(
+                ctx.gl, key, [(depth.fmt, fp.blank)],
+                lambda src: list(self._draw(ctx, src[0], size[1], ports, k, keep_across=True).values()))
+            if blanks is None:
+                rects = None
+        return self._draw(ctx, depth, size[1], ports, k, rects, blanks)
+
+    def _draw(self, ctx: RunContext, depth: Any, height: int, ports: list[str], k: kernels.Kernels,
+              rects: tuple[Any, Any] | None = None, blanks: list[tuple[float, ...]] | None = None,
+              keep_across: bool = False) -> dict[str, Any]:
+        """The two passes over `depth` (the image's, or a 1x1 one for `footprint.blank_results`; `height`: the
+        image's, for the gradient's scale). `rects`/`blanks`: where each pass draws and the values outside (the
+        x pass's first, then the outputs'). `keep_across`: return the x pass's texture too, first."""
+        p = self.params
+        gl = ctx.gl
+        size = depth.size
+        linear = p.mode == "linear"
         weights = kernels.uniforms(k)
         across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
+        done = False
         try:
             gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear), **kernels.defines(k)}),
                           [across], textures={"t_depth": depth},
-                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0), **weights})
-            ports = [port for port in _PORTS if port in needed]
+                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0), **weights},
+                          rect=rects[0] if rects else None, blanks=blanks[:1] if blanks else None)
             defines: dict[str, Any] = {_PORTS[port]: i for i, port in enumerate(ports)}
             defines.update(PASS=1, **kernels.defines(k))
             targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
                        for port in ports}
             gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
                           textures={"t_x": across},
-                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(size[1]), **weights})
+                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(height), **weights},
+                          rect=rects[1] if rects else None, blanks=blanks[1:] if blanks else None)
+            done = keep_across
         finally:
-            gl.release(across)
-        return targets
+            if not done:
+                gl.release(across)
+        return {"across": across, **targets} if keep_across else targets
 
 
 NODE = DepthEdges

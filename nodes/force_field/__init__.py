@@ -6,6 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
@@ -57,24 +58,50 @@ class ForceField(Node):
             "furry lines, see docs/particles.md).")
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        p = self.params
-        gl = ctx.gl
         grad = inputs["gradient"]
         size = grad.size
         k = kernels.kernels(5.0, ctx.px_scale)
+        fp = footprint.of(grad)
+        rects = blanks = None
+        if fp is not None:
+            # outside the gradient's footprint grown by the window (along x for the x pass, then along y) every
+            # fetch reads the blank gradient: the field there is what the passes give on a constant
+            win = k.tent_r + k.sobel_r
+            across_rect = footprint.grow(fp.rect, win, 0, size)
+            rects = (across_rect, footprint.grow(across_rect, 0, win, size))
+            key = ("force_field", self.params.model_dump_json(), grad.fmt, fp.blank, ctx.px_scale)
+            blanks = footprint.blank_results(ctx.gl, key, [(grad.fmt, fp.blank)],
+                                             lambda src: list(self._draw(ctx, src[0], k, keep_across=True)))
+            if blanks is None:
+                rects = None
+        return {"out": self._draw(ctx, grad, k, rects, blanks)[-1]}
+
+    def _draw(self, ctx: RunContext, grad: Any, k: kernels.Kernels, rects: tuple[Any, Any] | None = None,
+              blanks: list[tuple[float, ...]] | None = None, keep_across: bool = False) -> list[Any]:
+        """The two passes over `grad` (the image's, or a 1x1 one for `footprint.blank_results`). `rects`/`blanks`:
+        where each pass draws and the values outside (the x pass's, then the field's). Returns [field], or
+        [x pass, field] with `keep_across`."""
+        p = self.params
+        gl = ctx.gl
+        size = grad.size
         weights, defs = kernels.uniforms(k), kernels.defines(k)
         across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
+        done = False
         try:
             gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0, **defs}), [across],
-                          textures={"t_gradient": grad}, uniforms={"u_clamp": p.clamp, **weights})
+                          textures={"t_gradient": grad}, uniforms={"u_clamp": p.clamp, **weights},
+                          rect=rects[0] if rects else None, blanks=blanks[:1] if blanks else None)
             out = ctx.target("out", size)
             gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1, "RESTORING": int(p.restoring == "gradient"),
                                                            **defs}),
                           [out], textures={"t_gradient": grad, "t_x": across},
-                          uniforms={"u_saturate": p.saturate, **weights})
+                          uniforms={"u_saturate": p.saturate, **weights},
+                          rect=rects[1] if rects else None, blanks=blanks[1:] if blanks else None)
+            done = keep_across
         finally:
-            gl.release(across)
-        return {"out": out}
+            if not done:
+                gl.release(across)
+        return [across, out] if keep_across else [out]
 
 
 NODE = ForceField

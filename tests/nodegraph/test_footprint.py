@@ -13,10 +13,18 @@ from nodegraph import footprint
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
 from nodegraph.glsl import ENGINE_GLSL
+from nodegraph.values import Footprint
 from tests import gltf_files as gf
 from tests.helpers import shared_mesh
 
 SIZE = (160, 120)
+
+
+def _assert_same_bits(a, b, what: str = "") -> None:
+    """Byte for byte, not by value: -0.0 and 0.0 are equal numbers, but not the same pixels."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    assert a.shape == b.shape and a.dtype == b.dtype, what
+    np.testing.assert_array_equal(a.view(np.uint8), b.view(np.uint8), err_msg=what)
 
 
 def _perspective(seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -182,7 +190,7 @@ def test_sketch_and_edges_drawn_inside_their_footprint_give_the_whole_pass(gl, n
             footprint.ENABLED = True
         for a, b in zip(with_fp, whole, strict=True):
             for ref in refs:
-                np.testing.assert_array_equal(a[ref].native, b[ref].native, err_msg=str(ref))
+                _assert_same_bits(a[ref].native, b[ref].native, str(ref))
                 assert b[ref].footprint is None
         if name != "builtin:cloister":  # the cloister's ground fills the view: nothing to leave out
             assert all(v[("s", "color")].footprint is not None for v in with_fp)
@@ -222,7 +230,7 @@ def _both_ways(gl, pipeline: str, scene: str | None, refs, compared, frames, che
             footprint.ENABLED = True
     for a, b in zip(out[True], out[False], strict=True):
         for x, y in zip(a, b, strict=True):
-            np.testing.assert_array_equal(x, y)
+            _assert_same_bits(x, y)
 
 
 def _assert_drawn_inside(tex, pixels) -> None:
@@ -284,3 +292,127 @@ def test_object_space_noise_is_bounded_and_its_sketch_drawn_inside_the_footprint
         assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
 
     _both_ways(gl, "object_space_uncertainty", str(shared_mesh("spot.obj")), refs, refs, (0, 8, 16), check)
+
+
+def _both_ways_text(gl, text: str, refs, frames) -> list:
+    """`_both_ways` for a pipeline given as text: the frames' values with footprints on (returned, read back
+    as they were made), and the same frames byte-identical with footprints off."""
+    out = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            ex = Executor(pl.loads(text, "t.yaml"), None, mode="loop", requested=refs, gl=gl)
+            out[on] = []
+            for f in frames:
+                values = ex.run(f).values
+                out[on].append({r: Read(values[r].read(), values[r].read_native(), values[r].footprint, None)
+                                for r in refs})
+        finally:
+            footprint.ENABLED = True
+    for a, b in zip(out[True], out[False], strict=True):
+        for r in refs:
+            _assert_same_bits(a[r].native, b[r].native, str(r))
+    return out[True]
+
+
+CURTIS = ("pipeline: t\nsize: [{w}, {h}]\nreference_size: {ref}\nscene: {scene}\nnodes:\n"
+          "  g: {{type: rasterize}}\n"
+          "  e: {{type: depth_edges, in: {{depth: g.{depth}}}, params: {params}}}\n"
+          "  f: {{type: force_field, in: {{gradient: e.gradient}}, params: {{restoring: {restoring}}}}}\n"
+          "outputs:\n  edges: e.edges\n  gradient: e.gradient\n  magnitude: e.magnitude\n  field: f.out\n")
+
+
+@pytest.mark.parametrize(("size", "ref", "depth", "params", "restoring"), [
+    ((160, 120), 800, "linear_depth", "{}", "rotated"),  # px_scale 0.15: weights that are not small integers
+    ((200, 200), 200, "linear_depth", "{threshold: 0.01}", "gradient"),  # px_scale 1: the seed's filters
+    ((150, 100), 64, "depth", "{mode: window, reference_height: 100}", "rotated"),  # px_scale > 1, window depth
+])
+@pytest.mark.parametrize("name", ["spot.obj", "builtin:torus"])
+def test_depth_edges_and_the_force_field_drawn_inside_their_footprints_give_the_whole_passes(
+        gl, name, size, ref, depth, params, restoring):
+    # outside the depth's footprint grown by the filter windows the passes give what they give on a constant,
+    # asked of the shaders on 1x1 textures (footprint.blank_results): the same bytes as the whole passes
+    # (a Sobel difference of a constant is -0.0 or 0.0 by its sum's order; the test would see a wrong sign)
+    text = CURTIS.format(w=size[0], h=size[1], ref=ref, scene=_scene(name), depth=depth, params=params,
+                         restoring=restoring)
+    refs = [("e", "edges"), ("e", "gradient"), ("e", "magnitude"), ("f", "out")]
+    for values in _both_ways_text(gl, text, refs, (0, 6)):
+        for r in refs:
+            fp = values[r].footprint
+            assert fp is not None and not footprint.covers_image(fp.rect, size), r
+            x, y, w, h = fp.rect
+            outside = np.ones(size[::-1], bool)
+            outside[y:y + h, x:x + w] = False
+            px = values[r].native.reshape(size[1], size[0], -1)
+            assert (px[outside] == px[outside][:1]).all(), f"{r}: not one value outside the footprint"
+        edges = values[("e", "edges")]
+        assert edges.pixels.any() and edges.footprint.blank == (0.0,)
+
+
+def test_loose_and_sketchy_draws_its_filters_inside_their_footprints(gl):
+    refs = [("edges", "edges"), ("field", "out"), ("particles", "image")]
+
+    def check(values):
+        for r in refs[:2]:
+            fp = values[r].footprint
+            assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
+
+    _both_ways(gl, "loose_and_sketchy", str(shared_mesh("cow.obj")), refs, refs, (0, 5), check)
+
+
+def _tight(gl, rng, size, rect, fmt, blank, values):
+    """A texture holding `values(n)` (random, none of them the blank) on every pixel of `rect` and `blank`
+    elsewhere, with exactly that footprint: content right up to the rectangle's sides, so a window grown too
+    little shows."""
+    w, h = size
+    comps = len(blank)
+    a = np.empty((h, w, comps), np.float32)
+    a[:] = blank
+    x, y, rw, rh = rect
+    a[y:y + rh, x:x + rw] = values((rh, rw, comps))
+    tex = gl.upload(a, fmt, filter="nearest")
+    tex.footprint = Footprint(rect, tuple(float(b) for b in blank))
+    return tex
+
+
+@pytest.mark.parametrize("reference", [None, 37, 200])  # px_scale 1 (the seed's), > 1, < 1
+@pytest.mark.parametrize("mode", ["window", "linear"])
+def test_curtis_filters_on_a_tight_footprint_give_the_whole_passes(gl, rng, reference, mode):
+    from nodegraph_nodes.depth_edges import DepthEdges
+    from nodegraph_nodes.force_field import ForceField
+
+    from tests.helpers import run_node
+
+    size, rect = (90, 70), (31, 17, 23, 29)
+    blank = (1.0,) if mode == "window" else (0.0,)
+    lo, hi = (0.2, 0.9) if mode == "window" else (2.0, 9.0)
+    depth = _tight(gl, rng, size, rect, "R32F", blank, lambda s: rng.uniform(lo, hi, s))
+    edges = DepthEdges("de", DepthEdges.Params(mode=mode, range=None if mode == "window" else (1.0, 10.0),
+                                               threshold=0.02))
+    field = ForceField("ff", ForceField.Params())
+    grads = []
+    outs = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            e = run_node(gl, edges, {"depth": depth}, size, reference_size=reference)
+            grads.append(e["gradient"])
+            f = run_node(gl, field, {"gradient": e["gradient"]}, size, reference_size=reference)
+            outs[on] = {**{p: t.read_native() for p, t in e.items()}, "field": f["out"].read_native()}
+            if on:
+                assert all(t.footprint is not None for t in (*e.values(), f["out"]))
+                assert not footprint.covers_image(f["out"].footprint.rect, size)
+        finally:
+            footprint.ENABLED = True
+    for port in outs[True]:
+        _assert_same_bits(outs[True][port], outs[False][port], port)
+    # the field on a gradient of its own tight footprint (not depth_edges' margin)
+    g = _tight(gl, rng, size, rect, "RG32F", (0.0, 0.0), lambda s: rng.uniform(-0.3, 0.3, s))
+    got = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            got[on] = run_node(gl, field, {"gradient": g}, size, reference_size=reference)["out"].read_native()
+        finally:
+            footprint.ENABLED = True
+    _assert_same_bits(got[True], got[False])
