@@ -7,6 +7,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 
@@ -75,12 +76,17 @@ class ObjectNoise(Node):
         cell, frac = noise.seed_offset_parts(ctx.seed)
         size = inputs["position"].size
         out = ctx.target("out", size)
-        gl.fullscreen(prog, [out], textures={"t_position": inputs["position"]},
+        # outside the position's footprint nothing was drawn (coverage 0): the background, written by a clear
+        fp = footprint.of(inputs["position"])
+        rect = fp.rect if fp is not None and len(fp.blank) == 4 and fp.blank[3] <= 0.0 else None
+        background = tuple(float(b) for b in p.background)
+        gl.fullscreen(prog, [out], textures={"t_position": inputs["position"]}, rect=rect,
+                      blanks=[background] if rect is not None else None,
                       uniforms={"u_scale": float(np.float32(self.frequency(ctx.scene))),
                                 "u_seed_cell": tuple(int(c) for c in cell),
                                 "u_seed_frac": tuple(float(f) for f in frac),
                                 "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
-                                "u_background": tuple(float(b) for b in p.background)})
+                                "u_background": background})
         # |value| bound for consumers that shift lookups by it (sketch's footprint): the noise, or the background
         b = noise.octaves_bound(p.octaves)
         out.absmax = tuple(max(b, abs(float(v))) for v in p.background)

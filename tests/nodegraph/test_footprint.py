@@ -288,6 +288,7 @@ def test_object_space_noise_is_bounded_and_its_sketch_drawn_inside_the_footprint
     def check(values):
         noise = values[("noise", "out")]
         assert (np.abs(noise.read()).max(axis=(0, 1)) <= np.asarray(noise.absmax)).all()
+        assert noise.footprint is not None and not footprint.covers_image(noise.footprint.rect, SIZE)
         fp = values[("sketch", "color")].footprint
         assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
 
@@ -416,3 +417,30 @@ def test_curtis_filters_on_a_tight_footprint_give_the_whole_passes(gl, rng, refe
         finally:
             footprint.ENABLED = True
     _assert_same_bits(got[True], got[False])
+
+
+@pytest.mark.parametrize("background", [(0.0, 0.0), (0.3, -0.0), (-1.5, 2.0)])
+def test_object_noise_on_a_tight_footprint_gives_the_whole_pass(gl, rng, background):
+    from nodegraph_nodes.object_noise import ObjectNoise
+
+    from tests.helpers import run_node
+
+    size, rect = (90, 70), (12, 30, 41, 33)
+
+    def positions(shape):  # covered texels (alpha 1) at points of a unit box
+        return np.concatenate([rng.uniform(-1, 1, shape[:2] + (3,)), np.ones(shape[:2] + (1,))], axis=2)
+
+    pos = _tight(gl, rng, size, rect, "RGBA32F", (0.0, 0.0, 0.0, 0.0), positions)
+    node = ObjectNoise("n", ObjectNoise.Params(background=background, scale=3.0))
+    got = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            out = run_node(gl, node, {"position": pos}, size)["out"]
+            got[on] = out.read_native()
+            if on:
+                assert out.footprint is not None and out.footprint.rect == rect
+        finally:
+            footprint.ENABLED = True
+    _assert_same_bits(got[True], got[False])
+    assert (np.signbit(got[True][0, 0]) == np.signbit(np.float32(background))).all()
