@@ -14,7 +14,9 @@ uniform mat4 u_mvp;          // u_proj u_view u_model
 uniform vec4 u_view_z;       // the third row of u_view u_model: view-space z of a point
 uniform mat3 u_normal_view;  // inverse-transpose of (view * model), upper 3x3
 out vec3 v_normal;
-out vec3 v_object;
+#ifdef LOC_POSITION
+out vec3 v_object;   // only where `position` is written: an unused varying still costs llvmpipe its setup
+#endif
 out float v_view_depth;
 void main() {
 #if ENLARGE
@@ -24,13 +26,17 @@ void main() {
 #endif
     vec4 q = vec4(p, 1.0);
     v_normal = u_normal_view * in_normal;
+#ifdef LOC_POSITION
     v_object = p;
+#endif
     v_view_depth = -dot(u_view_z, q);
     gl_Position = u_mvp * q;
 }
 #elif defined FRAGMENT_SHADER
 in vec3 v_normal;
+#ifdef LOC_POSITION
 in vec3 v_object;
+#endif
 in float v_view_depth;
 uniform vec3 u_color;
 uniform vec3 u_light;        // view-space unit direction towards the light
