@@ -121,6 +121,9 @@ class Loaded:
     kind: str  # "texture" | "texture_array" | "strokes" | "arrays"
     data: Any  # np.ndarray (H,W,C) float16 or float32 / (L,H,W,C), Strokes or Arrays
     fmt: str | None = None
+    # a texture's footprint and value bound as its node gave them (`values.Tex`), stored beside the pixels
+    footprint: Any = None
+    absmax: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -339,6 +342,8 @@ class Cache:
         kind = kind_of(value)
         if kind is None:
             return False
+        if kind == "texture":
+            meta = self._texture_meta(value, meta)
         if kind == "texture" and types.numpy_dtype(value.fmt) == np.float16:
             # half textures are read and written as half: no conversion to float32 and back
             self.store(key, port, kind, value.read_native(), meta, value.fmt, background=background)
@@ -347,6 +352,17 @@ class Cache:
         else:
             self.store(key, port, kind, value, meta, background=background)
         return True
+
+    def _texture_meta(self, value: Any, meta: dict[str, Any]) -> dict[str, Any]:
+        """`meta` with a texture's footprint and value bound, written beside its pixels, so a texture loaded from
+        the cache is drawn from only where its node drew (`nodegraph.footprint`)."""
+        extra = {}
+        fp = getattr(value, "footprint", None)
+        if fp is not None:
+            extra["footprint"] = {"rect": [int(v) for v in fp.rect], "blank": [float(v) for v in fp.blank]}
+        if getattr(value, "absmax", None) is not None:
+            extra["absmax"] = [float(v) for v in value.absmax]
+        return {**meta, **extra} if extra else meta
 
     def store(self, key: str, port: str, kind: str, data: Any, meta: dict[str, Any], fmt: str | None = None,
               background: bool = False) -> None:
@@ -645,6 +661,9 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
         spec.attribute(k, v)
     spec.attribute("sketchgraph:fmt", fmt)
     spec.attribute("sketchgraph:kind", "texture")
+    drawn = {k: meta[k] for k in ("footprint", "absmax") if k in meta}
+    if drawn:
+        spec.attribute("sketchgraph:drawn", json.dumps(drawn))  # -0.0 stays -0.0 in JSON
     out = oiio.ImageOutput.create(path if path.endswith(".exr") else path + ".exr")
     if out is None:
         raise OSError(oiio.geterror())
@@ -716,7 +735,31 @@ def _read_exr(path: Path, key: str, port: str = "", expect: Expect | None = None
         inp.close()
     arr = np.asarray(pixels, dtype=np.float16 if half else np.float32)
     arr = arr.reshape(spec.height, spec.width, spec.nchannels)[::-1]
-    return Loaded("texture", np.ascontiguousarray(arr), fmt)
+    fp, absmax = _drawn(spec.get_string_attribute("sketchgraph:drawn"), spec.width, spec.height, spec.nchannels)
+    return Loaded("texture", np.ascontiguousarray(arr), fmt, fp, absmax)
+
+
+def _drawn(text: str | None, w: int, h: int, c: int) -> tuple[Any, tuple[float, ...] | None]:
+    """The footprint and value bound stored with a texture entry (None for what is missing or does not fit the
+    entry: an entry is used without them rather than refused)."""
+    if not text:
+        return None, None
+    from .values import Footprint
+
+    try:
+        d = json.loads(text)
+        fp = d.get("footprint")
+        footprint = None
+        if fp is not None:
+            rect = tuple(int(v) for v in fp["rect"])
+            blank = tuple(float(v) for v in fp["blank"])
+            x, y, rw, rh = rect
+            if len(rect) == 4 and len(blank) == c and min(rect) >= 0 and x + rw <= w and y + rh <= h:
+                footprint = Footprint(rect, blank)  # type: ignore[arg-type]
+        absmax = tuple(float(v) for v in d["absmax"]) if d.get("absmax") is not None else None
+        return footprint, absmax
+    except (ValueError, TypeError, KeyError, AttributeError):
+        return None, None
 
 
 def _write_npz(path: str, kind: str, data: Any, key: str, port: str, meta: dict[str, Any], fmt: str | None) -> None:

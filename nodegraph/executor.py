@@ -399,7 +399,10 @@ class Executor:
             arr = loaded.data
             if arr.shape[2] != types.components(fmt):
                 raise PipelineError(f"cache entry for {nid}.{port} has {arr.shape[2]} channels, expected {fmt}")
-            return self.gl.upload(arr, fmt)
+            tex = self.gl.upload(arr, fmt)
+            if fmt == loaded.fmt:  # the stored values, so the stored blank, exactly
+                tex.footprint, tex.absmax = loaded.footprint, loaded.absmax
+            return tex
         if loaded.kind == "texture_array":
             data = loaded.data
             fmt = loaded.fmt or "R8"

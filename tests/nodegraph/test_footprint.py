@@ -444,3 +444,48 @@ def test_object_noise_on_a_tight_footprint_gives_the_whole_pass(gl, rng, backgro
             footprint.ENABLED = True
     _assert_same_bits(got[True], got[False])
     assert (np.signbit(got[True][0, 0]) == np.signbit(np.float32(background))).all()
+
+
+def test_textures_from_the_disk_cache_keep_their_footprints(gl, tmp_path):
+    # an edit downstream (the sketch's matrices) in a new process-like executor: the G-buffer, edges and noise
+    # come from the disk cache with the footprints and bound their nodes gave them, and the sketch drawn inside
+    # them gives the whole pass's pixels
+    from nodegraph.cache import Cache
+
+    def cache():
+        c = Cache(tmp_path / "c")
+        c.ms_per_mb = 0.0  # every entry is worth writing
+        return c
+
+    upstream = [("g", "color"), ("g", "normal_depth"), ("g", "depth"), ("e", "out"), ("n", "out")]
+    refs = [*upstream, ("s", "color")]
+    texts = [SKETCHY.format(w=SIZE[0], h=SIZE[1], scene=_scene("spot.obj"), noise="{scale: 0.01, octaves: 4}",
+                            em=em, sm=sm) for em, sm in (SHIPPED, WIDE)]
+    ex = Executor(pl.loads(texts[0], "t.yaml"), cache(), requested=refs, gl=gl)
+    made = ex.run(0).values
+    facts = {r: (made[r].footprint, made[r].absmax) for r in upstream}
+    ex.close()
+    # the G-buffer and the edges have footprints, the noise (everywhere) a bound on its values
+    assert all(facts[r][0] is not None for r in upstream[:4]) and facts[("n", "out")][1] is not None
+    ex = Executor(pl.loads(texts[1], "t.yaml"), cache(), requested=refs, gl=gl)
+    res = ex.run(0)
+    assert {res.stats[n].status for n in ("g", "e", "n")} == {"disk"} and res.stats["s"].status == "computed"
+    for r in upstream:
+        fp, absmax = facts[r]
+        got = res.values[r]
+        assert got.absmax == absmax
+        if fp is None:
+            assert got.footprint is None
+            continue
+        assert got.footprint is not None and got.footprint.rect == fp.rect, r
+        _assert_same_bits(np.float32(got.footprint.blank), np.float32(fp.blank), str(r))
+    sketch = res.values[("s", "color")]
+    assert sketch.footprint is not None and not footprint.covers_image(sketch.footprint.rect, SIZE)
+    drawn = sketch.read_native()
+    ex.close()
+    footprint.ENABLED = False
+    try:
+        whole = Executor(pl.loads(texts[1], "t.yaml"), None, requested=refs, gl=gl).run(0).values
+        _assert_same_bits(drawn, whole[("s", "color")].read_native())
+    finally:
+        footprint.ENABLED = True
