@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture, TextureArray
 
@@ -85,6 +86,23 @@ class Contour(Node):
                     "u_grain": p.grain, "u_pressure": self.pressures(ctx.seed, layers).astype(np.float32),
                     "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint}
         fbo = ctx.gl.framebuffer([targets[port] for port in ports])
+        rect = self._rect(inputs["edges"], dist, size)
+        if rect is not None and "color" not in targets:  # the value alone: 1 outside, a footprint
+            ctx.gl.fullscreen(prog, [targets["out"]], textures=textures, uniforms=uniforms, rect=rect, blanks=[(1.0,)])
+            return targets
+        if rect is not None:
+            # outside the edges' footprint grown by the largest shift the value is 1: only the paper is drawn
+            # there (a cheap pass over the whole image), and the attempts inside the rectangle
+            ctx.gl.fullscreen(ctx.program("contour.glsl", {**defines, "OUTSIDE": 1}),
+                              [targets[port] for port in ports], textures={"t_paper": paper} if paper else {},
+                              uniforms={**uniforms, "u_outside": 1.0}, fbo=fbo)
+            fbo.scissor = rect
+            try:
+                ctx.gl.fullscreen(prog, [targets[port] for port in ports], textures=textures, uniforms=uniforms,
+                                  fbo=fbo)
+            finally:
+                fbo.scissor = None
+            return targets
         box = None
         if ctx.scene is not None and "color" not in targets:
             # edges lie on the objects and attempts are shifted by at most MAX_AMPLITUDE x height: only
@@ -98,6 +116,18 @@ class Contour(Node):
         finally:
             fbo.scissor = None
         return targets
+
+    @staticmethod
+    def _rect(edges: Any, dist: Any, size: tuple[int, int]) -> tuple[int, int, int, int] | None:
+        """Where an attempt can read an edge: the edges' footprint (blank 0) grown by the largest shift, each
+        offset component at most MAX_AMPLITUDE x the distortion's height (distortion_map bounds its amplitude
+        by it), plus the bilinear texel and a margin. None: unknown (no footprint), or the whole image."""
+        fp = footprint.of(edges)
+        if fp is None or fp.blank[0] != 0.0:
+            return None
+        reach = int(np.ceil(MAX_AMPLITUDE * max(size[1], dist.size[1]))) + 2
+        rect = footprint.grow(fp.rect, reach, reach, size)
+        return None if footprint.covers_image(rect, size) else rect
 
 
 NODE = Contour

@@ -25,7 +25,20 @@ layout(location = LOC_OUT) out float o_out;
 layout(location = LOC_COLOR) out vec4 o_color;
 #endif
 
+#if OUTSIDE
+// Where every attempt reads no edge (outside the edges' footprint grown by the largest shift) each attempt's
+// factor is exactly 1, so the value is 1 and only the paper is computed. u_outside is that 1, a uniform, so
+// the colour below is the same arithmetic on the same numbers as the full pass gives there.
+uniform float u_outside;
+#endif
+
 void main() {
+#if OUTSIDE
+#if PAPER
+    vec4 grain = texelFetch(t_paper, ivec2(mod(gl_FragCoord.xy, vec2(textureSize(t_paper, 0)))), 0);
+#endif
+    float value = u_outside;
+#else
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec2 size = vec2(textureSize(t_edges, 0));
     ivec2 maxpx = textureSize(t_normal_depth, 0) - 1;
@@ -52,9 +65,11 @@ void main() {
     float value = 1.0;
     for (int k = 0; k < LAYERS; ++k) {
         vec2 p = k == 0 ? p0 : gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, k), 0).xy;
-        float e = texture(t_edges, p / size).r;
-        value *= 1.0 - clamp(stroke * u_pressure[k] * clamp(e, 0.0, 1.0), 0.0, 1.0);
+        float e = clamp(texture(t_edges, p / size).r, 0.0, 1.0);
+        // no edge, no graphite: exactly 1 whatever the stroke (even one made NaN by a degenerate normal)
+        value *= e > 0.0 ? 1.0 - clamp(stroke * u_pressure[k] * e, 0.0, 1.0) : 1.0;
     }
+#endif
 #ifdef LOC_OUT
     o_out = value;
 #endif

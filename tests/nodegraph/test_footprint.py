@@ -489,3 +489,54 @@ def test_textures_from_the_disk_cache_keep_their_footprints(gl, tmp_path):
         _assert_same_bits(drawn, whole[("s", "color")].read_native())
     finally:
         footprint.ENABLED = True
+
+
+@pytest.mark.parametrize("pipeline", ["pencil_contours", "pencil"])
+def test_contours_drawn_inside_the_edges_footprint_give_the_whole_pass(gl, pipeline):
+    # pencil_contours asks for the colour (the paper everywhere, the attempts inside the edges' footprint grown
+    # by the largest shift), pencil for the value alone (1 outside: a footprint of its own)
+    refs = [("contour", "color")] if pipeline == "pencil_contours" else [("contour", "out"), ("shade", "color")]
+
+    def check(values):
+        if pipeline == "pencil":
+            fp = values[("contour", "out")].footprint
+            assert fp is not None and fp.blank == (1.0,) and not footprint.covers_image(fp.rect, SIZE)
+
+    _both_ways(gl, pipeline, str(shared_mesh("spot.obj")), refs, refs, (0, 7), check)
+
+
+@pytest.mark.parametrize("ports", [("out", "color"), ("out",)])
+def test_contours_on_a_tight_footprint_give_the_whole_pass(gl, rng, ports):
+    # edges right up to their rectangle's sides, the largest shifts the distortion allows, and surface pixels
+    # with a degenerate normal outside the footprint: no edge there, so bare paper either way (llvmpipe's clamp
+    # already turns the NaN of normalize(0) into a number; the shader's guard, a factor of exactly 1 where no
+    # edge is read, keeps it so on drivers whose clamp passes a NaN on)
+    from nodegraph_nodes._shared.pencil import MAX_AMPLITUDE
+    from nodegraph_nodes.contour import Contour
+
+    from nodegraph.node import RunContext
+
+    size, rect = (96, 80), (30, 25, 27, 22)
+    w, h = size
+    edges = _tight(gl, rng, size, rect, "R16F", (0.0,), lambda s: rng.uniform(0.05, 1.0, s))
+    a = MAX_AMPLITUDE * h
+    dist = rng.choice([-a, a], (3, h, w, 2)).astype(np.float32)
+    nd = np.concatenate([rng.normal(size=(h, w, 3)), rng.uniform(1, 5, (h, w, 1))], axis=2).astype(np.float32)
+    nd[:5, :5, :3] = 0.0  # normalize(0) is NaN
+    inputs = {"edges": edges, "normal_depth": gl.upload(nd, "RGBA16F"),
+              "distortion": gl.texture_array(size, 3, "RG16F", dist, repeat=False, mipmaps=False),
+              "paper": gl.upload(rng.uniform(-1, 1, (32, 32, 4)).astype(np.float32), "RGBA16F")}
+    node = Contour("c", Contour.Params())
+    got = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            out = node.compute(RunContext(node, gl=gl, size=size, pipeline_seed=3), inputs, frozenset(ports))
+            got[on] = {p: t.read_native() for p, t in out.items()}
+            if on and ports == ("out",):
+                assert out["out"].footprint is not None and out["out"].footprint.blank == (1.0,)
+        finally:
+            footprint.ENABLED = True
+    for p in ports:
+        _assert_same_bits(got[True][p], got[False][p], p)
+    assert (got[False]["out"][:5, :5] == 1.0).all()  # the degenerate normals far from any edge: bare paper
