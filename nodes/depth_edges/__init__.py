@@ -118,9 +118,7 @@ class DepthEdges(Node):
         if fp is not None:
             # outside the depth's footprint grown by the window (along x for the x pass, then along y) every
             # fetch reads the blank depth: the outputs there are what the passes give on a constant
-            win = k.tent_r + k.sobel_r
-            across_rect = footprint.grow(fp.rect, win, 0, size)
-            rects = (across_rect, footprint.grow(across_rect, 0, win, size))
+            rects = kernels.pass_rects(fp.rect, k, size)
             # linear depth's background 0 maps to 1 whatever the range: an animated camera's near and far planes
             # need no new evaluation each frame
             ranged = self.params.mode == "linear" and fp.blank[0] != 0.0

@@ -66,9 +66,7 @@ class ForceField(Node):
         if fp is not None:
             # outside the gradient's footprint grown by the window (along x for the x pass, then along y) every
             # fetch reads the blank gradient: the field there is what the passes give on a constant
-            win = k.tent_r + k.sobel_r
-            across_rect = footprint.grow(fp.rect, win, 0, size)
-            rects = (across_rect, footprint.grow(across_rect, 0, win, size))
+            rects = kernels.pass_rects(fp.rect, k, size)
             key = ("force_field", self.params.model_dump_json(), grad.fmt, fp.blank, ctx.px_scale)
             blanks = footprint.blank_results(ctx.gl, key, [(grad.fmt, fp.blank)],
                                              lambda src: list(self._draw(ctx, src[0], k, keep_across=True)))
