@@ -121,8 +121,11 @@ def blank_results(gl: Any, key: Any, inputs: Sequence[tuple[str, tuple[float, ..
         return gl.resources[cache_key]
     from . import types
 
-    sources = [gl.texture((1, 1), fmt, data=np.asarray(blank, np.float32).reshape(1, 1, -1), filter="nearest")
-               for fmt, blank in inputs]
+    # each source holds its blank as a clear stores it, which is how the passes' targets got it outside their
+    # footprints (`GL.fullscreen(rect=, blanks=)`): the same conversion to the format, whatever its rounding
+    sources = [gl.texture((1, 1), fmt, filter="nearest") for fmt, _ in inputs]
+    for tex, (_, blank) in zip(sources, inputs, strict=True):
+        gl.framebuffer([tex]).clear(*(tuple(float(b) for b in blank) + (0.0,) * (4 - len(blank))))
     outputs: list[Any] = []
     try:
         outputs = run(sources)

@@ -6,6 +6,7 @@ from typing import Any, Literal
 
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.errors import NodeError
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
@@ -60,11 +61,29 @@ class Composite(Node):
                                 f"{base.size[0]}x{base.size[1]}; composite needs equal sizes", self.id, self.type_name)
         defines = {"MODE": int(p.mode == "multiply"), "HAS_TOP": int("top" in inputs),
                    "HAS_MASK": int("mask" in inputs)}
-        out = ctx.target("color", base.size)
-        ctx.gl.fullscreen(ctx.program("composite.glsl", defines), [out],
-                          textures={f"t_{name}": inputs[name] for name in ("base", "top", "mask") if name in inputs},
-                          uniforms={"u_color": tuple(p.color), "u_opacity": p.opacity})
-        return {"color": out}
+        prog = ctx.program("composite.glsl", defines)
+        names = [name for name in ("base", "top", "mask") if name in inputs]
+        uniforms = {"u_color": tuple(p.color), "u_opacity": p.opacity}
+
+        def draw(textures: list[Any], rect: Any = None, blanks: Any = None) -> Any:
+            out = ctx.target("color", textures[0].size)  # 1x1 for `footprint.blank_results`
+            ctx.gl.fullscreen(prog, [out], textures={f"t_{n}": t for n, t in zip(names, textures, strict=True)},
+                              uniforms=uniforms, rect=rect, blanks=blanks)
+            return out
+
+        fps = [footprint.of(inputs[name]) for name in names]
+        if all(fp is not None for fp in fps):
+            # per pixel, so outside the union of the inputs' footprints every pixel is the composite of their
+            # blank values: asked of the pass itself on 1x1 blank inputs
+            rect = footprint.union(fp.rect for fp in fps)  # type: ignore[union-attr]
+            if not footprint.covers_image(rect, base.size):
+                sources = [(inputs[n].fmt, fp.blank) for n, fp in zip(names, fps, strict=True)]  # type: ignore[union-attr]
+                key = ("composite", p.model_dump_json(), tuple(sorted(defines.items())), ctx.format("color"),
+                       tuple(sources))
+                blanks = footprint.blank_results(ctx.gl, key, sources, lambda src: [draw(src)])
+                if blanks is not None:
+                    return {"color": draw([inputs[n] for n in names], rect, blanks)}
+        return {"color": draw([inputs[n] for n in names])}
 
 
 NODE = Composite

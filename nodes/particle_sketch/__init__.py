@@ -15,10 +15,11 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from nodegraph import footprint
 from nodegraph.errors import NodeError
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import STROKES, Texture
-from nodegraph.values import Strokes
+from nodegraph.values import Footprint, Strokes
 
 from . import core
 
@@ -153,15 +154,40 @@ class ParticleSketch(Node):
         if "ink" in needed or "image" in needed:
             # the ink at its planned format when it is an output; otherwise float32, uploaded as is
             ink = gl.upload(res.sketch, ctx.format("ink") if "ink" in needed else "R32F")
+            ink.footprint = _ink_footprint(res.sketch)  # no ink outside the strokes' pixels
             if "image" in needed:
                 out["image"] = ctx.target("image", size)
-                gl.fullscreen(ctx.program("particle_sketch.glsl"), [out["image"]], textures={"t_ink": ink},
-                              uniforms={"u_color": tuple(p.color), "u_paper": tuple(p.paper)})
+                prog = ctx.program("particle_sketch.glsl")
+                uniforms = {"u_color": tuple(p.color), "u_paper": tuple(p.paper)}
+                rect = blanks = None
+                if ink.footprint is not None and footprint.ENABLED:
+                    # outside the ink, the paper: what the pass gives on no ink, asked of the pass itself
+                    key = ("particle_sketch", tuple(p.color), tuple(p.paper), ink.fmt, out["image"].fmt)
+
+                    def one(src: list[Any]) -> list[Any]:
+                        img = gl.texture((1, 1), out["image"].fmt)
+                        gl.fullscreen(prog, [img], textures={"t_ink": src[0]}, uniforms=uniforms)
+                        return [img]
+
+                    blanks = footprint.blank_results(gl, key, [(ink.fmt, (0.0,))], one)
+                    rect = ink.footprint.rect if blanks is not None else None
+                gl.fullscreen(prog, [out["image"]], textures={"t_ink": ink}, uniforms=uniforms, rect=rect,
+                              blanks=blanks)
             if "ink" in needed:
                 out["ink"] = ink
             else:
                 gl.release(ink)
         return out
+
+
+def _ink_footprint(sketch: np.ndarray) -> Footprint:
+    """The pixels holding ink (`sketch`: (H, W) coverage, row 0 at the bottom as uploaded): their bounding
+    rectangle, 0 outside it (an empty rectangle for a drawing without strokes). About 0.5 ms at 800x800."""
+    rows = np.flatnonzero(sketch.any(axis=1))
+    if rows.size == 0:
+        return Footprint((0, 0, 0, 0), (0.0,))
+    cols = np.flatnonzero(sketch.any(axis=0))
+    return Footprint((int(cols[0]), int(rows[0]), int(cols[-1] - cols[0] + 1), int(rows[-1] - rows[0] + 1)), (0.0,))
 
 
 NODE = ParticleSketch

@@ -540,3 +540,53 @@ def test_contours_on_a_tight_footprint_give_the_whole_pass(gl, rng, ports):
     for p in ports:
         _assert_same_bits(got[True][p], got[False][p], p)
     assert (got[False]["out"][:5, :5] == 1.0).all()  # the degenerate normals far from any edge: bare paper
+
+
+def test_particle_ink_and_its_composite_are_drawn_inside_their_footprints(gl):
+    # the ink's footprint is its strokes' bounding rectangle; the drawing and the shaded pipeline's composite
+    # (the sketch under the ink) are drawn inside the union of their inputs' footprints
+    refs = [("particles", "ink"), ("ink", "color"), ("shade", "color")]
+
+    def check(values):
+        ink = values[("particles", "ink")]
+        assert ink.footprint is not None and ink.footprint.blank == (0.0,)
+        _assert_drawn_inside(ink, ink.read())
+        x, y, w, h = ink.footprint.rect  # tight: ink on each side of the rectangle
+        px = ink.read()[..., 0]
+        assert px[y, x:x + w].any() and px[y + h - 1, x:x + w].any()
+        assert px[y:y + h, x].any() and px[y:y + h, x + w - 1].any()
+        fp = values[("ink", "color")].footprint
+        assert fp is not None and not footprint.covers_image(fp.rect, SIZE)
+
+    _both_ways(gl, "loose_and_sketchy_shaded", str(shared_mesh("spot.obj")), refs, refs, (0, 4), check)
+
+
+@pytest.mark.parametrize(("mode", "opacity", "top"), [("over", 1.0, False), ("multiply", 0.7, False),
+                                                      ("over", 0.5, True)])
+def test_a_composite_on_tight_footprints_gives_the_whole_pass(gl, rng, mode, opacity, top):
+    from nodegraph_nodes.composite import Composite
+
+    from tests.helpers import run_node
+
+    size = (90, 70)
+    inputs = {
+        "base": _tight(gl, rng, size, (10, 12, 30, 25), "RGBA8", (0.98, 0.97, 0.94, 0.0),
+                       lambda s: rng.uniform(0, 1, s)),
+        "mask": _tight(gl, rng, size, (35, 30, 40, 28), "R8", (0.0,), lambda s: rng.uniform(0.1, 1, s)),
+    }
+    if top:
+        inputs["top"] = _tight(gl, rng, size, (50, 5, 20, 20), "RGBA8", (0.2, 0.4, 0.6, 0.5),
+                               lambda s: rng.uniform(0, 1, s))
+    node = Composite("c", Composite.Params(mode=mode, opacity=opacity))
+    got = {}
+    for on in (True, False):
+        footprint.ENABLED = on
+        try:
+            out = run_node(gl, node, inputs, size)["color"]
+            got[on] = out.read_native()
+            if on:
+                want = footprint.union(t.footprint.rect for t in inputs.values())
+                assert out.footprint is not None and out.footprint.rect == want
+        finally:
+            footprint.ENABLED = True
+    _assert_same_bits(got[True], got[False])
