@@ -92,8 +92,10 @@ class PerlinNoise(Node):
         if self.params.kind == "white":
             return (1.0, 1.0)
         if self.hold == 0:
-            a = np.abs(out.read()).max(axis=(0, 1))
-            return (float(a[0]), float(a[1]))
+            # channel by channel: a reduction over both image axes of the interleaved (H, W, 2) array took
+            # 26.5 ms at 800x800 here, the two strided channels 2.0 ms (the same maxima, NaN included)
+            a = out.read()
+            return (float(np.abs(a[..., 0]).max()), float(np.abs(a[..., 1]).max()))
         b = noise.octaves_bound(self.params.octaves)
         return (b, b)
 
