@@ -357,10 +357,10 @@ class Cache:
         """`meta` with a texture's footprint and value bound, written beside its pixels, so a texture loaded from
         the cache is drawn from only where its node drew (`nodegraph.footprint`)."""
         extra = {}
-        fp = getattr(value, "footprint", None)
-        if fp is not None:
+        if value.footprint is not None:
+            fp = value.footprint
             extra["footprint"] = {"rect": [int(v) for v in fp.rect], "blank": [float(v) for v in fp.blank]}
-        if getattr(value, "absmax", None) is not None:
+        if value.absmax is not None:
             extra["absmax"] = [float(v) for v in value.absmax]
         return {**meta, **extra} if extra else meta
 
@@ -753,8 +753,8 @@ def _drawn(text: str | None, w: int, h: int, c: int) -> tuple[Any, tuple[float, 
         if fp is not None:
             rect = tuple(int(v) for v in fp["rect"])
             blank = tuple(float(v) for v in fp["blank"])
-            x, y, rw, rh = rect
-            if len(rect) == 4 and len(blank) == c and min(rect) >= 0 and x + rw <= w and y + rh <= h:
+            x, y, rw, rh = rect  # anything but four numbers raises, caught below
+            if len(blank) == c and min(rect) >= 0 and x + rw <= w and y + rh <= h:
                 footprint = Footprint(rect, blank)  # type: ignore[arg-type]
         absmax = tuple(float(v) for v in d["absmax"]) if d.get("absmax") is not None else None
         return footprint, absmax
