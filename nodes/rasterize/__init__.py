@@ -161,10 +161,7 @@ class Rasterize(Node):
             prog = ctx.program("rasterize.glsl", defines)
             depth_rb = gl.depth_buffer((w, h))
             fbo = gl.framebuffer([targets[p] for p in main], depth_rb)
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            for p in main:  # buffers whose background is not zero get their own clear
-                if any(_OUTPUTS[p][0]):
-                    gl.framebuffer([targets[p]]).clear(*_OUTPUTS[p][0])
+            gl.clear_each(fbo, [_OUTPUTS[p][0] for p in main], depth=1.0)
             fbo.use()
             gl.ctx.viewport = (0, 0, w, h)
             with gl.depth_test() as state:
@@ -244,8 +241,6 @@ class Rasterize(Node):
 
 
 REST_SHADER = "rest_position.glsl"
-
-
 
 
 def _cull_face(obj: Any, backfaces: str) -> str | None:

@@ -1,7 +1,7 @@
 """`GL.read_uint8`, `GL.read_png_rows` and `GL.read_yuv420` (8-bit file values made on the GPU) against NumPy:
 x * 255 in float32 rounded half to even and clamped, NaN as 0, rows top first; PNG rows as a filter byte 0 and
 the row's grey or RGB bytes; film planes as BT.601 limited-range 4:2:0 of those values. Files written from
-the rows decode (OpenImageIO) to the same values."""
+the rows decode (OpenImageIO) to the same values. `GL.clear_each` against the values it was given."""
 
 from __future__ import annotations
 
@@ -183,3 +183,26 @@ def test_read_yuv420_has_swscales_matrix_and_range(gl, rng):
             want = np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, :plane.width]
             if i == 0 or uniform:
                 assert np.abs(got.astype(int) - want.astype(int)).max() <= 1, (uniform, i)
+
+
+
+@pytest.mark.parametrize("depth", [1.0, None])
+@pytest.mark.parametrize("values", [[(0.0,) * 4, (1.0, 0.0, 0.0, 0.0), (0.0,) * 4], [(0.0,) * 4, (0.0,) * 4],
+                                    [(0.5, 0.25), (1.0,), (0.5, 0.25)], [(-0.0, -0.0), (0.0, 0.0)]])
+def test_clear_each_gives_each_attachment_its_own_value_over_stale_contents(gl, values, depth):
+    """The clear of the G-buffer and of footprinted passes (`GL.clear_each`): each colour attachment to its
+    own value (padded to RGBA), the depth to `depth` or kept, over a pooled texture's earlier contents; the
+    framebuffer's masks are whole again afterwards."""
+    texs = [gl.texture((5, 3), "RGBA32F") for _ in values]
+    fbo = gl.framebuffer(texs, gl.depth_buffer((5, 3)))
+    fbo.clear(0.7, 0.3, 0.2, 0.9, depth=0.25)
+    gl.clear_each(fbo, values, depth=depth)
+    for tex, value in zip(texs, values, strict=True):
+        want = np.float32(tuple(value) + (0.0,) * (4 - len(value)))
+        assert tex.read().tobytes() == np.broadcast_to(want, (3, 5, 4)).tobytes()  # by bits: -0.0 is not 0.0
+    assert fbo.color_mask in (((True,) * 4,) * len(values), (True,) * 4) and fbo.depth_mask
+    stored = np.frombuffer(fbo.read(viewport=(0, 0, 5, 3), components=1, attachment=-1, dtype="f4", alignment=1),
+                           "f4")
+    np.testing.assert_allclose(stored, 1.0 if depth is not None else 0.25, atol=1e-6)  # a 24-bit depth buffer
+    for tex in texs:
+        gl.release(tex)
