@@ -72,7 +72,11 @@ class Session:
         side a mesh file is seen from and its up axis; nodegraph/framing.py). Files the pipeline's nodes write (`write`,
         `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
         unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
-        pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md)."""
+        pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md). A mesh
+        file parsed by an earlier process with the same disk cache is read from it (nodegraph/meshstore.py)."""
+        from . import meshstore
+
+        meshstore.configure(None if self.cache is None else self.cache.base / "meshes")
         return Pipe(self, str(pipeline), scene=None if scene is None else str(scene), size=size,
                     overrides=_overrides(set), out_dir=out_dir, allow_outside=allow_outside, view=view, up=up,
                     reference_size=reference_size)

@@ -607,6 +607,17 @@ def _stale_temp(t: Entry, now: float) -> bool:
     return False
 
 
+def write_npz(final: Path, arrays: dict[str, np.ndarray]) -> None:
+    """`arrays` as an .npz file at `final`, written as the cache writes its entries (a temporary file named so
+    that pruning knows a leftover one, then renamed), for stores that live beside the entries (meshstore)."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    _atomic(final, write)
+
+
 def _atomic(final: Path, write: Any) -> None:
     fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(), suffix=final.suffix, dir=final.parent)
     os.close(fd)

@@ -142,6 +142,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
         watchmod.watch(watcher, interval, echo=click.echo)
         return
+    cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
                          up=up)
     from . import film
@@ -151,7 +152,6 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     if name not in pipe.outputs:
         raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
     ref = pipe.outputs[name]
-    cache = open_cache(no_cache, cache_dir)
     ex = Executor(pipe, cache, mode="loop" if len(frame_list) > 1 or film.is_film(out or "") else "single",
                   requested=[ref], background_writes=True)  # the image first; close() waits for the cache
     if explain:

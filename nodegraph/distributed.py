@@ -196,9 +196,15 @@ class WorkerState:
             cache = self._caches[name] = namespaced_cache(name, self.renderer, WorkerCache)
         return cache
 
-    def pipeline(self, spec: PipeSpec) -> Any:
+    def pipeline(self, spec: PipeSpec, cache_root: str | Path | None | bool = None) -> Any:
+        """`spec` opened (kept for later tasks); a mesh file another process parsed before is read from the
+        shared cache at `cache_root` (nodegraph/meshstore.py; False: no cache, parsed here)."""
         pipe = self._pipes.get(spec)
         if pipe is None:
+            from . import meshstore
+
+            meshstore.configure(None if cache_root is False else
+                                (default_root() if cache_root in (None, True) else Path(str(cache_root))) / "meshes")
             pipe = self._pipes[spec] = spec.open()
             while len(self._pipes) > 8:
                 self._pipes.popitem(last=False)
@@ -294,7 +300,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         state = worker_state()
         fresh = state.tasks == 0
         state.tasks += 1
-        pipe = state.pipeline(spec)
+        pipe = state.pipeline(spec, cache_root)
         ref = ref_of(pipe, spec.output)
         ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0], cache=state.cache_for(cache_root))
         out = []
@@ -339,7 +345,7 @@ def prepare_task(spec: PipeSpec, refs: list[tuple[str, str]], frame: int,
     t0 = time.perf_counter()
     try:
         state = worker_state()
-        pipe = state.pipeline(spec)
+        pipe = state.pipeline(spec, cache_root)
         ex = state.executor(pipe, refs, "loop", frame, like=plan(pipe, [ref_of(pipe, spec.output)]),
                             cache=state.cache_for(cache_root))
         result = ex.run(frame)

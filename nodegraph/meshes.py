@@ -12,7 +12,7 @@ import sys
 import tempfile
 import threading
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -287,7 +287,10 @@ class Mesh:
             loops = np.bincount(label[a], weights=length)
             return float((loops**2).sum() / (4.0 * np.pi * area))
 
-        return self._cached("hole_share", make)
+        from . import meshstore
+
+        # kept on disk (nodegraph/meshstore.py): importing scipy.sparse alone is 0.28 s
+        return self._cached("hole_share", lambda: float(meshstore.memo(self, "holes", make, (__file__,), always=True)))
 
     def topology(self) -> MeshTopology:
         def make() -> MeshTopology:
@@ -334,8 +337,19 @@ class Mesh:
         Boundary, non-manifold and sharp edges separate groups; a crease that ends inside a smooth
         region does not split the vertex where it ends.
         """
-        key = ("render", float(crease_angle_deg))
-        return self._cached(key, lambda: self._render_arrays(crease_angle_deg))
+        from . import meshstore
+
+        names = tuple(f.name for f in fields(RenderArrays))
+
+        def compute() -> dict[str, np.ndarray]:
+            ra = self._render_arrays(crease_angle_deg)
+            return {n: getattr(ra, n) for n in names}
+
+        def make() -> RenderArrays:  # kept on disk for a large mesh (nodegraph/meshstore.py)
+            return RenderArrays(**meshstore.memo_arrays(self, f"render{float(crease_angle_deg)!r}", compute,
+                                                        (__file__,), names))
+
+        return self._cached(("render", float(crease_angle_deg)), make)
 
     def _render_arrays(self, crease_angle_deg: float) -> RenderArrays:
         m = self.n_faces
@@ -513,7 +527,10 @@ def load_mesh(path: str | Path) -> Mesh:
         return cached
     if st.st_size == 0:
         raise MeshError(f"{p}: empty file (no faces)")
-    mesh = _load_uncached(p)
+    from . import meshstore
+
+    # parsed in an earlier run: from the disk (nodegraph/meshstore.py)
+    mesh = meshstore.load(p, _load_uncached, lambda v, f: Mesh(p.stem, v, f, str(p)), MeshWarning, (__file__,))
     with _LOAD_LOCK:
         for old in [k for k in _LOAD_CACHE if k[0] == key[0]]:
             del _LOAD_CACHE[old]

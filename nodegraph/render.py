@@ -27,9 +27,14 @@ def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None =
 
 
 def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
+    """The node cache (None with `no_cache`); mesh files parsed in this process are kept under its root, and
+    read from there in later ones (`nodegraph/meshstore.py`)."""
+    from . import meshstore
     from .cache import Cache
 
-    return None if no_cache else Cache(cache_dir)
+    cache = None if no_cache else Cache(cache_dir)
+    meshstore.configure(None if cache is None else cache.base / "meshes")
+    return cache
 
 
 MAX_FRAMES = 1_000_000

@@ -825,11 +825,22 @@ def best_view_direction(mesh: Mesh, elevation_deg: float = 25.0, azimuths: int =
 def stand_up(mesh: Mesh, up: str | None, source: str | None = None) -> tuple[Mesh, str]:
     """The mesh turned so that its up axis (`up`: x, y, z; None or 'auto': framing.detect_up from the
     file's format and the mesh's shape) is +Y, and the axis used. A Y-up mesh is returned as it is."""
-    axis = framing.check_up(up) or framing.detect_up(mesh.vertices, mesh.faces,
-                                                    framing.suffix_of(source or mesh.source))
+    axis = framing.check_up(up) or _detect_up(mesh, framing.suffix_of(source or mesh.source))
     if axis == "y":
         return mesh, axis
     return mesh.transformed(framing.up_rotation(axis)), axis
+
+
+def _detect_up(mesh: Mesh, suffix: str) -> str:
+    """framing.detect_up, kept on disk for a large mesh (nodegraph/meshstore.py); the suffix counts only as
+    a Z-up format or not."""
+    from . import meshstore
+
+    axes = "xyz"
+    what = "up-z" if suffix.lower() in framing.Z_UP_FORMATS else "up"
+    index = meshstore.memo(mesh, what, lambda: axes.index(framing.detect_up(mesh.vertices, mesh.faces, suffix)),
+                           (framing.__file__,))
+    return axes[int(index)]
 
 
 def mesh_camera(mesh: Mesh, view: str | None = None) -> Camera:
@@ -839,7 +850,11 @@ def mesh_camera(mesh: Mesh, view: str | None = None) -> Camera:
     lo, hi = mesh.bounds()
     if view == "widest":
         return frame_camera(lo, hi, direction=best_view_direction(mesh))
-    direction, up = framing.view_direction(view, framing.detect_front(mesh.vertices, mesh.faces))
+    from . import meshstore
+
+    front = meshstore.memo(mesh, "front", lambda: framing.detect_front(mesh.vertices, mesh.faces),
+                           (framing.__file__,), always=True)  # scipy.spatial's import alone is 0.47 s
+    direction, up = framing.view_direction(view, front)
     return frame_camera(lo, hi, direction=direction, up=up)
 
 

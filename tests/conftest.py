@@ -43,6 +43,16 @@ def _gl_errors(request: pytest.FixtureRequest):
         assert err == "GL_NO_ERROR", f"OpenGL error left by the test: {err}"
 
 
+@pytest.fixture(autouse=True)
+def _mesh_store_reset():
+    """A command or API call in a test points the mesh store at its cache (nodegraph/meshstore.py); the next
+    test starts without one, so a mesh it loads is parsed as the test expects."""
+    yield
+    from nodegraph import meshstore
+
+    meshstore.configure(None)
+
+
 @pytest.fixture
 def cache_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     d = tmp_path / "cache"

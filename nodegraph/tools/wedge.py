@@ -157,7 +157,7 @@ def cell_task(spec: Any, cells: list[tuple[list[str], str]], frame: int,
         for overrides, path in cells:
             t0 = time.perf_counter()
             cspec = replace(spec, overrides=spec.overrides + tuple(overrides))
-            pipe = state.pipeline(cspec)
+            pipe = state.pipeline(cspec, cache_root)
             name = spec.output or next(iter(pipe.outputs))
             if name not in pipe.outputs:
                 raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")

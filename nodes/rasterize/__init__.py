@@ -320,10 +320,22 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = 
     vertex's own connected component: every render vertex at one welded position of one component gets
     the same direction (no cracks where normals are split), and components that touch keep their own.
 
-    `render_arrays`: the render vertices to give directions for (default: the mesh's own); a posed mesh's,
+    `render_arrays`: the render vertices to give directions for (default: the mesh's own, and then the
+    directions of a large mesh are kept on disk, nodegraph/meshstore.py: ogre's took 0.12 s); a posed mesh's,
     to read the directions of its rest pose (`mesh` the rest mesh, same vertices and faces).
     """
-    ra = mesh.render_arrays(crease_angle) if render_arrays is None else render_arrays
+    if render_arrays is not None:
+        return _enlarge_normals(mesh, render_arrays)
+    from nodegraph import meshes, meshstore
+
+    def make() -> dict[str, np.ndarray]:
+        return {"value": _enlarge_normals(mesh, mesh.render_arrays(crease_angle))}
+
+    return meshstore.memo_arrays(mesh, f"enlarge{float(crease_angle)!r}", make, (__file__, meshes.__file__),
+                                 ("value",))["value"]
+
+
+def _enlarge_normals(mesh: Any, ra: Any) -> np.ndarray:
     welded, _ = mesh.weld()
     faces = mesh.faces
     comp = mesh.face_components().astype(np.int64)
