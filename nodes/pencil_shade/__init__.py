@@ -9,7 +9,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from nodegraph import origin
+from nodegraph import meshes, meshstore, origin
 from nodegraph.errors import NodeError
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
@@ -261,7 +261,7 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
         # every triangle's corners get the slots 0, 1, 2 (see pencil_shade.glsl): a vertex is copied once per slot
         # its triangles give it, about 1.5 copies a vertex, and the draw stays indexed (shared vertices)
-        slots = corner_slots(ra.indices, ra.n_vertices)
+        slots = _mesh_corner_slots(mesh, ra, crease_angle)
         keys, inverse = np.unique(np.asarray(ra.indices, dtype=np.int64) * 3 + slots, return_inverse=True)
         vertex, slot = keys // 3, (keys % 3).astype(np.float32)
         return MeshArrays({"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
@@ -272,6 +272,17 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
 
     entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build)
     return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
+
+
+def _mesh_corner_slots(mesh: Any, ra: Any, crease_angle: float) -> np.ndarray:
+    """`corner_slots` of the mesh's render triangles, kept on disk for a large mesh (nodegraph/meshstore.py):
+    the greedy pass is a Python loop, 0.69 s of CPU on ogre's 124k triangles in every process that draws it."""
+    def make() -> dict[str, np.ndarray]:
+        return {"value": corner_slots(ra.indices, ra.n_vertices).astype(np.uint8)}
+
+    stored = meshstore.memo_arrays(mesh, f"slots{float(crease_angle)!r}", make, (__file__, meshes.__file__),
+                                   ("value",))["value"]
+    return stored.astype(np.int64)
 
 
 _PERMUTATIONS = tuple(itertools.permutations(range(3)))

@@ -215,27 +215,33 @@ def _tube_obj(around: int = 50, along: int = 26) -> str:
 
 
 def test_derived_arrays_of_a_large_mesh_come_back_the_same_without_being_computed(store, tmp_path, monkeypatch):
+    from nodegraph_nodes import pencil_shade
     from nodegraph_nodes.rasterize import enlarge_normals
 
     path = tmp_path / "tube.obj"
     path.write_text(_tube_obj())
 
-    def derived() -> tuple[scene.Scene, meshes.Mesh, meshes.RenderArrays, float, np.ndarray]:
+    def derived() -> tuple[scene.Scene, meshes.Mesh, meshes.RenderArrays, float, np.ndarray, np.ndarray]:
         meshes.clear_mesh_cache()
         sc = scene.mesh_scene(path)
         mesh = sc.objects[0].mesh
-        return sc, mesh, mesh.render_arrays(40.0), mesh.hole_share(), enlarge_normals(mesh, 40.0)
+        ra = mesh.render_arrays(40.0)
+        return (sc, mesh, ra, mesh.hole_share(), enlarge_normals(mesh, 40.0),
+                pencil_shade._mesh_corner_slots(mesh, ra, 40.0))
 
-    sc, mesh, ra, holes, enlarge = derived()
+    sc, mesh, ra, holes, enlarge, slots = derived()
     assert mesh.n_faces >= meshstore.MIN_FACES and holes > 0
+    assert slots.tobytes() == pencil_shade.corner_slots(ra.indices, ra.n_vertices).tobytes()
     assert {p.name.split(".")[-2] for p in store.glob("*.npz")} >= {"mesh", "front", "up", "holes", "render40_0",
-                                                                    "enlarge40_0"}
+                                                                    "enlarge40_0", "slots40_0"}
     for where, name in ((meshes.Mesh, "_render_arrays"), (meshes.Mesh, "_edge_stats"), (framing, "detect_up"),
                         (framing, "detect_front"), (meshes, "_igl_read")):
         monkeypatch.setattr(where, name, _no_parse)
     monkeypatch.setattr("nodegraph_nodes.rasterize._enlarge_normals", _no_parse)
-    sc2, mesh2, ra2, holes2, enlarge2 = derived()
+    monkeypatch.setattr(pencil_shade, "corner_slots", _no_parse)
+    sc2, mesh2, ra2, holes2, enlarge2, slots2 = derived()
     assert holes2 == holes and enlarge2.tobytes() == enlarge.tobytes() and enlarge2.dtype == np.float32
+    assert slots2.tobytes() == slots.tobytes() and slots2.dtype == np.int64
     for f in ("positions", "normals", "smooth_normals", "indices", "component", "source_vertex"):
         a, b = getattr(ra, f), getattr(ra2, f)
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), f
