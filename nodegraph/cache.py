@@ -510,6 +510,7 @@ class Cache:
             "limit": self.limit,
             "by_kind": {"exr": sum(1 for e in ents if e.path.suffix == ".exr"),
                         "npz": sum(1 for e in ents if e.path.suffix == ".npz")},
+            "meshes": sum(1 for e in ents if e.path.parent == self.base / "meshes"),  # nodegraph/meshstore.py
             "temp_files": len(temps),
             "temp_bytes": sum(t.size for t in temps),
         }

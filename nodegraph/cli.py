@@ -387,7 +387,8 @@ def cache_info(cache_dir: Path | None, as_json: bool) -> None:
         click.echo(json.dumps(info, indent=2))
         return
     click.echo(f"cache: {info['root']}\nentries: {info['entries']} ({info['by_kind']['exr']} EXR, "
-               f"{info['by_kind']['npz']} npz)\nsize: {_mb(info['bytes'])} of {_mb(info['limit'])} limit")
+               f"{info['by_kind']['npz']} npz; {info['meshes']} of them the mesh store's)\n"
+               f"size: {_mb(info['bytes'])} of {_mb(info['limit'])} limit")
 
 
 @cache.command("prune")

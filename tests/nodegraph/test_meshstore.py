@@ -151,7 +151,7 @@ def test_entries_are_counted_and_pruned_with_the_cache(store, tmp_path):
     path.write_text(OBJ)
     scene.mesh_scene(path)
     cache = Cache(store.parent)
-    assert cache.info()["entries"] == 2  # the parsed file and its front direction
+    assert cache.info()["entries"] == cache.info()["meshes"] == 2  # the parsed file and its front direction
     cache.prune(limit=0)
     assert not list(store.glob("*.npz"))
 
