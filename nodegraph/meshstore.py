@@ -79,6 +79,7 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
     if store is None:
         return parse(path)
     try:
+        before = _stamp(path)
         h = hashlib.blake2b(path.read_bytes(), digest_size=20)
     except (OSError, MemoryError):
         return parse(path)
@@ -98,7 +99,9 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
         warnings.simplefilter("always")
         mesh = parse(path)
     notes = [str(w.message) for w in caught if issubclass(w.category, category)]
-    _write(entry, {"vertices": mesh.vertices, "faces": mesh.faces}, {"warnings": notes})
+    with contextlib.suppress(OSError):
+        if _stamp(path) == before:  # not rewritten while it was hashed and parsed (the entry would lie)
+            _write(entry, {"vertices": mesh.vertices, "faces": mesh.faces}, {"warnings": notes})
     for w in caught:  # after the entry is safe (a filter may turn one into an error), as a hit gives them
         warnings.warn(w.message, w.category, stacklevel=3)
     return mesh
@@ -130,6 +133,11 @@ def memo_arrays(mesh: Any, what: str, make: Callable[[], dict[str, np.ndarray]],
     arrays = make()
     _write(entry, arrays, {"what": what})
     return arrays
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    st = os.stat(path)
+    return st.st_mtime_ns, st.st_size
 
 
 def _small(mesh: Any) -> bool:

@@ -274,3 +274,18 @@ def test_changed_code_is_a_new_key(store, tmp_path):
     meshstore._code_digests.clear()  # a new process reads the code again
     meshstore.memo(mesh, "probe", make, (str(code),))
     assert len(calls) == 2
+
+
+def test_a_file_rewritten_while_it_is_read_is_not_stored(store, tmp_path, monkeypatch):
+    path = tmp_path / "pyramid.obj"
+    path.write_text(OBJ)
+    parse = meshes._load_uncached
+
+    def rewritten_meanwhile(p):
+        mesh = parse(p)
+        path.write_text(OBJ.replace("v 0.5 1.2 0.5", "v 0.5 2.0 0.5"))  # another writer, mid-read
+        return mesh
+
+    monkeypatch.setattr(meshes, "_load_uncached", rewritten_meanwhile)
+    _load(path)
+    assert not list(store.glob("*.mesh.npz"))
