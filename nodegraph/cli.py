@@ -225,6 +225,7 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
+    cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
                          up=up)
     if all_:
@@ -232,8 +233,7 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
         from .tools.inspect_all import inspect_all
 
-        insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame,
-                                 open_cache(no_cache, cache_dir))
+        insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame, cache)
         click.echo(f"wrote {len(insp.ports())} outputs of {len(insp.nodes)} nodes to {page.parent}  "
                    f"(page {page}; {insp.total_ms:.0f} ms in nodes)")
         return
@@ -241,7 +241,7 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
         raise SketchgraphError("name the output to inspect as NODE.PORT; outputs: "
                                + ", ".join(f"{n}.{p}" for n, node in pipe.nodes.items() for p in node.outputs))
     ref = pipe.parse_ref(port)
-    ex = Executor(pipe, open_cache(no_cache, cache_dir), requested=[ref])
+    ex = Executor(pipe, cache, requested=[ref])
     try:
         result = ex.run(frame)
         value = result.values[ref]
@@ -451,9 +451,10 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
     from .tools.diff import diff as diff_pipelines
     from .tools.diff import format_report
 
+    cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe_a = open_pipeline(a, overrides + set_a, size, scene, view=view, up=up)
     pipe_b = open_pipeline(b or a, overrides + set_b, size, scene, view=view, up=up)
-    report = diff_pipelines(pipe_a, pipe_b, frame, open_cache(no_cache, cache_dir),
+    report = diff_pipelines(pipe_a, pipe_b, frame, cache,
                             None if keys_only else Path(out), pixels=not keys_only)
     click.echo(f"A: {a}" + "".join(f" --set {s}" for s in overrides + set_a))
     click.echo(f"B: {b or a}" + "".join(f" --set {s}" for s in overrides + set_b))
