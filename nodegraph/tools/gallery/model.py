@@ -238,17 +238,20 @@ class EntryResult:
 def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None = None, cold: bool = False) -> Any:
     """The gallery's own node cache (gallery/out/cache unless `cache_dir`), so that gallery builds neither
     depend on nor evict what other runs cached. `cold` empties it first."""
+    from ... import meshstore
     from ...cache import Cache
 
     if no_cache:
         if cold:
             raise SketchgraphError("--cold builds fill the node cache; drop --no-cache")
+        meshstore.configure(None)
         return None
     root = Path(cache_dir) if cache_dir else gallery.out / "cache"
     if cold:
         if cache_dir and root.exists() and not _only_entries(root):
             raise SketchgraphError(f"--cold would empty {root}, which holds files that are not cache entries")
         shutil.rmtree(root, ignore_errors=True)
+    meshstore.configure(root / "meshes")  # mesh files parsed by an earlier build (emptied with the rest by --cold)
     return Cache(root)
 
 
@@ -271,10 +274,15 @@ class TemporaryCache:
     """A fresh, empty node cache for a cold build (removed afterwards)."""
 
     def __enter__(self) -> Any:
+        from ... import meshstore
         from ...cache import Cache
 
         self._dir = tempfile.mkdtemp(prefix="sketchgraph-cold-")
+        meshstore.configure(Path(self._dir) / "meshes")  # cold for mesh files too
         return Cache(Path(self._dir))
 
     def __exit__(self, *exc: Any) -> None:
+        from ... import meshstore
+
+        meshstore.configure(None)
         shutil.rmtree(self._dir, ignore_errors=True)
