@@ -80,8 +80,11 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
         return parse(path)
     try:
         before = _stamp(path)
-        h = hashlib.blake2b(path.read_bytes(), digest_size=20)
-    except (OSError, MemoryError):
+        h = hashlib.blake2b(digest_size=20)
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
         return parse(path)
     h.update(f"\0{code_digest(*code)}\0{path}".encode("utf-8", "surrogateescape"))
     entry = store / f"{h.hexdigest()}.mesh.npz"
