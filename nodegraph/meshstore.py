@@ -17,7 +17,8 @@ enlargement directions) by the mesh's content hash. Every key also holds the dig
 code that computes the value, so an edit to that code is a new key, never a stale entry. A changed file is a
 new key. An entry that does not read is computed again and replaced; a store that cannot be written is
 skipped without a word: the store only saves time. Derived arrays are stored for meshes of at least
-`MIN_FACES` faces (below that computing them is about as cheap as reading them)."""
+`MIN_FACES` faces (below that computing them is about as cheap as reading them), and never for a posed mesh
+(skinned or morphed: a new mesh every frame of a film)."""
 
 from __future__ import annotations
 
@@ -114,7 +115,7 @@ def memo(mesh: Any, what: str, make: Callable[[], Any], code: tuple[str, ...], a
     """`make()` as a float64 array (it must depend on the mesh's vertices and faces alone, through the code in
     the files `code`), stored by the mesh's content hash under the name `what`. `always`: store it for a
     mesh of any size (a value whose cost is not the mesh's: the front direction imports scipy.spatial)."""
-    if not always and _small(mesh):
+    if _skip(mesh, always):
         return np.asarray(make(), dtype=np.float64)
     out = memo_arrays(mesh, what, lambda: {"value": np.asarray(make(), dtype=np.float64)}, code, ("value",),
                       always=always)
@@ -127,7 +128,7 @@ def memo_arrays(mesh: Any, what: str, make: Callable[[], dict[str, np.ndarray]],
     the files `code`), stored by the mesh's content hash under the name `what`; read back with the same
     names, dtypes and shapes."""
     store = _root
-    if store is None or (not always and _small(mesh)):
+    if store is None or _skip(mesh, always):
         return make()
     entry = store / f"{mesh.content_hash()[:32]}.{code_digest(*code)[:12]}.{what.replace('.', '_')}.npz"
     hit = _read(entry, names)
@@ -143,8 +144,12 @@ def _stamp(path: Path) -> tuple[int, int]:
     return st.st_mtime_ns, st.st_size
 
 
-def _small(mesh: Any) -> bool:
-    return int(len(mesh.faces)) < MIN_FACES
+def _skip(mesh: Any, always: bool) -> bool:
+    """Values computed in place: a posed mesh's (skinned or morphed, a new mesh every frame: storing them would
+    write an entry a frame), and a small mesh's unless `always`."""
+    if getattr(mesh, "rest", None) is not None:
+        return True
+    return not always and int(len(mesh.faces)) < MIN_FACES
 
 
 def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:

@@ -289,3 +289,17 @@ def test_a_file_rewritten_while_it_is_read_is_not_stored(store, tmp_path, monkey
     monkeypatch.setattr(meshes, "_load_uncached", rewritten_meanwhile)
     _load(path)
     assert not list(store.glob("*.mesh.npz"))
+
+
+def test_a_posed_mesh_stores_nothing(store, tmp_path):
+    """A skinned or morphed mesh is a new mesh every frame: its derived values are computed in place."""
+    path = tmp_path / "tube.obj"
+    path.write_text(_tube_obj())
+    rest, _ = _load(path)
+    for frame in range(3):
+        posed = meshes.Mesh("posed", rest.vertices * (1.0 + 0.1 * frame), rest.faces, rest=rest)
+        posed.render_arrays(40.0)
+        posed.hole_share()
+    assert not [p for p in store.glob("*.npz") if not p.name.endswith(".mesh.npz")]
+    rest.hole_share()  # the rest mesh itself is a mesh like any other
+    assert len(list(store.glob("*.holes.npz"))) == 1
