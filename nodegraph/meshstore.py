@@ -1,24 +1,27 @@
-"""Mesh files parsed once: the repaired arrays of each mesh file, and its framing, kept on disk between runs.
+"""Mesh files parsed once: the repaired arrays of each mesh file, and what is derived from a mesh, kept on
+disk between runs.
 
 A command that renders a user's mesh spent most of a warm-cache run reading it: for ogre.obj (124k faces,
 3.7 MB) libigl's reader took 0.53 s and its import 0.31 s, and the front direction of the default view
-(`framing.detect_front`) 0.53 s, nearly all of it importing scipy.spatial, against 38 ms in the nodes. The
-store keeps what those steps give, so a second process gets the same mesh and camera from two small files.
+(`framing.detect_front`) 0.53 s, nearly all of it importing scipy.spatial, against 38 ms in the nodes. A
+G-buffer drawn again in a new process paid about 1.1 s more (hole share, render streams, enlargement
+directions, up axis), and pencil_shade 0.76 s for its corner slots. The store keeps what those steps give.
 
-Where: `<cache root>/meshes/` (the node cache's root, `--cache-dir` or `SKETCHGRAPH_CACHE_DIR`), set by
-`render.open_cache`; `--no-cache` leaves it unset, and then every process parses. Entries are `.npz`, so
-`sketchgraph cache info` counts them and pruning evicts them with the node entries, least recently used first
-(a hit refreshes an entry).
+Where: `<cache root>/meshes/` (the node cache's root: `--cache-dir`, `SKETCHGRAPH_CACHE_DIR` or the
+default), set wherever a disk cache is opened (`render.open_cache`, `api.Session.load`, cluster workers,
+gallery builds); `--no-cache` leaves it unset, and then every process computes everything. Entries are
+`.npz`, so `sketchgraph cache info` counts them and pruning evicts them with the node entries, least
+recently used first (a hit refreshes an entry).
 
 Keys: a parsed file by the digest of its bytes and its absolute path (the `MeshWarning`s a file's reading
-gave name the path; they are stored with the arrays and given again on every hit), anything derived from a
-mesh (`memo`, `memo_arrays`: the front direction, the up axis, the render streams, the hole share, rasterize's
-enlargement directions) by the mesh's content hash. Every key also holds the digest of the source files of the
-code that computes the value, so an edit to that code is a new key, never a stale entry. A changed file is a
-new key. An entry that does not read is computed again and replaced; a store that cannot be written is
-skipped without a word: the store only saves time. Derived arrays are stored for meshes of at least
-`MIN_FACES` faces (below that computing them is about as cheap as reading them), and never for a posed mesh
-(skinned or morphed: a new mesh every frame of a film)."""
+gave name the path; they are stored with the arrays and given again on every hit); a value derived from a
+mesh (`memo`, `memo_arrays`) by the mesh's content hash. Every key also holds the digest of the source files
+of the code that computes the value, so an edit to that code is a new key, never a stale entry. An entry
+that does not read is computed again and replaced, with a `CacheWarning` (as a node entry is); one of an
+older layout is replaced without one; a store that cannot be written is skipped without a word: the store
+only saves time. Derived arrays are stored for meshes of at least `MIN_FACES` faces (below that computing
+them is about as cheap as reading them), and never for a posed mesh (skinned or morphed: a new mesh every
+frame of a film)."""
 
 from __future__ import annotations
 
@@ -105,7 +108,7 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
     notes = [str(w.message) for w in caught if issubclass(w.category, category)]
     with contextlib.suppress(OSError):
         if _stamp(path) == before:  # not rewritten while it was hashed and parsed (the entry would lie)
-            _write(entry, {"vertices": mesh.vertices, "faces": mesh.faces}, {"warnings": notes})
+            _write(entry, {"vertices": mesh.vertices, "faces": mesh.faces}, {"warnings": notes, "source": str(path)})
     for w in caught:  # after the entry is safe (a filter may turn one into an error), as a hit gives them
         warnings.warn(w.message, w.category, stacklevel=3)
     return mesh
@@ -162,7 +165,14 @@ def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], d
             arrays = {n: z[n] for n in names}
     except FileNotFoundError:
         return None
-    except Exception:  # noqa: BLE001 - anything that does not read is parsed again and replaced
+    except Exception as exc:  # noqa: BLE001 - anything that does not read is computed again and replaced
+        from .cache import CacheWarning
+
+        reason = " ".join(str(exc).split())[:120] or type(exc).__name__
+        warnings.warn(f"mesh store entry {entry} is unusable ({reason}); computing it again", CacheWarning,
+                      stacklevel=2)
+        with contextlib.suppress(OSError):
+            entry.unlink()
         return None
     with contextlib.suppress(OSError):
         os.utime(entry)  # least recently used goes first when the cache is pruned

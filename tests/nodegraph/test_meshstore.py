@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from nodegraph import framing, meshes, meshstore, scene
-from nodegraph.cache import Cache
+from nodegraph.cache import Cache, CacheWarning
 
 # a square pyramid whose base is split in two triangles, plus one degenerate face (a repeated vertex): the
 # repair drops it with a MeshWarning
@@ -101,8 +101,15 @@ def test_a_damaged_entry_is_parsed_again_and_replaced(store, tmp_path, damage):
             np.savez(fh, **arrays)
     else:
         entry.write_bytes(damage)
-    again, said = _load(path)
+    meshes.clear_mesh_cache()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        again = meshes.load_mesh(path)
+    said = [str(w.message) for w in caught if issubclass(w.category, meshes.MeshWarning)]
+    damaged = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
     assert again.vertices.tobytes() == first.vertices.tobytes() and len(said) == 1
+    # damage is said once, naming the entry; an entry of an older layout is replaced without a word
+    assert (damaged == []) if damage is None else (len(damaged) == 1 and entry.name in damaged[0])
     with np.load(entry) as z:
         assert z["faces"].tobytes() == first.faces.tobytes()  # rewritten
 
