@@ -156,15 +156,19 @@ def _skip(mesh: Any, always: bool) -> bool:
 
 
 def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
-    """The entry's arrays `names` and its metadata; None for anything that does not read."""
+    """The entry's arrays `names` and its metadata; None for a miss. A store that cannot be opened (no entry,
+    a file where its folder should be, no permission) is a plain miss; an entry that opens but does not read
+    is a damaged one: it is removed, with a CacheWarning."""
     try:
-        with np.load(entry, allow_pickle=False) as z:
+        fh = open(entry, "rb")  # noqa: SIM115 - closed below, after np.load has read what it needs
+    except OSError:
+        return None
+    try:
+        with fh, np.load(fh, allow_pickle=False) as z:
             meta = json.loads(str(z["__meta__"]))
             if not isinstance(meta, dict) or meta.get("version") != VERSION:
                 return None
             arrays = {n: z[n] for n in names}
-    except FileNotFoundError:
-        return None
     except Exception as exc:  # noqa: BLE001 - anything that does not read is computed again and replaced
         from .cache import CacheWarning
 
