@@ -172,6 +172,15 @@ class Node:
             cls._source_dir = found  # type: ignore[attr-defined]
         return found
 
+    @classmethod
+    def shader_paths(cls) -> tuple[Path, ...]:
+        """The node's shader files (`shaders` in `source_dir()`); made once per class."""
+        found = cls.__dict__.get("_shader_paths")
+        if found is None or len(found) != len(cls.shaders):
+            found = tuple(cls.source_dir() / s for s in cls.shaders)
+            cls._shader_paths = found  # type: ignore[attr-defined]
+        return found
+
     def hash_extra(self, ctx: HashContext) -> Any:
         """Anything else the output depends on (override; must be cheap)."""
         return None
@@ -187,14 +196,17 @@ class Node:
         """What `key()` digests (tools/diff.py explains a changed key part by part)."""
         from .glsl import source_digest
 
-        params: Any = self.params
-        if self.key_omits:
-            params = self.params.model_dump(mode="json", exclude=set(self.key_omits))
+        # the params' JSON form once per node (they are frozen), the shader paths once per class: a frame loop
+        # asks for every node's key every frame
+        params = self.__dict__.get("_key_params")
+        if params is None or params[0] is not self.params:
+            params = self._key_params = (self.params, self.params.model_dump(
+                mode="json", exclude=set(self.key_omits) if self.key_omits else None))
         return {
             "type": self.type_name,
             "version": self.version,
-            "glsl": [source_digest(self.source_dir() / s) for s in self.shaders],
-            "params": params,
+            "glsl": [source_digest(p) for p in self.shader_paths()],
+            "params": params[1],
             "inputs": input_keys,
             "context": ctx.values_for(self),
             "extra": self.hash_extra(ctx),
