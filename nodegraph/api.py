@@ -76,7 +76,7 @@ class Session:
         file parsed by an earlier process with the same disk cache is read from it (nodegraph/meshstore.py)."""
         from . import meshstore
 
-        meshstore.configure(None if self.cache is None else self.cache.base / "meshes")
+        meshstore.use_cache(self.cache)
         return Pipe(self, str(pipeline), scene=None if scene is None else str(scene), size=size,
                     overrides=_overrides(set), out_dir=out_dir, allow_outside=allow_outside, view=view, up=up,
                     reference_size=reference_size)

@@ -219,6 +219,9 @@ def renderer_namespace(renderer: str) -> str:
 
 
 NAMESPACE_PREFIX = "renderer-"
+MESH_STORE = "meshes"
+"""The folder under a cache root where nodegraph/meshstore.py keeps parsed mesh files and what is derived from
+them (no renderer namespace: parsing is the same for every renderer)."""
 
 
 class Cache:
@@ -253,6 +256,11 @@ class Cache:
         self.always_write_ms = ALWAYS_WRITE_MS
         self.skipped = 0  # entries not written because recomputing them costs less (`worth_writing`)
         atexit.register(_report_at_exit, weakref.ref(self))
+
+    @property
+    def mesh_store(self) -> Path:
+        """Where the mesh store keeps its entries for this cache (`MESH_STORE` under the root)."""
+        return self.base / MESH_STORE
 
     def bind(self, renderer: str) -> None:
         """Read and write the entries of `renderer` from now on (the GL renderer string of the context)."""
@@ -510,7 +518,7 @@ class Cache:
             "limit": self.limit,
             "by_kind": {"exr": sum(1 for e in ents if e.path.suffix == ".exr"),
                         "npz": sum(1 for e in ents if e.path.suffix == ".npz")},
-            "meshes": sum(1 for e in ents if e.path.parent == self.base / "meshes"),  # nodegraph/meshstore.py
+            "meshes": sum(1 for e in ents if e.path.parent == self.mesh_store),  # nodegraph/meshstore.py
             "temp_files": len(temps),
             "temp_bytes": sum(t.size for t in temps),
         }

@@ -203,8 +203,8 @@ class WorkerState:
         if pipe is None:
             from . import meshstore
 
-            meshstore.configure(None if cache_root is False else
-                                (default_root() if cache_root in (None, True) else Path(str(cache_root))) / "meshes")
+            meshstore.use_cache(None if cache_root is False else
+                                Cache(None if cache_root in (None, True) else Path(str(cache_root))))
             pipe = self._pipes[spec] = spec.open()
             while len(self._pipes) > 8:
                 self._pipes.popitem(last=False)

@@ -53,6 +53,11 @@ def configure(root: Path | None) -> None:
     _root = Path(root) if root is not None else None
 
 
+def use_cache(cache: Any) -> None:
+    """Keep parsed meshes in `cache`'s mesh store (`Cache.mesh_store`); None: parse in every process."""
+    configure(None if cache is None else cache.mesh_store)
+
+
 def root() -> Path | None:
     return _root
 

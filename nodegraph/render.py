@@ -33,7 +33,7 @@ def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
     from .cache import Cache
 
     cache = None if no_cache else Cache(cache_dir)
-    meshstore.configure(None if cache is None else cache.base / "meshes")
+    meshstore.use_cache(cache)
     return cache
 
 

@@ -89,7 +89,7 @@ def _bad_entries(root: Path, pipeline: Path, sizes: list[int]) -> tuple[list[str
     cache = Cache(root, renderer=glmod.get().renderer)  # the runs' entries live in this renderer's namespace
     problems = []
     # node entries only: the mesh store's files (`meshes/`, nodegraph/meshstore.py) are not outputs
-    entries = [e for e in cache.entries() if e.path.parent.name != "meshes"]
+    entries = [e for e in cache.entries() if e.path.parent != cache.mesh_store]
     for e in entries:
         key, rest = e.path.name.split(".", 1)
         name = rest.rsplit(".", 1)[0]

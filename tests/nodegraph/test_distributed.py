@@ -17,7 +17,7 @@ from click.testing import CliRunner
 pytest.importorskip("distributed")
 
 from nodegraph import distributed as dist  # noqa: E402
-from nodegraph.cache import Cache, renderer_namespace  # noqa: E402
+from nodegraph.cache import MESH_STORE, Cache, renderer_namespace  # noqa: E402
 from nodegraph.cli import main  # noqa: E402
 from nodegraph.errors import NodeError, PipelineError  # noqa: E402
 from nodegraph.frames_manifest import FramesManifest, manifest_path  # noqa: E402
@@ -70,7 +70,7 @@ def test_sequence_is_byte_identical_to_serial(cluster, serial: Path, tmp_path: P
     # the shared cache holds node entries only inside renderer namespaces (node keys are not changed by them),
     # beside the mesh store's folder (parsing meshes is the same for every renderer)
     assert root.exists() and all(p.name.startswith("renderer-") for p in root.iterdir()
-                                 if p.name not in (".tmp", "meshes"))
+                                 if p.name not in (".tmp", MESH_STORE))
 
     # a resumed run skips every finished frame, and renders again only what is missing or changed
     again = dist.render_frames(client, spec, FRAMES, tmp_path / "f_####.png", resume=True, cache_root=root)

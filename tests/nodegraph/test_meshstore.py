@@ -32,8 +32,8 @@ f 1 1 5
 
 @pytest.fixture
 def store(tmp_path: Path):
-    root = tmp_path / "cache" / "meshes"
-    meshstore.configure(root)
+    root = Cache(tmp_path / "cache").mesh_store
+    meshstore.use_cache(Cache(tmp_path / "cache"))
     meshes.clear_mesh_cache()
     yield root
     meshstore.configure(None)

@@ -244,15 +244,16 @@ def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None 
     if no_cache:
         if cold:
             raise SketchgraphError("--cold builds fill the node cache; drop --no-cache")
-        meshstore.configure(None)
+        meshstore.use_cache(None)
         return None
     root = Path(cache_dir) if cache_dir else gallery.out / "cache"
     if cold:
         if cache_dir and root.exists() and not _only_entries(root):
             raise SketchgraphError(f"--cold would empty {root}, which holds files that are not cache entries")
         shutil.rmtree(root, ignore_errors=True)
-    meshstore.configure(root / "meshes")  # mesh files parsed by an earlier build (emptied with the rest by --cold)
-    return Cache(root)
+    cache = Cache(root)
+    meshstore.use_cache(cache)  # mesh files parsed by an earlier build (emptied with the rest by --cold)
+    return cache
 
 
 def _only_entries(root: Path) -> bool:
@@ -278,11 +279,12 @@ class TemporaryCache:
         from ...cache import Cache
 
         self._dir = tempfile.mkdtemp(prefix="sketchgraph-cold-")
-        meshstore.configure(Path(self._dir) / "meshes")  # cold for mesh files too
-        return Cache(Path(self._dir))
+        cache = Cache(Path(self._dir))
+        meshstore.use_cache(cache)  # cold for mesh files too
+        return cache
 
     def __exit__(self, *exc: Any) -> None:
         from ... import meshstore
 
-        meshstore.configure(None)
+        meshstore.use_cache(None)
         shutil.rmtree(self._dir, ignore_errors=True)
