@@ -195,7 +195,7 @@ class GL:
         if scissor is not None:
             if blanks is None or len(blanks) != len(targets):
                 raise SketchgraphError("fullscreen: a rect needs one blank value for each target")
-            self.clear_each(fbo, [tuple(float(b) for b in blank) for blank in blanks])
+            self.clear_each(fbo, blanks)
             for tex, blank in zip(targets, blanks, strict=True):
                 tex.footprint = Footprint(scissor, tuple(float(b) for b in blank))
             fbo.scissor = scissor

@@ -123,8 +123,6 @@ def memo(mesh: Any, what: str, make: Callable[[], Any], code: tuple[str, ...], a
     """`make()` as a float64 array (it must depend on the mesh's vertices and faces alone, through the code in
     the files `code`), stored by the mesh's content hash under the name `what`. `always`: store it for a
     mesh of any size (a value whose cost is not the mesh's: the front direction imports scipy.spatial)."""
-    if _skip(mesh, always):
-        return np.asarray(make(), dtype=np.float64)
     out = memo_arrays(mesh, what, lambda: {"value": np.asarray(make(), dtype=np.float64)}, code, ("value",),
                       always=always)
     return out["value"]
@@ -175,10 +173,9 @@ def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], d
                 return None
             arrays = {n: z[n] for n in names}
     except Exception as exc:  # noqa: BLE001 - anything that does not read is computed again and replaced
-        from .cache import CacheWarning
+        from .cache import CacheWarning, _reason
 
-        reason = " ".join(str(exc).split())[:120] or type(exc).__name__
-        warnings.warn(f"mesh store entry {entry} is unusable ({reason}); computing it again", CacheWarning,
+        warnings.warn(f"mesh store entry {entry} is unusable ({_reason(exc)}); computing it again", CacheWarning,
                       stacklevel=2)
         with contextlib.suppress(OSError):
             entry.unlink()

@@ -176,7 +176,7 @@ class Node:
     def shader_paths(cls) -> tuple[Path, ...]:
         """The node's shader files (`shaders` in `source_dir()`); made once per class."""
         found = cls.__dict__.get("_shader_paths")
-        if found is None or len(found) != len(cls.shaders):
+        if found is None:
             found = tuple(cls.source_dir() / s for s in cls.shaders)
             cls._shader_paths = found  # type: ignore[attr-defined]
         return found

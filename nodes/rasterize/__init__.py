@@ -8,7 +8,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_serializer, model_validator
 
-from nodegraph import footprint, origin
+from nodegraph import footprint, meshes, meshstore, origin
 from nodegraph.gl import MeshArrays, bind
 from nodegraph.meshes import MeshWarning
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
@@ -326,8 +326,6 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = 
     """
     if render_arrays is not None:
         return _enlarge_normals(mesh, render_arrays)
-    from nodegraph import meshes, meshstore
-
     def make() -> dict[str, np.ndarray]:
         return {"value": _enlarge_normals(mesh, mesh.render_arrays(crease_angle))}
 
