@@ -3,13 +3,13 @@
 `sketchgraph bench PIPELINE` renders frames back to back along the scene's orbit with no readback and
 no disk cache, and reports fps (1000 / the median frame time, each frame waited for), `fps_back_to_back`
 (the same frames issued one after another with a single wait at the end, as a frame loop with nothing to
-read back runs them), the median frame time, the median time of every node, the time of a
-plain full-screen RGBA16F copy pass measured in the same run, one after each waited frame (the floor for one
-pass; `copy_pass_in_a_row_ms` is 30 of them in a row after the frames, for comparison), and the time
-of the image-space stages in their float64 NumPy references on the same G-buffer. `draws` counts the
-full-screen passes and geometry draws of one frame as the GL wrapper issued them (`GL.draws`), and
-`floor_ratio` is ms per frame / (draws x copy pass): 1.0 would mean every draw costs a plain copy
-(`floor_ratio_back_to_back`: the same with the back-to-back time a frame).
+read back runs them), the median frame time, the median time of every node, the time of a plain
+full-screen RGBA16F copy pass measured in the same run between the waited frames (after each frame one
+copy to warm up and one timed: the floor for one pass; `copy_pass_in_a_row_ms` is 30 copies in a row after
+the frames, for comparison), and the time of the image-space stages in their float64 NumPy references on
+the same G-buffer. `draws` counts the full-screen passes and geometry draws of one frame as the GL wrapper
+issued them (`GL.draws`), and `floor_ratio` is ms per frame / (draws x copy pass): 1.0 would mean every
+draw costs a plain copy (`floor_ratio_back_to_back`: the same with the back-to-back time a frame).
 """
 
 from __future__ import annotations
@@ -113,9 +113,11 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
         ex.run(f)
     gl.finish()
     frame_ms = []
-    # the floor is measured between the frames, one copy pass after each, not in a block before or after
-    # them: on a shared VM the machine's speed drifts within seconds (a block of 30 copies measured 2.0 to
-    # 4.1 ms in one process), and a ratio of two figures taken at different moments carries that drift
+    # the floor is measured between the frames, not in a block before or after them: on a shared VM the
+    # machine's speed drifts within seconds (a block of 30 copies measured 2.0 to 4.1 ms in one process), and
+    # a ratio of two figures taken at different moments carries that drift. After each frame one copy warms
+    # up (the first copy after a frame is 15-20% slower than the next: its textures left the caches) and the
+    # second is timed, the steady state a block in a row measures
     copy = CopyPass(gl, pipe.size)
     copy_each: list[float] = []
     fs0, geo0 = gl.draws.fullscreen, gl.draws.geometry
@@ -125,6 +127,7 @@ def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, siz
         gl.finish()
         frame_ms.append((time.perf_counter() - t0) * 1000)
         fs_copy = gl.draws.fullscreen
+        copy.once()
         copy_each.append(copy.once())
         gl.draws.fullscreen = fs_copy   # the floor's own pass is not the frame's
     copy.release()
