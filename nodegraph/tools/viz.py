@@ -338,11 +338,15 @@ def to_uint8(img: np.ndarray) -> np.ndarray:
 
 
 def write_png(path: str | Path, img: np.ndarray) -> Path:
-    """A display-order (row 0 = top) float RGB image in [0, 1] as an 8-bit PNG."""
+    """A display-order (row 0 = top) float RGB image in [0, 1] as an 8-bit PNG (`imageio.write_png8` at its fast
+    level: the diff images, wedge sheets; quantised here, so the pixels depend on NumPy only). Another extension
+    (`wedge -o sheet.jpg`) is written in its own format by `imageio.write`."""
     from .. import imageio
 
-    q = to_uint8(img).astype(np.float32) / 255.0  # quantise here so the written bytes depend on NumPy only
-    return imageio.write(path, q[::-1], half=False)
+    a = to_uint8(img)
+    if Path(path).suffix.lower() != ".png":
+        return imageio.write(path, a[::-1].astype(np.float32) / 255.0, half=False)
+    return imageio.write_png8(path, a[:, :, None] if a.ndim == 2 else a)
 
 
 def read_png(path: str | Path) -> np.ndarray:
