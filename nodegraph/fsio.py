@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import itertools
 import os
 import stat
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -136,41 +136,56 @@ def _probe_reason(tmp: Path) -> str | None:
     return None
 
 
-def _fsync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def _remove(path: Path) -> None:
     with contextlib.suppress(OSError):
         path.unlink()
 
 
-def _mode_for(path: Path) -> int:
+_TEMP_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+_temp_numbers = itertools.count()
+
+
+def _open_temp(p: Path) -> tuple[int, Path]:
+    """Create `.NAME.tmp-PID-N.EXT` beside `p` (a new name each call, never an existing file), open for writing,
+    with the mode any new file gets (0666 less the umask; the kernel applies it, so no thread flips the process's
+    umask). The folder is made only when the first try finds it missing."""
+    folder = p.parent if str(p.parent) else Path(".")
+    made = False
+    for _ in range(1000):
+        tmp = folder / f".{p.name}.tmp-{os.getpid()}-{next(_temp_numbers)}{p.suffix}"
+        try:
+            return os.open(tmp, _TEMP_FLAGS, 0o666), tmp
+        except FileExistsError:  # left by a process that had this pid: take the next number
+            continue
+        except (FileNotFoundError, NotADirectoryError):
+            if made:
+                raise
+            make_folder(folder, p)  # raises the reason when the folder cannot be made
+            made = True
+    raise OutputError(f"{show_path(p)}: cannot write: no free temporary name beside it")
+
+
+def _keep_mode(fd: int, p: Path) -> None:
+    """Give the temporary file `p`'s mode where `p` exists (a rewrite keeps its permissions); a new file keeps
+    the mode it was created with."""
     try:
-        return stat.S_IMODE(os.stat(path).st_mode)
+        mode = stat.S_IMODE(os.stat(p).st_mode)
     except OSError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask
+        return
+    os.fchmod(fd, mode)
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterator[Path]:
-    """Yield a temporary path beside `path` (`.NAME.tmp-XXXX.EXT`); when the body returns, sync it and
+    """Yield a temporary path beside `path` (`.NAME.tmp-PID-N.EXT`); when the body returns, sync it and
     rename it onto `path`. Any failure removes the temporary file, leaves `path` untouched and raises
     one line naming `path` and the OS error. `nonempty`: an empty result counts as a failure."""
     p = Path(path)
-    make_folder(p.parent if str(p.parent) else Path("."), p)
     try:
-        fd, name = tempfile.mkstemp(prefix=f".{p.name}.tmp-", suffix=p.suffix, dir=p.parent)
+        fd, tmp = _open_temp(p)
     except OSError as exc:
         raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
     os.close(fd)
-    tmp = Path(name)
     try:
         try:
             yield tmp
@@ -183,8 +198,12 @@ def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterat
             if nonempty and tmp.stat().st_size == 0:
                 reason = _probe_reason(tmp)
                 raise OutputError(f"{show_path(p)}: cannot write: {reason or 'the writer produced an empty file'}")
-            _fsync(tmp)
-            os.chmod(tmp, _mode_for(p))
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+                _keep_mode(fd, p)
+            finally:
+                os.close(fd)
             os.replace(tmp, p)
         except OSError as exc:
             raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
@@ -194,11 +213,27 @@ def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterat
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write `data` to `path` atomically (see `atomic_output`); returns `path`."""
+    """Write `data` to `path` atomically, as `atomic_output` does, in one open of the temporary file (a frame
+    sequence's writer threads call this once a frame); returns `path`."""
     p = Path(path)
-    with atomic_output(p, nonempty=False) as tmp, open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
+    try:
+        fd, tmp = _open_temp(p)
+    except OSError as exc:
+        raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    try:
+        try:
+            with open(fd, "wb", buffering=0) as fh:
+                view = memoryview(data)
+                while view:  # a raw write may take less than asked
+                    view = view[fh.write(view):]
+                os.fsync(fd)
+                _keep_mode(fd, p)
+            os.replace(tmp, p)
+        except OSError as exc:
+            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    except BaseException:
+        _remove(tmp)
+        raise
     return p
 
 

@@ -74,6 +74,39 @@ def test_atomic_write_bytes_and_text(tmp_path: Path) -> None:
     assert sorted(x.name for x in p.parent.iterdir()) == ["a.json"]
 
 
+def test_atomic_writes_give_new_files_the_umask_mode_and_keep_a_rewritten_files_mode(tmp_path: Path) -> None:
+    umask = os.umask(0o027)
+    try:
+        new = fsio.atomic_write_bytes(tmp_path / "new.bin", b"abc")
+        with fsio.atomic_output(tmp_path / "new.txt") as tmp:
+            tmp.write_text("x")
+        kept = tmp_path / "kept.bin"
+        kept.write_bytes(b"old")
+        kept.chmod(0o604)
+        fsio.atomic_write_bytes(kept, b"new")
+        with fsio.atomic_output(kept) as tmp:
+            tmp.write_text("newer")
+    finally:
+        os.umask(umask)
+    assert new.stat().st_mode & 0o777 == 0o640 and (tmp_path / "new.txt").stat().st_mode & 0o777 == 0o640
+    assert kept.stat().st_mode & 0o777 == 0o604 and kept.read_text() == "newer"
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["kept.bin", "new.bin", "new.txt"]
+
+
+def test_atomic_write_skips_a_temporary_name_left_by_an_earlier_process(tmp_path: Path) -> None:
+    # the next name this process would take already exists (a crashed process that had this pid): it is left
+    # alone, and the write takes another name
+    import itertools
+
+    number = next(fsio._temp_numbers)
+    fsio._temp_numbers = itertools.count(number)
+    stale = tmp_path / f".a.bin.tmp-{os.getpid()}-{number}.bin"
+    stale.write_bytes(b"stale")
+    fsio.atomic_write_bytes(tmp_path / "a.bin", b"fresh")
+    assert (tmp_path / "a.bin").read_bytes() == b"fresh" and stale.read_bytes() == b"stale"
+    assert sorted(x.name for x in tmp_path.iterdir()) == sorted(["a.bin", stale.name])
+
+
 def test_atomic_output_failure_keeps_previous_and_cleans_up(tmp_path: Path) -> None:
     p = tmp_path / "a.txt"
     p.write_text("good")
