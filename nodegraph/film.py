@@ -230,8 +230,11 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     frames to the PNG's row bytes (`PngRows`, which zlib compresses as they are); everything else about the
     file happens on the writer threads. Each frame is converted and read back during the next frame's run,
     once that frame's first pass is issued (`Executor.run`'s `before_wait`), so the GPU finishes one frame
-    while the next is set up; the last frame, and the frame before a failing one, are read back at the end."""
+    while the next is set up; a PNG frame's pass is issued then and read back a run later still (`GL.pack_png`:
+    the read then does not wait for the GPU). The last frames, and those before a failing one, are read back at
+    the end."""
     from .render import frame_path
+    from .values import Tex
 
     frame_list = list(frames)
     loop = bar(frame_list) if bar is not None else frame_list
@@ -258,12 +261,31 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
 
     seq = SequenceWriter(pattern, resume and many, png_level)
     skipped = 0
-    pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run reads it back
+    pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run hands it over
+    packed: list[tuple[Path, Any, int, str]] = []  # PNG frames whose pack pass is issued, until the next hand-over
+    slot = 0
 
-    def hand_over() -> None:
+    def write_packed() -> None:
+        path, pack, frame, key = packed.pop(0)
+        seq.write(path, PngRows(pack.read()), frame, key)
+
+    def hand_over(last: bool = False) -> None:
+        # the frame packed at the last hand-over is read back first: the passes since have waited for its pass,
+        # so the read does not wait (GL.pack_png); then the frame rendered since is packed, to be read at the next
+        # hand-over (or now, after the last frame). Every run hands over once (`Executor.run`), so at most one
+        # frame is pending here, and the two pack targets alternating are each read before they are packed again.
+        nonlocal slot
+        while packed:
+            write_packed()
         while pending:
             path, value, frame, key = pending.pop(0)
-            seq.write(path, _png_rows(ex, value) if path.suffix.lower() == ".png" else _host(value), frame, key)
+            if path.suffix.lower() == ".png" and isinstance(value, Tex):
+                packed.append((path, ex.gl.pack_png(value, slot), frame, key))
+                slot ^= 1
+            else:
+                seq.write(path, _host(value), frame, key)
+        while last and packed:
+            write_packed()
 
     try:
         try:
@@ -277,11 +299,11 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
                 value = ex.run(frame, before_wait=hand_over).values[ref]  # hands the last frame over
                 pending.append((path, value, frame, key))
         except BaseException:
-            # nothing rendered is lost: the frame before the failing one is still written (then the error)
+            # nothing rendered is lost: the frames before the failing one are still written (then the error)
             with contextlib.suppress(Exception):
-                hand_over()
+                hand_over(last=True)
             raise
-        hand_over()
+        hand_over(last=True)
     finally:
         seq.close()
     return {"path": frame_path(pattern, frame_list[0], many) if frame_list else Path(pattern),
@@ -324,15 +346,6 @@ def _yuv_frame(p: Yuv420Planes) -> Any:
     u[:h // 2, :w // 2] = p.u[:, :w // 2]
     v[:h // 2, :w // 2] = p.v[:, :w // 2]
     return frame
-
-
-def _png_rows(ex: Any, value: Any) -> Any:
-    """A texture as `PngRows` (converted and laid out on the GPU); anything else read back as `_host` does."""
-    from .values import Tex
-
-    if isinstance(value, Tex):
-        return PngRows.of(value, ex.gl)
-    return _host(value)
 
 
 def _rgb(frame: Any) -> np.ndarray:

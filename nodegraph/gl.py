@@ -241,56 +241,80 @@ class GL:
         """A texture as the bytes a PNG's image data compresses, and their channels (1: grey, 3: RGB):
         every row top first, a filter byte 0 ("none"), then the row's 8-bit values, exactly as
         `imageio.png_rows(read_uint8(tex)[..., :channels])` would give them (values as `read_uint8`; one
-        channel is grey, anything else RGB with missing colour channels 0). Where a row's bytes are a multiple of
-        16, one full-screen pass writes the rows 16 bytes a fragment and the filter bytes are added on the host;
-        otherwise the pass writes the stream 4 bytes a texel, so the read-back is the stream itself."""
+        channel is grey, anything else RGB with missing colour channels 0). `read_png_block` read back, laid
+        out as one stream."""
+        block = self.read_png_block(tex)
+        return block.rows(), block.channels
+
+    def read_png_block(self, tex: Tex) -> PngBlock:
+        """A texture's PNG row bytes (`read_png_rows`) as read back from the GPU, before they are laid out as
+        one stream (`PngBlock.rows`, which a writer thread calls, so the render thread only packs and reads):
+        `pack_png(tex).read()`."""
+        return self.pack_png(tex).read()
+
+    def pack_png(self, tex: Tex, slot: int = 0) -> PackedPng:
+        """Issue the pass that lays `tex` out as PNG row bytes, into pack target `slot`; `.read()` reads them
+        back as a `PngBlock`. The read is a texture read of the whole target: on llvmpipe a framebuffer read
+        waits for every queued pass, a texture read only for the passes writing it. So, read after the
+        passes that follow it have waited for it (a frame later in a sequence, the slots alternating), the
+        read does not wait for the GPU at all.
+
+        Where a row's bytes are a multiple of 16, one full-screen pass writes the rows 16 bytes a fragment and
+        the filter bytes are added by `PngBlock.rows`; where the texture is blank outside its footprint, only
+        the fragments over the footprint are packed, into a target of about the footprint's size (rounded up,
+        so an animated footprint seldom needs a new one), the rest of each row being the blank pixel's bytes
+        repeated (the default image on spot: 38% of the image). Otherwise the pass writes the stream 4 bytes a
+        texel, so the read-back is the stream itself."""
         w, h = tex.size
         c = 1 if types.components(tex.fmt) == 1 else 3
         from .glsl import ENGINE_GLSL
 
         if (c * w) % 16 == 0:
-            # rows 16 bytes a fragment (PNG_WIDE), the filter bytes added here in one copy: spot's 800x800 RGB
-            # frame 3.2-3.4 ms of CPU (pass, read-back, copy) against 6.2-6.3 for the 4-byte stream pass below
-            target, fbo = self._pack_target((c * w // 16, h), "u4")
+            # rows 16 bytes a fragment (PNG_WIDE): spot's 800x800 RGB frame 3.2-3.4 ms of CPU (pass, read-back,
+            # layout) against 6.2-6.3 for the 4-byte stream pass below
             prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_WIDE": 1, "PNG_CHANNELS": c}, node="engine")
+            full = (c * w // 16, h)
             fp = footprint.of(tex)
-            part = None if fp is None or footprint.covers_image(fp.rect, (w, h)) else fp.rect
-            if part is not None:
-                # blank outside the footprint: only the fragments over it are packed and read back, the rest of
-                # each row is the blank pixel's bytes repeated (the default image on spot: 38% of the image)
-                x, y, pw, ph = part
-                f0, f1 = (c * x) // 16, -(-(c * (x + pw)) // 16)
-                r0, r1 = h - (y + ph), h - y  # the stream's rows run top first, the texture's from the bottom
-                stream = np.empty((h, 1 + c * w), np.uint8)
-                stream[:, 0] = 0
-                stream[:, 1:] = np.tile(self._blank_bytes(tex, fp, c), w)
-                if f1 > f0 and r1 > r0:
-                    fbo.scissor = (f0, r0, f1 - f0, r1 - r0)
-                    try:
-                        self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w}, fbo=fbo)
-                    finally:
-                        fbo.scissor = None
-                    packed = np.empty((r1 - r0, 16 * (f1 - f0)), np.uint8)
-                    fbo.read_into(packed, viewport=(f0, r0, f1 - f0, r1 - r0), components=4, alignment=1, dtype="u4")
-                    stream[r0:r1, 1 + 16 * f0:1 + 16 * f1] = packed
-                return stream.reshape(-1), c
-            self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w}, fbo=fbo)
-            packed = np.empty((h, c * w), np.uint8)
-            target.read_into(packed, alignment=1)
-            stream = np.empty((h, 1 + c * w), np.uint8)
-            stream[:, 0] = 0
-            stream[:, 1:] = packed
-            return stream.reshape(-1), c
+            if fp is None or footprint.covers_image(fp.rect, (w, h)):
+                target, fbo = self._pack_target(full, "u4", slot)
+                self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w, "u_offset": (0, 0)}, fbo=fbo)
+                return PackedPng(PngBlock((w, h), c, None, 0, 0, None), target, (0, 0, *full))
+            x, y, pw, ph = fp.rect
+            f0, f1 = (c * x) // 16, -(-(c * (x + pw)) // 16)
+            r0, r1 = h - (y + ph), h - y  # the stream's rows run top first, the texture's from the bottom
+            block = PngBlock((w, h), c, None, r0, 16 * f0, self._blank_bytes(tex, fp, c))
+            if f1 <= f0 or r1 <= r0:
+                return PackedPng(block, None, (0, 0, 0, 0))
+            # the target: the block rounded up to 8 x 16 texels, no bigger than the whole layout, placed so that
+            # it holds the block; the pass covers the whole target
+            size = (min(full[0], -(-(f1 - f0) // 8) * 8), min(full[1], -(-(r1 - r0) // 16) * 16))
+            origin = (min(f0, full[0] - size[0]), min(r0, full[1] - size[1]))
+            target, fbo = self._block_target(size, slot)
+            self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w, "u_offset": origin}, fbo=fbo)
+            return PackedPng(block, target, (f0 - origin[0], r0 - origin[1], f1 - f0, r1 - r0))
         total = h * (1 + c * w)
         rows = -(-total // (4 * w))  # at most h: 1 + 3w <= 4w bytes a row
-        target, fbo = self._pack_target((w, rows))
+        target, fbo = self._pack_target((w, rows), "u1", slot)
 
         prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_ROWS": 1, "PNG_CHANNELS": c}, node="engine")
         self.fullscreen(prog, [], {"t_src": tex},
                         {"u_height": h, "u_width": w, "u_target_width": w, "u_total": total}, fbo=fbo)
-        out = np.empty(rows * w * 4, np.uint8)
-        target.read_into(out, alignment=1)
-        return out[:total], c
+        return PackedPng(PngBlock((w, h), c, None, 0, 0, None, stream=np.empty(0, np.uint8)), target,
+                         (0, 0, w, rows), total)
+
+    def _block_target(self, size: tuple[int, int], slot: int) -> tuple[Any, Any]:
+        """`pack_png`'s RGBA32UI target of `size` for a footprint's block: one per slot, replaced when the size
+        changes (the rounding keeps that rare in an animation)."""
+        key = ("pack8-block", slot)
+        entry = self.resources.get(key)
+        if entry is not None and entry[0].size == size:
+            return entry
+        if entry is not None:
+            entry[1].release()
+            entry[0].release()
+        target = self.ctx.texture(size, 4, dtype="u4")
+        entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
+        return entry
 
     def _blank_bytes(self, tex: Tex, fp: Footprint, channels: int) -> np.ndarray:
         """The 8-bit file values (`channels` of them) of a texel of `tex` outside its footprint: read once from the
@@ -398,10 +422,10 @@ class GL:
             entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
         return entry
 
-    def _pack_target(self, size: tuple[int, int], dtype: str = "u1") -> tuple[Any, Any]:
-        """The integer texture (and its framebuffer) of `size` that the pack passes draw into, kept per size and
-        type: RGBA8UI (`u1`), or RGBA32UI (`u4`) for `read_png_rows`' wide pass."""
-        key = ("pack8", size, dtype)
+    def _pack_target(self, size: tuple[int, int], dtype: str = "u1", slot: int = 0) -> tuple[Any, Any]:
+        """The integer texture (and its framebuffer) of `size` that the pack passes draw into, kept per size,
+        type and slot (`pack_png`): RGBA8UI (`u1`), or RGBA32UI (`u4`) for `pack_png`'s wide pass."""
+        key = ("pack8", size, dtype, slot)
         entry = self.resources.get(key)
         if entry is None:
             target = self.ctx.texture(size, 4, dtype=dtype)
@@ -471,6 +495,59 @@ class Yuv420Planes:
     y_odd: np.ndarray
     u: np.ndarray
     v: np.ndarray
+
+
+@dataclass
+class PngBlock:
+    """`GL.read_png_block`'s read-back: a frame's PNG row bytes in the pieces the GPU made. `block`: the rows'
+    8-bit values (no filter bytes), rows `row0`.. top first, bytes `byte0`.. of each row; every other byte is
+    `blank` (the `channels` bytes of a pixel outside the footprint) repeated; `blank` None: `block` covers
+    every byte. `stream`: the whole stream as the GPU wrote it, where the pass wrote it 4 bytes a texel."""
+
+    size: tuple[int, int]
+    channels: int
+    block: np.ndarray | None
+    row0: int
+    byte0: int
+    blank: np.ndarray | None
+    stream: np.ndarray | None = None
+
+    def rows(self) -> np.ndarray:
+        """The stream a PNG's image data compresses (`GL.read_png_rows`): 1-D, h * (1 + w * channels) bytes."""
+        if self.stream is not None:
+            return self.stream
+        w, h = self.size
+        out = np.empty((h, 1 + self.channels * w), np.uint8)
+        out[:, 0] = 0
+        if self.blank is not None:
+            out[:, 1:] = np.tile(self.blank, w)
+        if self.block is not None:
+            bh, bw = self.block.shape
+            out[self.row0:self.row0 + bh, 1 + self.byte0:1 + self.byte0 + bw] = self.block
+        return out.reshape(-1)
+
+
+class PackedPng:
+    """`GL.pack_png`'s pass, issued: `read()` reads its target back (a texture read, see `pack_png`) as a
+    `PngBlock`. `place`: where the block lies in the target, in texels (x, y, width, height)."""
+
+    def __init__(self, block: PngBlock, target: Any, place: tuple[int, int, int, int], total: int = 0):
+        self._block, self._target, self._place, self._total = block, target, place, total
+
+    def read(self) -> PngBlock:
+        b = self._block
+        if self._target is None:  # nothing over the footprint to pack: every byte is blank
+            return b
+        tw, th = self._target.size
+        if b.stream is not None:  # the stream pass: 4 bytes a texel, the stream itself
+            out = np.empty(tw * th * 4, np.uint8)
+            self._target.read_into(out, alignment=1)
+            return PngBlock(b.size, b.channels, None, 0, 0, None, stream=out[:self._total])
+        whole = np.empty((th, tw * 16), np.uint8)
+        self._target.read_into(whole, alignment=1)
+        x, y, w, h = self._place
+        packed = whole if (x, y, w, h) == (0, 0, tw, th) else whole[y:y + h, 16 * x:16 * (x + w)]
+        return PngBlock(b.size, b.channels, packed, b.row0, b.byte0, b.blank)
 
 
 MESH_CACHE_ENTRIES = 64

@@ -129,18 +129,23 @@ class Bytes8:
 
 
 class PngRows:
-    """A frame already laid out on the GPU as a PNG's row bytes (`GL.read_png_rows`): `data` (1-D uint8,
-    h * (1 + w * channels) bytes), the size and the channels (1 grey, 3 RGB); `write` compresses and writes."""
+    """A frame already laid out on the GPU as a PNG's row bytes: the `PngBlock` read back (`GL.pack_png`);
+    `write` lays the rows out (`PngBlock.rows`), compresses and writes them, all on the caller's thread (a
+    writer thread in a sequence)."""
 
-    def __init__(self, data: Any, size: tuple[int, int], channels: int):  # np.ndarray
-        self.data = data
-        self.size = size
-        self.channels = channels
+    def __init__(self, block: Any):  # gl.PngBlock
+        self.block = block
+        self.size: tuple[int, int] = block.size
+        self.channels: int = block.channels
 
     @classmethod
     def of(cls, tex: Any, gl: Any) -> PngRows:
-        data, channels = gl.read_png_rows(tex)
-        return cls(data, tex.size, channels)
+        return cls(gl.read_png_block(tex))
+
+    @property
+    def data(self) -> Any:
+        """The stream (1-D uint8, h * (1 + w * channels) bytes)."""
+        return self.block.rows()
 
     def write(self, path: Path, level: int | None = None) -> Path:
         from . import imageio

@@ -75,10 +75,12 @@ vec4 pixel(int px, int row) {  // the 8-bit values of pixel px of image row `row
     return bytes_of(texelFetch(t_src, ivec2(min(px, u_width - 1), u_height - 1 - row), 0));
 }
 
+uniform ivec2 u_offset;  // the fragment of the whole layout at the target's (0, 0): a footprint's block
+
 uint pack4(vec4 b) { uvec4 u = uvec4(b); return u.x | (u.y << 8) | (u.z << 16) | (u.w << 24); }
 
 void main() {
-    ivec2 f = ivec2(gl_FragCoord.xy);
+    ivec2 f = ivec2(gl_FragCoord.xy) + u_offset;
     int row = f.y;
 #if PNG_CHANNELS == 1
     int p = 16 * f.x;

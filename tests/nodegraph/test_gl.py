@@ -56,22 +56,30 @@ def test_read_uint8_and_png_rows_match_numpy(gl, rng, fmt):
 
 
 def _blank_outside(gl, rng, fmt: str, cases):
-    """For each ((w, h), rect): a texture of `fmt` holding random values inside `rect` and one random blank value
-    outside, with no footprint yet, the footprint to give it, and a label; released after use."""
+    """For each ((w, h), rect): `_blank_texture`'s texture, footprint and label; released after use."""
+    for size, rect in cases:
+        tex, fp, label = _blank_texture(gl, rng, fmt, size, rect)
+        try:
+            yield tex, fp, label
+        finally:
+            gl.release(tex)
+
+
+def _blank_texture(gl, rng, fmt: str, size, rect):
+    """A texture of `fmt` holding random values inside `rect` and one random blank value outside, with no
+    footprint yet, the footprint to give it, and a label."""
     from nodegraph.values import Footprint
 
     c = types.components(fmt)
-    for (w, h), rect in cases:
-        blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
-        values = _texture(gl, rng, fmt, w, h).read()
-        x, y, rw, rh = rect
-        filled = np.broadcast_to(np.asarray(blank, np.float32), values.shape).copy()
-        filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
-        tex = gl.upload(filled, fmt)
-        try:
-            yield tex, Footprint(rect, blank), f"{fmt} {w}x{h} {rect}"
-        finally:
-            gl.release(tex)
+    w, h = size
+    blank = tuple(float(v) for v in rng.random(c) * 1.3 - 0.1)
+    rough = _texture(gl, rng, fmt, w, h)
+    values = rough.read()
+    gl.release(rough)
+    x, y, rw, rh = rect
+    filled = np.broadcast_to(np.asarray(blank, np.float32), values.shape).copy()
+    filled[y:y + rh, x:x + rw] = values[y:y + rh, x:x + rw]
+    return gl.upload(filled, fmt), Footprint(rect, blank), f"{fmt} {w}x{h} {rect}"
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
@@ -86,6 +94,30 @@ def test_png_rows_of_a_texture_with_a_footprint_are_the_whole_rows(gl, rng, fmt)
         part, cp = gl.read_png_rows(tex)
         assert cw == cp
         np.testing.assert_array_equal(part, whole, err_msg=label)
+
+
+def test_pack_png_read_later_with_slots_alternating_gives_each_frames_rows(gl, rng):
+    # as a sequence uses it: frames packed into alternating slots and read a frame later, their footprints
+    # moving and changing size (new targets), placed inside the image and against its right and top edges
+    cases = [((320, 200), (40, 30, 150, 90)), ((320, 200), (200, 150, 120, 50)), ((320, 200), (0, 0, 320, 200)),
+             ((320, 200), (3, 60, 17, 3)), ((320, 200), (260, 0, 60, 200)), ((320, 200), (100, 100, 0, 0))]
+    textures, wanted = [], []
+    try:
+        for size, rect in cases:
+            tex, fp, label = _blank_texture(gl, rng, "RGBA16F", size, rect)
+            textures.append(tex)
+            wanted.append((gl.read_png_rows(tex)[0], label))  # the whole pass, read at once
+            tex.footprint = fp
+        packs = []
+        for i, tex in enumerate(textures):
+            packs.append(gl.pack_png(tex, i % 2))
+            if i >= 1:
+                rows = packs[i - 1].read().rows()
+                np.testing.assert_array_equal(rows, wanted[i - 1][0], err_msg=wanted[i - 1][1])
+        np.testing.assert_array_equal(packs[-1].read().rows(), wanted[-1][0], err_msg=wanted[-1][1])
+    finally:
+        for tex in textures:
+            gl.release(tex)
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
