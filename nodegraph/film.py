@@ -230,9 +230,9 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     frames to the PNG's row bytes (`PngRows`, which zlib compresses as they are); everything else about the
     file happens on the writer threads. Each frame is converted and read back during the next frame's run,
     once that frame's first pass is issued (`Executor.run`'s `before_wait`), so the GPU finishes one frame
-    while the next is set up; a PNG frame's pass is issued then and read back a run later still (`GL.pack_png`:
-    the read then does not wait for the GPU). The last frames, and those before a failing one, are read back at
-    the end."""
+    while the next is set up; a PNG or yuv420p frame's pass is issued then and read back a run later still
+    (`GL.pack_png`, `GL.pack_yuv420`: the read then does not wait for the GPU). The last frames, and those
+    before a failing one, are read back at the end."""
     from .render import frame_path
     from .values import Tex
 
@@ -240,17 +240,31 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     loop = bar(frame_list) if bar is not None else frame_list
     if is_film(pattern):
         film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
-        held: list[Any] = []  # the last frame's value, until the next run reads it back
+        held: list[Any] = []  # the last frame's value, until the next run hands it over
+        converted: list[Any] = []  # the frame converted at the last hand-over (`GL.pack_yuv420`), to read
+        turn = 0
 
-        def hand_over() -> None:
+        def hand_over_film(last: bool = False) -> None:
+            # as hand_over below: the frame converted at the last hand-over is read (without waiting) and
+            # written first, so the film's frames stay in order; the two targets alternate
+            nonlocal turn
+            while converted:
+                film.write(converted.pop(0).read())
             while held:
-                film.write(_film_frame(ex, held.pop(0), film.pix))
+                value = held.pop(0)
+                if film.pix == "yuv420p" and isinstance(value, Tex):
+                    converted.append(ex.gl.pack_yuv420(value, turn))
+                    turn ^= 1
+                else:
+                    film.write(_film_frame(ex, value))
+            while last and converted:
+                film.write(converted.pop(0).read())
 
         try:
             for frame in loop:
-                value = ex.run(frame, before_wait=hand_over).values[ref]  # hands the last frame over
+                value = ex.run(frame, before_wait=hand_over_film).values[ref]  # hands the last frame over
                 held.append(value)
-            hand_over()
+            hand_over_film(last=True)
             path = film.close()
         except BaseException:
             film.abort()
@@ -321,15 +335,13 @@ def _host(value: Any) -> Any:
     return value
 
 
-def _film_frame(ex: Any, value: Any, pix: str) -> Any:
-    """A texture as a film frame converted on the GPU: yuv420p planes (`GL.read_yuv420`) for a yuv420p film,
-    `Bytes8` otherwise; anything else read back as `_host` does."""
+def _film_frame(ex: Any, value: Any) -> Any:
+    """A texture as `Bytes8` (converted on the GPU) for a film that is not yuv420p (GIF); anything else read
+    back as `_host` does. (yuv420p films take `GL.pack_yuv420`'s planes.)"""
     from . import types
     from .values import Tex
 
     if isinstance(value, Tex):
-        if pix == "yuv420p":
-            return ex.gl.read_yuv420(value)
         return Bytes8(ex.gl.read_uint8(value), types.components(value.fmt))
     return _host(value)
 

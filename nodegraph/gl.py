@@ -340,47 +340,44 @@ class GL:
         rgb24 -> yuv420p by default) of the 8-bit values `read_uint8` gives (one channel is grey; otherwise
         RGB, alpha dropped), the size rounded up to even by repeating the last column/row. Chroma is each 2x2
         block's mean RGB converted (swscale filters rows [1 3 3 1] / 8 instead); every value rounded half to
-        even (pack8.glsl). One full-screen pass of a
-        fragment per 4 x 2 pixels, each fetched once, 1.5 bytes a pixel read back (rows padded to 4 bytes)."""
+        even (pack8.glsl). One full-screen pass of a fragment per 4 x 2 pixels, each fetched once, 1.5 bytes a
+        pixel read back (rows padded to 4 bytes): `pack_yuv420(tex).read()`."""
+        return self.pack_yuv420(tex).read()
+
+    def pack_yuv420(self, tex: Tex, slot: int = 0) -> PackedYuv420:
+        """Issue `read_yuv420`'s pass into the targets of `slot`; `.read()` reads them back as `Yuv420Planes`
+        by texture reads, which wait only for the passes writing them (see `pack_png`: read a frame later,
+        the slots alternating, the read does not wait). Where the texture is blank outside its footprint, only
+        the fragments over it are converted, into targets of about the block's size (rounded up to 8 x 16
+        fragments), and the rest of each plane is the blank pixel's Y, U and V (made once by the pass on a
+        fragment outside)."""
         w, h = tex.size
         ew, eh = w + w % 2, h + h % 2
         line = -(-ew // 4) * 4  # bytes of a Y row as the pass writes it; chroma rows are half
         c = 1 if types.components(tex.fmt) == 1 else 3
-        targets, fbo = self._yuv_targets((line // 4, eh // 2))
+        full = (line // 4, eh // 2)
         from .glsl import ENGINE_GLSL
 
         prog = self.program(ENGINE_GLSL / "pack8.glsl", {"YUV420": 1, "YUV420_CHANNELS": c}, node="engine")
         widths = (line, line, line // 2, line // 2)
-        part = self._yuv_part(tex, line, prog, fbo)
-        if part is not None:
-            # blank outside the footprint: only the fragments over it are converted and read back, the rest of
-            # each plane is the blank pixel's Y, U and V (made once by the pass on a fragment outside)
-            (f0, g0, f1, g1), blank = part
-            planes = [np.full((eh // 2, width), b, np.uint8) for width, b in zip(widths, blank, strict=True)]
-            if f1 > f0 and g1 > g0:
-                fbo.scissor = (f0, g0, f1 - f0, g1 - g0)
-                try:
-                    self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
-                finally:
-                    fbo.scissor = None
-                for i, (plane, comps) in enumerate(zip(planes, (4, 4, 2, 2), strict=True)):
-                    sub = np.empty((g1 - g0, comps * (f1 - f0)), np.uint8)
-                    fbo.read_into(sub, viewport=(f0, g0, f1 - f0, g1 - g0), components=comps, attachment=i,
-                                  alignment=1, dtype="u1")
-                    plane[g0:g1, comps * f0:comps * f1] = sub
-            return Yuv420Planes((ew, eh), *planes)
-        self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
-        planes = []
-        for t, width in zip(targets, widths, strict=True):
-            a = np.empty((eh // 2, width), np.uint8)
-            t.read_into(a, alignment=1)
-            planes.append(a)
-        return Yuv420Planes((ew, eh), *planes)
+        part = self._yuv_part(tex, line, prog)
+        if part is None:
+            targets, fbo = self._yuv_targets(full, slot)
+            self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h), "u_offset": (0, 0)}, fbo=fbo)
+            return PackedYuv420((ew, eh), widths, None, targets, (0, 0, *full), (0, 0))
+        (f0, g0, f1, g1), blank = part
+        if f1 <= f0 or g1 <= g0:
+            return PackedYuv420((ew, eh), widths, blank, None, (0, 0, 0, 0), (0, 0))
+        size = (min(full[0], -(-(f1 - f0) // 8) * 8), min(full[1], -(-(g1 - g0) // 16) * 16))
+        origin = (min(f0, full[0] - size[0]), min(g0, full[1] - size[1]))
+        targets, fbo = self._yuv_targets(size, slot, block=True)
+        self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h), "u_offset": origin}, fbo=fbo)
+        return PackedYuv420((ew, eh), widths, blank, targets, (f0 - origin[0], g0 - origin[1], f1 - f0, g1 - g0),
+                            (f0, g0))
 
-    def _yuv_part(self, tex: Tex, line: int, prog: Any, fbo: Any
-                  ) -> tuple[tuple[int, int, int, int], tuple[int, ...]] | None:
-        """For `read_yuv420` of a texture with a footprint (even size, rows a multiple of 4 pixels): the fragments
-        (x0, y0, x1, y1) of the pass (`prog` into `fbo`) that touch the footprint, and the blank pixel's
+    def _yuv_part(self, tex: Tex, line: int, prog: Any) -> tuple[tuple[int, int, int, int], tuple[int, ...]] | None:
+        """For `pack_yuv420` of a texture with a footprint (even size, rows a multiple of 4 pixels): the fragments
+        (x0, y0, x1, y1) of the pass (`prog`) that touch the footprint, and the blank pixel's
         (Y, Y, U, V), found by the pass on a corner fragment outside and kept per format and blank value; None:
         convert the whole frame."""
         fp = footprint.of(tex)
@@ -398,28 +395,32 @@ class GL:
             corner = _corner_outside(frags, (nx, ny))
             if corner is None:
                 return None
-            fbo.scissor = (*corner, 1, 1)
-            try:
-                self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h)}, fbo=fbo)
-            finally:
-                fbo.scissor = None
+            # the corner fragment alone, into targets of one fragment (no frame's targets are touched)
+            targets, fbo = self._yuv_targets((1, 1), "blank")
+            self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h), "u_offset": corner}, fbo=fbo)
             values = []
-            for i, comps in enumerate((4, 4, 2, 2)):
+            for t, comps in zip(targets, (4, 4, 2, 2), strict=True):
                 texel = np.empty(comps, np.uint8)
-                fbo.read_into(texel, viewport=(*corner, 1, 1), components=comps, attachment=i, alignment=1,
-                              dtype="u1")
+                t.read_into(texel, alignment=1)
                 values.append(int(texel[0]))
             blank = self.resources[key] = tuple(values)
         return frags, blank
 
-    def _yuv_targets(self, size: tuple[int, int]) -> tuple[tuple[Any, ...], Any]:
-        """`read_yuv420`'s four integer textures (Y even rows, Y odd rows: RGBA8UI; U, V: RG8UI) of `size`
-        and their framebuffer, kept per size."""
-        key = ("yuv420", size)
+    def _yuv_targets(self, size: tuple[int, int], slot: int | str = 0, block: bool = False
+                     ) -> tuple[tuple[Any, ...], Any]:
+        """`pack_yuv420`'s four integer textures (Y even rows, Y odd rows: RGBA8UI; U, V: RG8UI) of `size`
+        and their framebuffer: kept per size and slot for whole frames; for a footprint's block (`block`), one
+        set per slot, replaced when the size changes."""
+        key = ("yuv420-block", slot) if block else ("yuv420", size, slot)
         entry = self.resources.get(key)
-        if entry is None:
-            targets = tuple(self.ctx.texture(size, n, dtype="u1") for n in (4, 4, 2, 2))
-            entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
+        if entry is not None and entry[0][0].size == size:
+            return entry
+        if entry is not None:
+            entry[1].release()
+            for t in entry[0]:
+                t.release()
+        targets = tuple(self.ctx.texture(size, n, dtype="u1") for n in (4, 4, 2, 2))
+        entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
         return entry
 
     def _pack_target(self, size: tuple[int, int], dtype: str = "u1", slot: int = 0) -> tuple[Any, Any]:
@@ -548,6 +549,37 @@ class PackedPng:
         x, y, w, h = self._place
         packed = whole if (x, y, w, h) == (0, 0, tw, th) else whole[y:y + h, 16 * x:16 * (x + w)]
         return PngBlock(b.size, b.channels, packed, b.row0, b.byte0, b.blank)
+
+
+class PackedYuv420:
+    """`GL.pack_yuv420`'s pass, issued: `read()` reads its targets back (texture reads) as `Yuv420Planes`.
+    `blank`: the planes' values outside the block (None: the targets hold the whole frame); `place`: the block
+    in the targets, in fragments (x, y, width, height); `at`: its first fragment in the frame."""
+
+    def __init__(self, size: tuple[int, int], widths: tuple[int, ...], blank: tuple[int, ...] | None,
+                 targets: tuple[Any, ...] | None, place: tuple[int, int, int, int], at: tuple[int, int]):
+        self._size, self._widths, self._blank, self._targets = size, widths, blank, targets
+        self._place, self._at = place, at
+
+    def read(self) -> Yuv420Planes:
+        ew, eh = self._size
+        if self._blank is None:
+            planes = []
+            for t, width in zip(self._targets or (), self._widths, strict=True):
+                a = np.empty((eh // 2, width), np.uint8)
+                t.read_into(a, alignment=1)
+                planes.append(a)
+            return Yuv420Planes(self._size, *planes)
+        planes = [np.full((eh // 2, width), b, np.uint8) for width, b in zip(self._widths, self._blank, strict=True)]
+        if self._targets is not None:
+            x, y, w, h = self._place
+            f0, g0 = self._at
+            for t, plane, comps in zip(self._targets, planes, (4, 4, 2, 2), strict=True):
+                tw, th = t.size
+                whole = np.empty((th, comps * tw), np.uint8)
+                t.read_into(whole, alignment=1)
+                plane[g0:g0 + h, comps * f0:comps * (f0 + w)] = whole[y:y + h, comps * x:comps * (x + w)]
+        return Yuv420Planes(self._size, *planes)
 
 
 MESH_CACHE_ENTRIES = 64

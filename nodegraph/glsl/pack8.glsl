@@ -53,8 +53,10 @@ uvec2 chroma(vec3 k, vec3 m0, vec3 m1) {
     return uvec2(clamp(roundEven(vec2(128.0) + vec2(dot(k, m0), dot(k, m1))), 0.0, 255.0));
 }
 
+uniform ivec2 u_offset;  // the fragment of the whole frame at the targets' (0, 0): a footprint's block
+
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy) * ivec2(4, 2);
+    ivec2 p = (ivec2(gl_FragCoord.xy) + u_offset) * ivec2(4, 2);
     vec3 a0 = rgb8(p.x, p.y), a1 = rgb8(p.x + 1, p.y), a2 = rgb8(p.x + 2, p.y), a3 = rgb8(p.x + 3, p.y);
     vec3 b0 = rgb8(p.x, p.y + 1), b1 = rgb8(p.x + 1, p.y + 1), b2 = rgb8(p.x + 2, p.y + 1),
          b3 = rgb8(p.x + 3, p.y + 1);

@@ -151,6 +151,32 @@ def test_sequence_read_back_during_the_next_run_has_the_bytes_of_frames_written_
     assert len({(tmp_path / "seq" / f"f_{f:04d}.png").read_bytes() for f in frames}) == 5  # the box moves
 
 
+def test_film_frames_read_back_a_run_later_are_the_planes_of_frames_converted_one_by_one(gl, tmp_path,
+                                                                                        monkeypatch):
+    # render_frames converts each frame during the next run and reads it during the run after (GL.pack_yuv420,
+    # two target sets alternating); every frame, in order, has the planes of the frame converted alone
+    from nodegraph.executor import Executor
+
+    pipe, ref = _animated(tmp_path, size=(64, 40))
+    got = []
+    real = film.FilmWriter.write
+
+    def write(self, planes):
+        got.append(planes)
+        real(self, planes)
+
+    monkeypatch.setattr(film.FilmWriter, "write", write)
+    ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl)
+    film.render_frames(ex, ref, range(5), str(tmp_path / "f.mp4"))
+    monkeypatch.undo()
+    assert len(got) == 5
+    for f, planes in enumerate(got):
+        want = gl.read_yuv420(Executor(pipe, None, requested=[ref], gl=gl).run(f).values[ref])
+        for plane in ("y_even", "y_odd", "u", "v"):
+            np.testing.assert_array_equal(getattr(planes, plane), getattr(want, plane), err_msg=f"{f} {plane}")
+    assert len({got[f].y_even.tobytes() for f in range(5)}) == 5  # the box moves
+
+
 @pytest.mark.parametrize("failing", ["gbuf", "sketch"])  # before the hand-over point of the run, and after it
 def test_a_failing_frame_still_writes_the_frame_before_it(gl, tmp_path, failing):
     from nodegraph.errors import NodeError

@@ -134,6 +134,38 @@ def test_yuv420_planes_of_a_texture_with_a_footprint_are_the_whole_planes(gl, rn
             np.testing.assert_array_equal(getattr(part, plane), getattr(whole, plane), err_msg=f"{label} {plane}")
 
 
+def test_pack_yuv420_read_later_with_slots_alternating_gives_each_frames_planes(gl, rng):
+    # as a film uses it: frames packed into alternating slots and read a frame later, whole frames between
+    # footprints that move, change size (new targets) and bring new blank values (found while a whole frame
+    # waits to be read), against the right and top edges
+    cases = [((320, 200), None), ((320, 200), (40, 30, 150, 90)), ((320, 200), None),
+             ((320, 200), (200, 150, 120, 50)), ((320, 200), (3, 60, 17, 3)), ((320, 200), (260, 0, 60, 200)),
+             ((320, 200), (100, 100, 0, 0))]
+    textures, wanted = [], []
+    try:
+        for size, rect in cases:
+            tex, fp, label = _blank_texture(gl, rng, "RGBA16F", size, rect or (0, 0, *size))
+            textures.append(tex)
+            wanted.append((gl.read_yuv420(tex), label))  # the whole pass, read at once
+            if rect is not None:
+                tex.footprint = fp
+        packs = []
+
+        def check(i):
+            got, (want, label) = packs[i].read(), wanted[i]
+            for plane in ("y_even", "y_odd", "u", "v"):
+                np.testing.assert_array_equal(getattr(got, plane), getattr(want, plane), err_msg=f"{label} {plane}")
+
+        for i, tex in enumerate(textures):
+            packs.append(gl.pack_yuv420(tex, i % 2))
+            if i >= 1:
+                check(i - 1)
+        check(len(textures) - 1)
+    finally:
+        for tex in textures:
+            gl.release(tex)
+
+
 def test_a_png_from_gpu_rows_is_the_png_of_the_values(gl, rng, tmp_path):
     tex = _texture(gl, rng, "RGBA16F", 37, 11)
     try:
