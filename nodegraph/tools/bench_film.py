@@ -6,7 +6,9 @@ The same frames of a pipeline are rendered (no disk cache, as `--frames` in a lo
 - `png`: through `film.render_frames` into an image sequence `f_####.png` (the `run --frames` path);
 - `mp4`: through `film.render_frames` into an H.264 film.
 
-and the JSON gives each rate and the ratios png/frames and mp4/frames (targets 0.85 and 0.8), and the
+and the JSON gives each rate (the best round of each way) and the ratios png/frames and mp4/frames of those
+rates (targets 0.85 and 0.8), `ratio_paired_median` (the median over rounds of each round's own ratio; the
+ways take turns going first), and the
 process's CPU time a frame for each way (all threads: llvmpipe's, the writers', the encoder's). On a shared
 machine the CPU figures move less than the rates: `cpu_ms_per_frame` and `extra_cpu_ms` (a way's CPU a frame
 beyond frames-only, median over the rounds) show what writing costs.
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import json
 import resource
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -77,22 +80,33 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
     times: dict[str, list[float]] = {"frames": [], "png": [], "mp4": []}
     sizes: dict[str, int] = {}
     with tempfile.TemporaryDirectory(prefix="sketchgraph-bench-film-") as tmp:
+        ways = ["frames", "png", "mp4"]
         for r in range(repeat):  # interleaved, so drift in the machine's speed hits all three alike
-            times["frames"].append(frames_only())
-            seq = Path(tmp) / f"png{r}"
-            times["png"].append(written("png", str(seq / "f_####.png"), png_level=png_level))
-            sizes["png_bytes_per_frame"] = sum(p.stat().st_size for p in seq.glob("*.png")) // max(1, frames)
-            mp4 = Path(tmp) / f"film{r}.mp4"
-            times["mp4"].append(written("mp4", str(mp4)))
-            sizes["mp4_bytes"] = mp4.stat().st_size
+            for way in ways[r % 3:] + ways[:r % 3]:  # each way first, second and third in turn
+                if way == "frames":
+                    times["frames"].append(frames_only())
+                elif way == "png":
+                    seq = Path(tmp) / f"png{r}"
+                    times["png"].append(written("png", str(seq / "f_####.png"), png_level=png_level))
+                    sizes["png_bytes_per_frame"] = sum(p.stat().st_size for p in seq.glob("*.png")) // max(1, frames)
+                else:
+                    mp4 = Path(tmp) / f"film{r}.mp4"
+                    times["mp4"].append(written("mp4", str(mp4)))
+                    sizes["mp4_bytes"] = mp4.stat().st_size
     best = {k: min(v) for k, v in times.items()}
     fps = {k: frames / v for k, v in best.items()}
+    # each round's own ratio (frames-only time over the way's, measured seconds apart), the median over rounds:
+    # drift in the machine's speed moves both times of a round alike, where the best times may come from
+    # different moments
+    paired = {k: statistics.median(f / t for f, t in zip(times["frames"], times[k], strict=True))
+              for k in ("png", "mp4")}
     cpu_ms = {k: sorted(v)[len(v) // 2] / frames * 1000 for k, v in cpu_s.items()}  # the median round
     out: dict[str, Any] = {
         "pipeline": pipeline, "scene": pipe.scene_spec, "size": list(pipe.size), "frames": frames,
         "repeat": repeat, "renderer": gl.renderer, "png_level": png_level,
         "fps": fps, "seconds": times,
         "ratio": {"png": fps["png"] / fps["frames"], "mp4": fps["mp4"] / fps["frames"]},
+        "ratio_paired_median": paired,
         "cpu_ms_per_frame": cpu_ms, "extra_cpu_ms": {k: cpu_ms[k] - cpu_ms["frames"] for k in ("png", "mp4")},
         "targets": TARGETS, **sizes,
     }

@@ -35,3 +35,18 @@ def test_footprint_benchmark_compares_both_ways(gl, tmp_path: Path):
     assert b["frames"] == 2 and b["draws"] == 3.0 and b["A_ms"] > 0 and b["B_ms"] > 0
     assert b["B_over_A"] == b["B_ms"] / b["A_ms"]
     assert 0.0 < b["output_footprint_share"] < 1.0  # the torus leaves part of the view to the paper
+
+
+def test_film_benchmark_reports_best_and_paired_ratios_of_its_rounds(gl, tmp_path: Path):
+    out = tmp_path / "film.json"
+    res = CliRunner().invoke(main, ["bench", "film", "--scene", "builtin:torus", "--frames", "3", "--size", "96x80",
+                                    "--repeat", "3", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    b = json.loads(out.read_text())
+    t = b["seconds"]
+    assert b["frames"] == 3 and all(len(t[k]) == 3 for k in ("frames", "png", "mp4"))
+    for way in ("png", "mp4"):
+        assert abs(b["ratio"][way] - min(t["frames"]) / min(t[way])) < 1e-12
+        rounds = sorted(f / w for f, w in zip(t["frames"], t[way], strict=True))
+        assert b["ratio_paired_median"][way] == rounds[1]
+    assert b["png_bytes_per_frame"] > 0 and b["mp4_bytes"] > 0
