@@ -165,76 +165,80 @@ def _open_temp(p: Path) -> tuple[int, Path]:
     raise OutputError(f"{show_path(p)}: cannot write: no free temporary name beside it")
 
 
-def _keep_mode(fd: int, p: Path) -> None:
-    """Give the temporary file `p`'s mode where `p` exists (a rewrite keeps its permissions); a new file keeps
-    the mode it was created with."""
-    try:
-        mode = stat.S_IMODE(os.stat(p).st_mode)
-    except OSError:
-        return
-    os.fchmod(fd, mode)
-
-
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside `path` (`.NAME.tmp-PID-N.EXT`); when the body returns, sync it and
     rename it onto `path`. Any failure removes the temporary file, leaves `path` untouched and raises
     one line naming `path` and the OS error. `nonempty`: an empty result counts as a failure."""
     p = Path(path)
-    try:
-        fd, tmp = _open_temp(p)
-    except OSError as exc:
-        raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    fd, tmp = _temp_for(p)
     os.close(fd)
-    try:
+    with _removed_on_failure(tmp, p):
         try:
             yield tmp
         except IncompleteWrite as exc:
             detail = _probe_reason(tmp) or clean(str(exc)) or "the writer failed"
             raise OutputError(f"{show_path(p)}: cannot write: {detail}") from None
-        except OSError as exc:
-            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+        if nonempty and tmp.stat().st_size == 0:
+            reason = _probe_reason(tmp)
+            raise OutputError(f"{show_path(p)}: cannot write: {reason or 'the writer produced an empty file'}")
+        fd = os.open(tmp, os.O_RDONLY)
         try:
-            if nonempty and tmp.stat().st_size == 0:
-                reason = _probe_reason(tmp)
-                raise OutputError(f"{show_path(p)}: cannot write: {reason or 'the writer produced an empty file'}")
-            fd = os.open(tmp, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-                _keep_mode(fd, p)
-            finally:
-                os.close(fd)
-            os.replace(tmp, p)
-        except OSError as exc:
-            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
-    except BaseException:
-        _remove(tmp)
-        raise
+            _sync_keeping_mode(fd, p)
+        finally:
+            os.close(fd)
+        os.replace(tmp, p)
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write `data` to `path` atomically, as `atomic_output` does, in one open of the temporary file (a frame
     sequence's writer threads call this once a frame); returns `path`."""
     p = Path(path)
-    try:
-        fd, tmp = _open_temp(p)
-    except OSError as exc:
-        raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    fd, tmp = _temp_for(p)
+    with _removed_on_failure(tmp, p):
+        with open(fd, "wb", buffering=0) as fh:
+            view = memoryview(data)
+            while view:  # a raw write may take less than asked
+                view = view[fh.write(view):]
+            _sync_keeping_mode(fd, p)
+        os.replace(tmp, p)
+    return p
+
+
+@contextlib.contextmanager
+def _removed_on_failure(tmp: Path, p: Path) -> Iterator[None]:
+    """Inside: an OS error becomes one line naming `p`; any failure removes `tmp` and is raised."""
     try:
         try:
-            with open(fd, "wb", buffering=0) as fh:
-                view = memoryview(data)
-                while view:  # a raw write may take less than asked
-                    view = view[fh.write(view):]
-                os.fsync(fd)
-                _keep_mode(fd, p)
-            os.replace(tmp, p)
+            yield
         except OSError as exc:
-            raise OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+            raise _write_error(p, exc) from None
     except BaseException:
         _remove(tmp)
         raise
-    return p
+
+
+def _write_error(p: Path, exc: OSError) -> OutputError:
+    return OutputError(f"{show_path(p)}: cannot write: {_os_reason(exc)}")
+
+
+def _temp_for(p: Path) -> tuple[int, Path]:
+    """`_open_temp`, its OS errors as one line naming `p`."""
+    try:
+        return _open_temp(p)
+    except OSError as exc:
+        raise _write_error(p, exc) from None
+
+
+def _sync_keeping_mode(fd: int, p: Path) -> None:
+    """Sync the temporary file open as `fd`, and give it `p`'s mode where `p` exists (a rewrite keeps its
+    permissions; a new file keeps the mode it was created with)."""
+    os.fsync(fd)
+    try:
+        mode = stat.S_IMODE(os.stat(p).st_mode)
+    except OSError:
+        return
+    os.fchmod(fd, mode)
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:

@@ -289,7 +289,7 @@ class GL:
             # it holds the block; the pass covers the whole target
             size = (min(full[0], -(-(f1 - f0) // 8) * 8), min(full[1], -(-(r1 - r0) // 16) * 16))
             origin = (min(f0, full[0] - size[0]), min(r0, full[1] - size[1]))
-            target, fbo = self._block_target(size, slot)
+            (target,), fbo = self._targets(("pack8-block", slot), size, ((4, "u4"),))
             self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w, "u_offset": origin}, fbo=fbo)
             return PackedPng(block, target, (f0 - origin[0], r0 - origin[1], f1 - f0, r1 - r0))
         total = h * (1 + c * w)
@@ -301,20 +301,6 @@ class GL:
                         {"u_height": h, "u_width": w, "u_target_width": w, "u_total": total}, fbo=fbo)
         return PackedPng(PngBlock((w, h), c, None, 0, 0, None, stream=np.empty(0, np.uint8)), target,
                          (0, 0, w, rows), total)
-
-    def _block_target(self, size: tuple[int, int], slot: int) -> tuple[Any, Any]:
-        """`pack_png`'s RGBA32UI target of `size` for a footprint's block: one per slot, replaced when the size
-        changes (the rounding keeps that rare in an animation)."""
-        key = ("pack8-block", slot)
-        entry = self.resources.get(key)
-        if entry is not None and entry[0].size == size:
-            return entry
-        if entry is not None:
-            entry[1].release()
-            entry[0].release()
-        target = self.ctx.texture(size, 4, dtype="u4")
-        entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
-        return entry
 
     def _blank_bytes(self, tex: Tex, fp: Footprint, channels: int) -> np.ndarray:
         """The 8-bit file values (`channels` of them) of a texel of `tex` outside its footprint: read once from the
@@ -412,6 +398,13 @@ class GL:
         and their framebuffer: kept per size and slot for whole frames; for a footprint's block (`block`), one
         set per slot, replaced when the size changes."""
         key = ("yuv420-block", slot) if block else ("yuv420", size, slot)
+        return self._targets(key, size, ((4, "u1"), (4, "u1"), (2, "u1"), (2, "u1")))
+
+    def _targets(self, key: Any, size: tuple[int, int], specs: tuple[tuple[int, str], ...]
+                 ) -> tuple[tuple[Any, ...], Any]:
+        """Textures of `size` (one per (components, dtype) in `specs`) and their framebuffer, kept under `key`;
+        an entry of another size under the same key is released and replaced (a footprint's block targets,
+        one set per slot)."""
         entry = self.resources.get(key)
         if entry is not None and entry[0][0].size == size:
             return entry
@@ -419,7 +412,7 @@ class GL:
             entry[1].release()
             for t in entry[0]:
                 t.release()
-        targets = tuple(self.ctx.texture(size, n, dtype="u1") for n in (4, 4, 2, 2))
+        targets = tuple(self.ctx.texture(size, n, dtype=dtype) for n, dtype in specs)
         entry = self.resources[key] = (targets, self.ctx.framebuffer(color_attachments=list(targets)))
         return entry
 
