@@ -42,6 +42,7 @@ from . import render
 from .cache import Cache, default_root
 from .errors import SketchgraphError, one_line
 from .frames_manifest import FramesManifest, file_sha256, frame_digest
+from .values import Tex
 
 PLUGIN_NAME = "sketchgraph"
 VIDEO_SUFFIXES = (".mp4", ".gif", ".mov", ".webm", ".mkv")
@@ -305,21 +306,40 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         ex = state.executor(pipe, [ref], "loop" if many else "single", frames[0], cache=state.cache_for(cache_root))
         out = []
         # each frame is written during the next one's run, once that run's first pass is issued, as
-        # `film.render_frames` does; a frame's `ms` is its own run and its own write, not the overlap
+        # `film.render_frames` does: a PNG frame's 8-bit pass is issued then and read back, compressed and
+        # written at the hand-over after (`GL.pack_png`: the read does not wait); a frame's `ms` is its own run
+        # and its own conversion and write, not the overlap
         pending: list[tuple[int, Any, float]] = []
-        handed_ms = 0.0  # time the current run spent writing the frame before it
+        packed: list[tuple[int, Any, float, Path, Any]] = []  # (frame, result, ms so far, path, pack)
+        handed_ms = 0.0  # time the current run spent writing the frames before it
+        slot = 0
 
-        def hand_over() -> None:
-            nonlocal handed_ms
+        def record(frame: int, result: Any, ms: float, path: Path) -> None:
+            out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
+                        "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result), "ms": ms})
+
+        def hand_over(last: bool = False) -> None:
+            nonlocal handed_ms, slot
             t2 = time.perf_counter()
+            while packed:
+                frame, result, ms, target, pack = packed.pop(0)
+                t3 = time.perf_counter()
+                path = render.PngRows(pack.read()).write(target)
+                record(frame, result, ms + (time.perf_counter() - t3) * 1000, path)
             while pending:
                 frame, result, run_ms = pending.pop(0)
                 t3 = time.perf_counter()
                 target = render.frame_path(pattern, frame, many)
-                path = render.write_frame(result.values[ref], target, lambda: ex.gl)
-                out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
-                            "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result),
-                            "ms": run_ms + (time.perf_counter() - t3) * 1000})
+                value = result.values[ref]
+                if target.suffix.lower() == ".png" and isinstance(value, Tex):
+                    pack = ex.gl.pack_png(value, slot)
+                    slot ^= 1
+                    packed.append((frame, result, run_ms + (time.perf_counter() - t3) * 1000, target, pack))
+                else:
+                    path = render.write_frame(value, target, lambda: ex.gl)
+                    record(frame, result, run_ms + (time.perf_counter() - t3) * 1000, path)
+            if last and packed:
+                hand_over()
             handed_ms += (time.perf_counter() - t2) * 1000
 
         for frame in frames:
@@ -327,7 +347,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             handed_ms = 0.0
             result = ex.run(frame, before_wait=hand_over)
             pending.append((frame, result, (time.perf_counter() - t1) * 1000 - handed_ms))
-        hand_over()
+        hand_over(last=True)
         if ex.cache is not None:
             ex.cache.flush()
     except SketchgraphError as exc:

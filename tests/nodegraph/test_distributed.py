@@ -254,3 +254,33 @@ def test_default_chunk() -> None:
     assert dist.default_chunk(2, 2) == 2
     assert dist.default_chunk(10_000, 4) == dist.MAX_CHUNK
     assert dist.lp_threads_for(4, cores=2) == 1 and dist.lp_threads_for(2, cores=16) == 8
+
+
+@pytest.mark.parametrize("ext", [".png", ".exr"])
+def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path, ext: str) -> None:
+    # render_frames_task in this process (no cluster): a PNG frame's 8-bit pass is issued at the next run's
+    # hand-over and read back and written at the one after (GL.pack_png), an EXR frame at the next hand-over;
+    # each file has the bytes (PNG) or values (EXR) of its frame rendered and written alone, and the task
+    # reports the frames in order with their files' hashes
+    from nodegraph import imageio, render
+    from nodegraph.executor import Executor
+    from nodegraph.frames_manifest import file_sha256
+    from tests import gltf_files as gf
+
+    spec = dist.PipeSpec.make("nienhaus_sketchy", size="64x48", scene=str(gf.animated_box(tmp_path / "box.glb")))
+    frames = [0, 3, 6, 9, 12]
+    res = dist.render_frames_task(spec, frames, str(tmp_path / "seq" / f"f_####{ext}"), True, False)
+    assert "error" not in res, res
+    assert [f["frame"] for f in res["frames"]] == frames
+    pipe = spec.open()
+    ref = dist.ref_of(pipe, None)
+    for f, info in zip(frames, res["frames"], strict=True):
+        got = Path(info["path"])
+        assert got == tmp_path / "seq" / f"f_{f:04d}{ext}" and info["sha256"] == file_sha256(got) and info["ms"] > 0
+        one = render.write_frame(Executor(pipe, None, requested=[ref], gl=gl).run(f).values[ref],
+                                 tmp_path / "one" / f"f_{f:04d}{ext}", gl)
+        if ext == ".png":
+            assert got.read_bytes() == one.read_bytes()
+        else:
+            np.testing.assert_array_equal(imageio.read(got), imageio.read(one))
+    assert len({file_sha256(Path(i["path"])) for i in res["frames"]}) == len(frames)  # the box moves
