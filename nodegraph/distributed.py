@@ -312,14 +312,13 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         pending: list[tuple[int, Any, float]] = []
         packed: list[tuple[int, Any, float, Path, Any]] = []  # (frame, result, ms so far, path, pack)
         handed_ms = 0.0  # time the current run spent writing the frames before it
-        slot = 0
 
         def record(frame: int, result: Any, ms: float, path: Path) -> None:
             out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
                         "sha256": file_sha256(path), "path": str(path), "hits": _disk_hits(result), "ms": ms})
 
         def hand_over(last: bool = False) -> None:
-            nonlocal handed_ms, slot
+            nonlocal handed_ms
             t2 = time.perf_counter()
             while packed:
                 frame, result, ms, target, pack = packed.pop(0)
@@ -332,8 +331,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
                 target = render.frame_path(pattern, frame, many)
                 value = result.values[ref]
                 if target.suffix.lower() == ".png" and isinstance(value, Tex):
-                    pack = ex.gl.pack_png(value, slot)
-                    slot ^= 1
+                    pack = ex.gl.pack_png(value)
                     packed.append((frame, result, run_ms + (time.perf_counter() - t3) * 1000, target, pack))
                 else:
                     path = render.write_frame(value, target, lambda: ex.gl)

@@ -242,19 +242,16 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
         film = FilmWriter(pattern, fps, ex.pipeline.size, crf)
         held: list[Any] = []  # the last frame's value, until the next run hands it over
         converted: list[Any] = []  # the frame converted at the last hand-over (`GL.pack_yuv420`), to read
-        turn = 0
 
         def hand_over_film(last: bool = False) -> None:
             # as hand_over below: the frame converted at the last hand-over is read (without waiting) and
-            # written first, so the film's frames stay in order; the two targets alternate
-            nonlocal turn
+            # written first, so the film's frames stay in order
             while converted:
                 film.write(converted.pop(0).read())
             while held:
                 value = held.pop(0)
                 if film.pix == "yuv420p" and isinstance(value, Tex):
-                    converted.append(ex.gl.pack_yuv420(value, turn))
-                    turn ^= 1
+                    converted.append(ex.gl.pack_yuv420(value))
                 else:
                     film.write(_film_frame(ex, value))
             while last and converted:
@@ -277,7 +274,6 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     skipped = 0
     pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run hands it over
     packed: list[tuple[Path, Any, int, str]] = []  # PNG frames whose pack pass is issued, until the next hand-over
-    slot = 0
 
     def write_packed() -> None:
         path, pack, frame, key = packed.pop(0)
@@ -287,15 +283,13 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
         # the frame packed at the last hand-over is read back first: the passes since have waited for its pass,
         # so the read does not wait (GL.pack_png); then the frame rendered since is packed, to be read at the next
         # hand-over (or now, after the last frame). Every run hands over once (`Executor.run`), so at most one
-        # frame is pending here, and the two pack targets alternating are each read before they are packed again.
-        nonlocal slot
+        # frame is pending here, and the pack target is read before it is packed again.
         while packed:
             write_packed()
         while pending:
             path, value, frame, key = pending.pop(0)
             if path.suffix.lower() == ".png" and isinstance(value, Tex):
-                packed.append((path, ex.gl.pack_png(value, slot), frame, key))
-                slot ^= 1
+                packed.append((path, ex.gl.pack_png(value), frame, key))
             else:
                 seq.write(path, _host(value), frame, key)
         while last and packed:

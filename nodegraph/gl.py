@@ -256,8 +256,8 @@ class GL:
         """Issue the pass that lays `tex` out as PNG row bytes, into pack target `slot`; `.read()` reads them
         back as a `PngBlock`. The read is a texture read of the whole target: on llvmpipe a framebuffer read
         waits for every queued pass, a texture read only for the passes writing it. So, read after the
-        passes that follow it have waited for it (a frame later in a sequence, the slots alternating), the
-        read does not wait for the GPU at all.
+        passes that follow it have waited for it (a frame later in a sequence, before the slot is packed
+        again), the read does not wait for the GPU at all. Two slots let a caller keep two packs outstanding.
 
         Where a row's bytes are a multiple of 16, one full-screen pass writes the rows 16 bytes a fragment and
         the filter bytes are added by `PngBlock.rows`; where the texture is blank outside its footprint, only
@@ -333,7 +333,7 @@ class GL:
     def pack_yuv420(self, tex: Tex, slot: int = 0) -> PackedYuv420:
         """Issue `read_yuv420`'s pass into the targets of `slot`; `.read()` reads them back as `Yuv420Planes`
         by texture reads, which wait only for the passes writing them (see `pack_png`: read a frame later,
-        the slots alternating, the read does not wait). Where the texture is blank outside its footprint, only
+        the read does not wait). Where the texture is blank outside its footprint, only
         the fragments over it are converted, into targets of about the block's size (rounded up to 8 x 16
         fragments), and the rest of each plane is the blank pixel's Y, U and V (made once by the pass on a
         fragment outside)."""
