@@ -285,10 +285,7 @@ class GL:
             block = PngBlock((w, h), c, None, r0, 16 * f0, self._blank_bytes(tex, fp, c))
             if f1 <= f0 or r1 <= r0:
                 return PackedPng(block, None, (0, 0, 0, 0))
-            # the target: the block rounded up to 8 x 16 texels, no bigger than the whole layout, placed so that
-            # it holds the block; the pass covers the whole target
-            size = (min(full[0], -(-(f1 - f0) // 8) * 8), min(full[1], -(-(r1 - r0) // 16) * 16))
-            origin = (min(f0, full[0] - size[0]), min(r0, full[1] - size[1]))
+            size, origin = _block_target_place((f0, r0, f1, r1), full)
             (target,), fbo = self._targets(("pack8-block", slot), size, ((4, "u4"),))
             self.fullscreen(prog, [], {"t_src": tex}, {"u_height": h, "u_width": w, "u_offset": origin}, fbo=fbo)
             return PackedPng(block, target, (f0 - origin[0], r0 - origin[1], f1 - f0, r1 - r0))
@@ -299,8 +296,7 @@ class GL:
         prog = self.program(ENGINE_GLSL / "pack8.glsl", {"PNG_ROWS": 1, "PNG_CHANNELS": c}, node="engine")
         self.fullscreen(prog, [], {"t_src": tex},
                         {"u_height": h, "u_width": w, "u_target_width": w, "u_total": total}, fbo=fbo)
-        return PackedPng(PngBlock((w, h), c, None, 0, 0, None, stream=np.empty(0, np.uint8)), target,
-                         (0, 0, w, rows), total)
+        return PackedPng(PngBlock((w, h), c, None, 0, 0, None), target, (0, 0, w, rows), stream_bytes=total)
 
     def _blank_bytes(self, tex: Tex, fp: Footprint, channels: int) -> np.ndarray:
         """The 8-bit file values (`channels` of them) of a texel of `tex` outside its footprint: read once from the
@@ -354,8 +350,7 @@ class GL:
         (f0, g0, f1, g1), blank = part
         if f1 <= f0 or g1 <= g0:
             return PackedYuv420((ew, eh), widths, blank, None, (0, 0, 0, 0), (0, 0))
-        size = (min(full[0], -(-(f1 - f0) // 8) * 8), min(full[1], -(-(g1 - g0) // 16) * 16))
-        origin = (min(f0, full[0] - size[0]), min(g0, full[1] - size[1]))
+        size, origin = _block_target_place((f0, g0, f1, g1), full)
         targets, fbo = self._yuv_targets(size, slot, block=True)
         self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h), "u_offset": origin}, fbo=fbo)
         return PackedYuv420((ew, eh), widths, blank, targets, (f0 - origin[0], g0 - origin[1], f1 - f0, g1 - g0),
@@ -382,7 +377,7 @@ class GL:
             if corner is None:
                 return None
             # the corner fragment alone, into targets of one fragment (no frame's targets are touched)
-            targets, fbo = self._yuv_targets((1, 1), "blank")
+            targets, fbo = self._targets(("yuv420-blank",), (1, 1), _YUV_TARGETS)
             self.fullscreen(prog, [], {"t_src": tex}, {"u_src": (w, h), "u_offset": corner}, fbo=fbo)
             values = []
             for t, comps in zip(targets, (4, 4, 2, 2), strict=True):
@@ -392,13 +387,13 @@ class GL:
             blank = self.resources[key] = tuple(values)
         return frags, blank
 
-    def _yuv_targets(self, size: tuple[int, int], slot: int | str = 0, block: bool = False
+    def _yuv_targets(self, size: tuple[int, int], slot: int = 0, block: bool = False
                      ) -> tuple[tuple[Any, ...], Any]:
         """`pack_yuv420`'s four integer textures (Y even rows, Y odd rows: RGBA8UI; U, V: RG8UI) of `size`
         and their framebuffer: kept per size and slot for whole frames; for a footprint's block (`block`), one
         set per slot, replaced when the size changes."""
         key = ("yuv420-block", slot) if block else ("yuv420", size, slot)
-        return self._targets(key, size, ((4, "u1"), (4, "u1"), (2, "u1"), (2, "u1")))
+        return self._targets(key, size, _YUV_TARGETS)
 
     def _targets(self, key: Any, size: tuple[int, int], specs: tuple[tuple[int, str], ...]
                  ) -> tuple[tuple[Any, ...], Any]:
@@ -419,12 +414,8 @@ class GL:
     def _pack_target(self, size: tuple[int, int], dtype: str = "u1", slot: int = 0) -> tuple[Any, Any]:
         """The integer texture (and its framebuffer) of `size` that the pack passes draw into, kept per size,
         type and slot (`pack_png`): RGBA8UI (`u1`), or RGBA32UI (`u4`) for `pack_png`'s wide pass."""
-        key = ("pack8", size, dtype, slot)
-        entry = self.resources.get(key)
-        if entry is None:
-            target = self.ctx.texture(size, 4, dtype=dtype)
-            entry = self.resources[key] = (target, self.ctx.framebuffer(color_attachments=[target]))
-        return entry
+        (target,), fbo = self._targets(("pack8", size, dtype, slot), size, ((4, dtype),))
+        return target, fbo
 
     # -- geometry ---------------------------------------------------------------------------
     def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays]) -> MeshBuffers:
@@ -523,20 +514,22 @@ class PngBlock:
 
 class PackedPng:
     """`GL.pack_png`'s pass, issued: `read()` reads its target back (a texture read, see `pack_png`) as a
-    `PngBlock`. `place`: where the block lies in the target, in texels (x, y, width, height)."""
+    `PngBlock`. `place`: where the block lies in the target, in texels (x, y, width, height); `stream_bytes`:
+    the target holds the whole stream, 4 bytes a texel, this many of them."""
 
-    def __init__(self, block: PngBlock, target: Any, place: tuple[int, int, int, int], total: int = 0):
-        self._block, self._target, self._place, self._total = block, target, place, total
+    def __init__(self, block: PngBlock, target: Any, place: tuple[int, int, int, int],
+                 stream_bytes: int | None = None):
+        self._block, self._target, self._place, self._stream_bytes = block, target, place, stream_bytes
 
     def read(self) -> PngBlock:
         b = self._block
         if self._target is None:  # nothing over the footprint to pack: every byte is blank
             return b
         tw, th = self._target.size
-        if b.stream is not None:  # the stream pass: 4 bytes a texel, the stream itself
+        if self._stream_bytes is not None:  # the stream pass: 4 bytes a texel, the stream itself
             out = np.empty(tw * th * 4, np.uint8)
             self._target.read_into(out, alignment=1)
-            return PngBlock(b.size, b.channels, None, 0, 0, None, stream=out[:self._total])
+            return PngBlock(b.size, b.channels, None, 0, 0, None, stream=out[:self._stream_bytes])
         whole = np.empty((th, tw * 16), np.uint8)
         self._target.read_into(whole, alignment=1)
         x, y, w, h = self._place
@@ -573,6 +566,21 @@ class PackedYuv420:
                 t.read_into(whole, alignment=1)
                 plane[g0:g0 + h, comps * f0:comps * (f0 + w)] = whole[y:y + h, comps * x:comps * (x + w)]
         return Yuv420Planes(self._size, *planes)
+
+
+_YUV_TARGETS = ((4, "u1"), (4, "u1"), (2, "u1"), (2, "u1"))
+"""`pack_yuv420`'s targets: Y even rows, Y odd rows (RGBA8UI), U, V (RG8UI)."""
+
+
+def _block_target_place(block: tuple[int, int, int, int], full: tuple[int, int]
+                        ) -> tuple[tuple[int, int], tuple[int, int]]:
+    """For a footprint's block of a pack pass, (x0, y0, x1, y1) in fragments of the whole layout `full`: the
+    size of its target, the block rounded up to 8 x 16 fragments (so an animated footprint seldom needs a new
+    one) and no bigger than the layout, and the layout's fragment at the target's (0, 0), placed so that the
+    target holds the block inside the layout; the pass covers the whole target."""
+    x0, y0, x1, y1 = block
+    size = (min(full[0], -(-(x1 - x0) // 8) * 8), min(full[1], -(-(y1 - y0) // 16) * 16))
+    return size, (min(x0, full[0] - size[0]), min(y0, full[1] - size[1]))
 
 
 MESH_CACHE_ENTRIES = 64
