@@ -60,12 +60,22 @@ TEMP_PREFIX = ".tmp-"
 STALE_TEMP_SECONDS = 3600.0  # a temporary file untouched this long is a leftover, whoever wrote it
 PRUNE_FRACTION = 0.125  # a frame loop prunes whenever it has written this fraction of the limit
 MAX_PENDING_WRITES = 6  # background writes queued at most; the next `store` waits for one to finish
+WRITER_THREADS = 2
+"""Background writes run two at a time: a single render's chosen entries are written while its image is
+encoded, and the process waits for them at exit, when nothing else needs the cores (4K nienhaus_sketchy:
+edges and noise took 0.32-0.56 s one after the other, each 0.14-0.30 s alone)."""
 LOW_SPACE = 64 * 1024**2  # with less free space than this, a written EXR is read back before it is kept
 ENTRY_MS_PER_MB = 20.0
 """Estimated cost of writing an entry and reading it back later, per MB of stored pixels (half or float):
 zip-compressed EXR on the project's 2-core machine, the six 4K entries of nienhaus_sketchy took 10-35 ms/MB
 write + read (median 19; load average 2.7; docs/performance.md "Big single renders"). Used by
 `Cache.worth_writing`."""
+STORED_ABOVE = 0.5
+"""An EXR entry is written without compression when a sample of its rows deflates (zlib level 1) to more
+than this fraction of their bytes (`exr_compression`): such pixels (noise: 0.82-0.84) gain about 3x from
+EXR's zip, whose encode then costs about 2.5x the uncompressed write (4K noise, 33 MB of half: 0.31 s
+against 0.11-0.13 s, read back in 0.08 s against 0.02 s); buffers that are mostly blank or smooth (G-buffer,
+edges, images: 0.005-0.11) stay zip, 10-200x smaller."""
 ALWAYS_WRITE_MS = 250.0
 """Entries estimated below this are written whatever their node costs: the background write hides them, the
 estimate is too rough to second-guess them, and every render up to about 0.8 Mpx of float RGBA (800x800
@@ -382,7 +392,8 @@ class Cache:
             self._room.acquire()  # bounded: a loop faster than the disk waits here instead of growing memory
             with self._lock:
                 if self._writer is None:
-                    self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sketchgraph-cache")
+                    self._writer = ThreadPoolExecutor(max_workers=WRITER_THREADS,
+                                                      thread_name_prefix="sketchgraph-cache")
                 self._pending_bytes += size
                 fut = self._writer.submit(self._store_safe, key, port, kind, data, meta, fmt)
                 self._pending.append(fut)
@@ -676,7 +687,7 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
     pixel = oiio.HALF if half else oiio.FLOAT
     spec = oiio.ImageSpec(w, h, c, pixel)
     spec.channelnames = tuple("RGBA"[:c]) if c != 2 else ("R", "G")
-    spec.attribute("compression", "zip" if c * w * h > 0 else "none")
+    spec.attribute("compression", exr_compression(arr))
     for k, v in _meta_attrs(key, port, meta).items():
         spec.attribute(k, v)
     spec.attribute("sketchgraph:fmt", fmt)
@@ -697,6 +708,17 @@ def _write_exr(path: str, arr: np.ndarray, fmt: str, key: str, port: str, meta: 
     if not out.close():
         raise OSError(out.geterror() or "EXR close failed")
     _check_complete(path, key, port)
+
+
+def exr_compression(arr: np.ndarray, rows: int = 8) -> str:
+    """The EXR compression of an entry's pixels, (H, W, C) in file order: "zip", or "none" where `rows` rows
+    spread over the image deflate to more than `STORED_ABOVE` of their bytes (about 3 ms for 4K noise)."""
+    import zlib
+
+    if arr.size == 0:
+        return "none"
+    sample = np.ascontiguousarray(arr[np.linspace(0, arr.shape[0] - 1, min(rows, arr.shape[0])).astype(int)])
+    return "none" if len(zlib.compress(memoryview(sample).cast("B"), 1)) > STORED_ABOVE * sample.nbytes else "zip"
 
 
 def _check_complete(path: str, key: str, port: str) -> None:
