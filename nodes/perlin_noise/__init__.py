@@ -92,10 +92,7 @@ class PerlinNoise(Node):
         if self.params.kind == "white":
             return (1.0, 1.0)
         if self.hold == 0:
-            # channel by channel: a reduction over both image axes of the interleaved (H, W, 2) array took
-            # 26.5 ms at 800x800 here, the two strided channels 2.0 ms (the same maxima, NaN included)
-            a = out.read()
-            return (float(np.abs(a[..., 0]).max()), float(np.abs(a[..., 1]).max()))
+            return channel_absmax(out.read_native())
         b = noise.octaves_bound(self.params.octaves)
         return (b, b)
 
@@ -120,6 +117,19 @@ class PerlinNoise(Node):
         if p.kind == "white":
             return noise.white_offsets(width, height, seed, frame, self.cell_ratio((width, height), reference_size))
         return noise.screen_offsets(width, height, self.frequency(px_scale), p.octaves, seed, p.mode)
+
+
+def channel_absmax(a: np.ndarray) -> tuple[float, float]:
+    """max |value| of each channel of an (H, W, 2) read-back, NaN where a channel holds one (as NumPy's max).
+    Channel by channel: a reduction over both image axes of the interleaved array took 26.5 ms at 800x800
+    here, the two strided channels 2.0 ms. Half pixels (the planned RG16F) are compared as their bits with
+    the sign cleared, whose order as integers is the order of the magnitudes, NaN above infinity: at 4K
+    0.03 s, against 0.14 s to convert them to float32 first."""
+    if a.dtype == np.float16:
+        bits = a.view(np.uint16)
+        mags = [np.array(np.bitwise_and(bits[..., k], 0x7FFF).max(), np.uint16).view(np.float16) for k in (0, 1)]
+        return (float(mags[0]), float(mags[1]))
+    return (float(np.abs(a[..., 0]).max()), float(np.abs(a[..., 1]).max()))
 
 
 NODE = PerlinNoise

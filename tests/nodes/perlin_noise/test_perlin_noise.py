@@ -124,3 +124,23 @@ def test_white_noise_and_px_scale_in_the_key():
     h = HashContext((400, 400), 0, 1, None, 800)
     assert h.values_for(perlin)["px_scale"] == 0.5
     assert h.values_for(white)["px_scale"] == 0.5  # its grain is a pixel of the reference size
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32])
+def test_channel_absmax_is_the_largest_magnitude_nan_included(dtype):
+    # the half path compares sign-cleared bits as integers; the reference is float64 NumPy on the same values
+    from nodegraph_nodes.perlin_noise import channel_absmax
+
+    rng = np.random.default_rng(7)
+    for case in range(60):
+        a = (rng.standard_normal((9, 13, 2)) * 10.0 ** rng.uniform(-7, 4)).astype(dtype)  # subnormal halves too
+        if case % 4 == 1:
+            a[rng.integers(9), rng.integers(13), rng.integers(2)] = np.nan
+        if case % 5 == 2:
+            a[2, 3, 0] = -np.inf
+        if case % 6 == 3:
+            a[..., 1] = -0.0
+        ref = [float(np.abs(a[..., k].astype(np.float64)).max()) for k in (0, 1)]
+        got = channel_absmax(a)
+        for r, g in zip(ref, got, strict=True):
+            assert (np.isnan(r) and np.isnan(g)) or (r == g and not np.signbit(g)), (case, ref, got)
