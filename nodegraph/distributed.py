@@ -42,6 +42,7 @@ from . import render
 from .cache import Cache, default_root
 from .errors import SketchgraphError, one_line
 from .frames_manifest import FramesManifest, file_sha256, frame_digest
+from .fsio import sync_written
 from .values import Tex
 
 PLUGIN_NAME = "sketchgraph"
@@ -312,6 +313,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         pending: list[tuple[int, Any, float]] = []
         packed: list[tuple[int, Any, float, Path, Any]] = []  # (frame, result, ms so far, path, pack)
         handed_ms = 0.0  # time the current run spent writing the frames before it
+        unsynced: list[Path] = []  # PNG frames written unsynced: synced together before the task reports them
 
         def record(frame: int, result: Any, ms: float, path: Path) -> None:
             out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
@@ -323,7 +325,8 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             while packed:
                 frame, result, ms, target, pack = packed.pop(0)
                 t3 = time.perf_counter()
-                path = render.PngRows(pack.read()).write(target)
+                path = render.PngRows(pack.read()).write(target, sync=False)
+                unsynced.append(path)
                 record(frame, result, ms + (time.perf_counter() - t3) * 1000, path)
             while pending:
                 frame, result, run_ms = pending.pop(0)
@@ -346,6 +349,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             result = ex.run(frame, before_wait=hand_over)
             pending.append((frame, result, (time.perf_counter() - t1) * 1000 - handed_ms))
         hand_over(last=True)
+        sync_written(unsynced)
         if ex.cache is not None:
             ex.cache.flush()
     except SketchgraphError as exc:

@@ -192,6 +192,7 @@ class SequenceWriter:
         self.manifest = FramesManifest.load(pattern) if resume else None
         self.png_level = PNG_LEVEL if png_level is None else png_level
         self._lock = threading.Lock()
+        self._unsynced: list[Path] = []  # PNG frames written unsynced, synced together at `close`
         self._worker = _Worker(self._write, threads=WRITER_THREADS)
 
     def _write(self, item: tuple[Path, Any, int, str]) -> None:
@@ -199,8 +200,15 @@ class SequenceWriter:
         from .render import write_value
 
         path, value, frame, digest = item
-        written = value.write(path, self.png_level) if isinstance(value, PngRows) else write_value(value, path)
+        if isinstance(value, PngRows):
+            written = value.write(path, self.png_level, sync=False)
+            with self._lock:
+                self._unsynced.append(written)
+        else:
+            written = write_value(value, path)
         if self.manifest is not None:
+            # a frame the manifest records may still be unsynced: after a machine crash `--resume` finds its
+            # file's hash changed (empty, cut short) and renders it again
             sha = file_sha256(written)
             with self._lock:
                 self.manifest.record(frame, digest, sha)
@@ -213,11 +221,18 @@ class SequenceWriter:
         self._worker.put((path, value, frame, digest))
 
     def close(self) -> None:
+        from .fsio import sync_written
+
         try:
             self._worker.finish()
         finally:
-            if self.manifest is not None:
-                self.manifest.save()
+            try:
+                with self._lock:
+                    unsynced, self._unsynced = self._unsynced, []
+                sync_written(unsynced)
+            finally:
+                if self.manifest is not None:
+                    self.manifest.save()
 
 
 def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,

@@ -102,10 +102,12 @@ def png_rows(img: np.ndarray) -> np.ndarray:
     return rows.reshape(-1)
 
 
-def write_png_rows(path: str | Path, rows: np.ndarray, w: int, h: int, c: int, level: int = PNG_LEVEL) -> Path:
+def write_png_rows(path: str | Path, rows: np.ndarray, w: int, h: int, c: int, level: int = PNG_LEVEL,
+                   sync: bool = True) -> Path:
     """Write a PNG (8 bits a channel; C = 1 grey, 3 RGB, 4 RGBA) from its row bytes as `png_rows` gives them
     (or `GL.read_png_rows`, made on the GPU): they are deflated at `level` (`PNG_LEVEL`) without holding the
-    interpreter lock, and the output is framed in the IHDR, IDAT and IEND chunks. Atomic."""
+    interpreter lock, and the output is framed in the IHDR, IDAT and IEND chunks. Atomic; synced unless `sync`
+    is False (`fsio.atomic_write_bytes`)."""
     import struct
     import zlib
 
@@ -122,7 +124,7 @@ def write_png_rows(path: str | Path, rows: np.ndarray, w: int, h: int, c: int, l
            + chunk(b"IDAT", _deflate(data, level)) + chunk(b"IEND", b""))
     from .fsio import atomic_write_bytes
 
-    return atomic_write_bytes(p, out)
+    return atomic_write_bytes(p, out, sync)
 
 
 def _verify(oiio: object, path: Path, w: int, h: int, c: int, problem: str = "") -> None:

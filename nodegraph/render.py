@@ -147,12 +147,12 @@ class PngRows:
         """The stream (1-D uint8, h * (1 + w * channels) bytes)."""
         return self.block.rows()
 
-    def write(self, path: Path, level: int | None = None) -> Path:
+    def write(self, path: Path, level: int | None = None, sync: bool = True) -> Path:
         from . import imageio
 
         w, h = self.size
         return imageio.write_png_rows(path, self.data, w, h, self.channels,
-                                      imageio.PNG_LEVEL if level is None else level)
+                                      imageio.PNG_LEVEL if level is None else level, sync)
 
 
 def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:

@@ -257,11 +257,11 @@ def test_default_chunk() -> None:
 
 
 @pytest.mark.parametrize("ext", [".png", ".exr"])
-def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path, ext: str) -> None:
+def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path, ext: str, monkeypatch) -> None:
     # render_frames_task in this process (no cluster): a PNG frame's 8-bit pass is issued at the next run's
     # hand-over and read back and written at the one after (GL.pack_png), an EXR frame at the next hand-over;
     # each file has the bytes (PNG) or values (EXR) of its frame rendered and written alone, and the task
-    # reports the frames in order with their files' hashes
+    # reports the frames in order with their files' hashes; PNG frames are synced together before it returns
     from nodegraph import imageio, render
     from nodegraph.executor import Executor
     from nodegraph.frames_manifest import file_sha256
@@ -269,8 +269,13 @@ def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path
 
     spec = dist.PipeSpec.make("nienhaus_sketchy", size="64x48", scene=str(gf.animated_box(tmp_path / "box.glb")))
     frames = [0, 3, 6, 9, 12]
+    synced: list[str] = []
+    real_sync = dist.sync_written
+    monkeypatch.setattr(dist, "sync_written",
+                        lambda paths: (synced.extend(Path(p).name for p in paths), real_sync(paths)))
     res = dist.render_frames_task(spec, frames, str(tmp_path / "seq" / f"f_####{ext}"), True, False)
     assert "error" not in res, res
+    assert synced == ([f"f_{f:04d}.png" for f in frames] if ext == ".png" else [])
     assert [f["frame"] for f in res["frames"]] == frames
     pipe = spec.open()
     ref = dist.ref_of(pipe, None)

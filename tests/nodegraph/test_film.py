@@ -196,3 +196,32 @@ def test_a_failing_frame_still_writes_the_frame_before_it(gl, tmp_path, failing)
     with pytest.raises(NodeError, match="broken on purpose"):
         film.render_frames(ex, ref, range(6), str(tmp_path / "f_####.png"))
     assert sorted(p.name for p in tmp_path.glob("f_*.png")) == ["f_0000.png", "f_0001.png", "f_0002.png"]
+
+
+def test_sequence_frames_are_synced_together_once_all_are_written(gl, tmp_path, monkeypatch):
+    # PNG frames are renamed into place unsynced (no fsync per frame on the writer threads) and synced together
+    # when the sequence closes, after the last one is written, each once
+    import os
+
+    from nodegraph import fsio
+    from nodegraph.executor import Executor
+
+    pipe, ref = _animated(tmp_path)
+    fsyncs: list[int] = []
+    real_fsync = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (fsyncs.append(fd), real_fsync(fd))[1])
+    calls: list[list[str]] = []
+    real_sync = fsio.sync_written
+
+    def sync_written(paths):
+        paths = list(paths)
+        assert sorted(p.name for p in tmp_path.glob("f_*.png")) == [f"f_{f:04d}.png" for f in range(4)]
+        assert fsyncs == []  # nothing synced while the frames were written
+        calls.append(sorted(p.name for p in paths))
+        real_sync(paths)
+
+    monkeypatch.setattr(fsio, "sync_written", sync_written)
+    ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl)
+    film.render_frames(ex, ref, range(4), str(tmp_path / "f_####.png"))
+    assert calls == [[f"f_{f:04d}.png" for f in range(4)]]
+    assert len(fsyncs) == 5  # the four frames and their folder

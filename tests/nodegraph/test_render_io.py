@@ -107,6 +107,32 @@ def test_atomic_write_skips_a_temporary_name_left_by_an_earlier_process(tmp_path
     assert sorted(x.name for x in tmp_path.iterdir()) == sorted(["a.bin", stale.name])
 
 
+def test_unsynced_writes_are_synced_together_with_their_folders(tmp_path: Path, monkeypatch) -> None:
+    # a frame sequence renames each frame into place unsynced and syncs them all at its end: every file once,
+    # each folder once; a file that is gone by then is one line naming it
+    import os
+
+    synced: list[str] = []
+    real_fsync = os.fsync
+
+    def fsync(fd: int) -> None:
+        synced.append(os.readlink(f"/proc/self/fd/{fd}"))
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    paths = [fsio.atomic_write_bytes(tmp_path / d / f"f_{i}.png", b"x" * i, sync=False) for d in "ab" for i in range(3)]
+    assert synced == [] and [p.read_bytes() for p in paths] == [b"", b"x", b"xx"] * 2
+    assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
+    fsio.sync_written(paths)
+    assert sorted(synced) == sorted([str(p) for p in paths] + [str(tmp_path / "a"), str(tmp_path / "b")])
+    fsio.atomic_write_bytes(tmp_path / "c.bin", b"abc")  # the default syncs the file itself
+    assert synced[-1].startswith(str(tmp_path / ".c.bin")) and ".tmp" in synced[-1]
+    with pytest.raises(fsio.OutputError, match=r"gone\.png: cannot sync: No such file"):
+        fsio.sync_written([tmp_path / "gone.png"])
+
+
 def test_atomic_output_failure_keeps_previous_and_cleans_up(tmp_path: Path) -> None:
     p = tmp_path / "a.txt"
     p.write_text("good")
