@@ -250,20 +250,31 @@ def test_read_yuv420_has_swscales_matrix_and_range(gl, rng):
 
 
 
+@pytest.mark.parametrize("formats", [("RGBA32F",), ("RGBA16F",), ("RGBA32F", "RGBA16F"), ("RGBA16F", "RGBA32F"),
+                                     ("RGBA32F", "RGBA8")])
 @pytest.mark.parametrize("depth", [1.0, None])
 @pytest.mark.parametrize("values", [[(0.0,) * 4, (1.0, 0.0, 0.0, 0.0), (0.0,) * 4], [(0.0,) * 4, (0.0,) * 4],
-                                    [(0.5, 0.25), (1.0,), (0.5, 0.25)], [(-0.0, -0.0), (0.0, 0.0)]])
-def test_clear_each_gives_each_attachment_its_own_value_over_stale_contents(gl, values, depth):
-    """The clear of the G-buffer and of footprinted passes (`GL.clear_each`): each colour attachment to its
-    own value (padded to RGBA), the depth to `depth` or kept, over a pooled texture's earlier contents; the
-    framebuffer's masks are whole again afterwards."""
-    texs = [gl.texture((5, 3), "RGBA32F") for _ in values]
+                                    [(0.5, 0.25), (1.0,), (0.5, 0.25)], [(-0.0, -0.0), (0.0, 0.0)],
+                                    [(0.25, -0.0, 1.0, 0.5)], [(0.3, 0.7, 0.1, 1.0), (1 / 3, 0.0, 0.2, 0.6)]])
+def test_clear_each_gives_each_attachment_its_own_value_over_stale_contents(gl, values, depth, formats):
+    """The clear of the G-buffer and of footprinted passes (`GL.clear_each`): each colour attachment holds what
+    a plain clear of it alone to its own value (padded to RGBA) stores, bit for bit, the depth `depth` or
+    what it held, over a pooled texture's earlier contents; the framebuffer's masks are whole again
+    afterwards: float32, half and 8-bit attachments, alone or mixed in one framebuffer."""
+    fmts = [formats[i % len(formats)] for i in range(len(values))]
+    texs = [gl.texture((5, 3), f) for f in fmts]
     fbo = gl.framebuffer(texs, gl.depth_buffer((5, 3)))
     fbo.clear(0.7, 0.3, 0.2, 0.9, depth=0.25)
     gl.clear_each(fbo, values, depth=depth)
-    for tex, value in zip(texs, values, strict=True):
-        want = np.float32(tuple(value) + (0.0,) * (4 - len(value)))
-        assert tex.read().tobytes() == np.broadcast_to(want, (3, 5, 4)).tobytes()  # by bits: -0.0 is not 0.0
+    for tex, value, fmt in zip(texs, values, fmts, strict=True):
+        ref = gl.texture((5, 3), fmt)
+        gl.ctx.framebuffer(color_attachments=[ref.texture]).clear(*(tuple(value) + (0.0,) * (4 - len(value))))
+        assert tex.read_native().tobytes() == ref.read_native().tobytes()  # by bits: -0.0 is not 0.0
+        gl.release(ref)
+        exact = np.float32(tuple(value) + (0.0,) * (4 - len(value)))
+        want = exact.astype(types.numpy_dtype(fmt))
+        if fmt != "RGBA8" and np.array_equal(want.astype(np.float32), exact):  # held exactly: the value's own bits
+            assert tex.read_native().tobytes() == np.broadcast_to(want, (3, 5, 4)).tobytes()
     assert fbo.color_mask in (((True,) * 4,) * len(values), (True,) * 4) and fbo.depth_mask
     stored = np.frombuffer(fbo.read(viewport=(0, 0, 5, 3), components=1, attachment=-1, dtype="f4", alignment=1),
                            "f4")
