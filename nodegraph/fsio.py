@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import itertools
 import os
 import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import Any
 
 from .errors import SketchgraphError
 
@@ -211,13 +213,34 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, sync: bool = T
 
 
 def sync_written(paths: Iterable[str | os.PathLike[str]]) -> None:
-    """Sync files written with `sync=False`, then each of their folders once (their renames). A frame sequence
-    does this at its end instead of syncing every frame as it is written: on the project's VM the per-frame
-    sync cost about 0.5 ms of kernel CPU a frame, beside llvmpipe's threads. A failure raises one line
-    naming the file."""
-    folders: dict[Path, None] = {}
-    for path in paths:
-        p = Path(path)
+    """Make files written with `sync=False` durable, with their folders (their renames). A frame sequence does
+    this at its end instead of syncing every frame as it is written: on the project's VM the per-frame sync
+    cost about 0.5 ms of kernel CPU a frame, beside llvmpipe's threads. Where the C library has `syncfs`
+    (Linux), each file system holding them is synced once (60 new frames: 0.6-0.7 ms, against 7-20 ms for a
+    sync of each file); elsewhere each file, then each folder, is synced. A failure raises one line naming
+    the file or the folder."""
+    files = [Path(p) for p in paths]
+    folders = list(dict.fromkeys(p.parent for p in files))
+    syncfs = _syncfs()
+    if syncfs is not None:
+        seen: set[int] = set()
+        for folder in folders:
+            try:
+                fd = os.open(folder, os.O_RDONLY)
+                try:
+                    dev = os.fstat(fd).st_dev
+                    if dev not in seen and syncfs(fd) != 0:
+                        import ctypes
+
+                        err = ctypes.get_errno()
+                        raise OSError(err, os.strerror(err))
+                    seen.add(dev)
+                finally:
+                    os.close(fd)
+            except OSError as exc:
+                raise OutputError(f"{show_path(folder)}: cannot sync: {_os_reason(exc)}") from None
+        return
+    for p in files:
         try:
             fd = os.open(p, os.O_RDONLY)
             try:
@@ -226,7 +249,6 @@ def sync_written(paths: Iterable[str | os.PathLike[str]]) -> None:
                 os.close(fd)
         except OSError as exc:
             raise OutputError(f"{show_path(p)}: cannot sync: {_os_reason(exc)}") from None
-        folders.setdefault(p.parent)
     for folder in folders:
         with contextlib.suppress(OSError):  # some filesystems refuse to sync a folder; the files are synced
             fd = os.open(folder, os.O_RDONLY)
@@ -234,6 +256,17 @@ def sync_written(paths: Iterable[str | os.PathLike[str]]) -> None:
                 os.fsync(fd)
             finally:
                 os.close(fd)
+
+
+@functools.cache
+def _syncfs() -> Any:
+    """The C library's syncfs(fd), or None where there is none (not Linux)."""
+    import ctypes
+
+    try:
+        return ctypes.CDLL(None, use_errno=True).syncfs
+    except (OSError, AttributeError):
+        return None
 
 
 @contextlib.contextmanager

@@ -107,9 +107,10 @@ def test_atomic_write_skips_a_temporary_name_left_by_an_earlier_process(tmp_path
     assert sorted(x.name for x in tmp_path.iterdir()) == sorted(["a.bin", stale.name])
 
 
-def test_unsynced_writes_are_synced_together_with_their_folders(tmp_path: Path, monkeypatch) -> None:
-    # a frame sequence renames each frame into place unsynced and syncs them all at its end: every file once,
-    # each folder once; a file that is gone by then is one line naming it
+@pytest.mark.parametrize("syncfs", [True, False])
+def test_unsynced_writes_are_synced_together_with_their_folders(tmp_path: Path, monkeypatch, syncfs) -> None:
+    # a frame sequence renames each frame into place unsynced and syncs them all at its end: with syncfs, each file
+    # system once; without, every file once, then each folder once; a failure is one line naming what failed
     import os
 
     synced: list[str] = []
@@ -120,17 +121,33 @@ def test_unsynced_writes_are_synced_together_with_their_folders(tmp_path: Path, 
         real_fsync(fd)
 
     monkeypatch.setattr(os, "fsync", fsync)
+    real_syncfs = fsio._syncfs()
+    if syncfs and real_syncfs is None:
+        pytest.skip("no syncfs in this C library")
+    calls: list[str] = []
+
+    def counted(fd: int) -> int:
+        calls.append(os.readlink(f"/proc/self/fd/{fd}"))
+        return real_syncfs(fd)
+
+    monkeypatch.setattr(fsio, "_syncfs", lambda: counted if syncfs else None)
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
     paths = [fsio.atomic_write_bytes(tmp_path / d / f"f_{i}.png", b"x" * i, sync=False) for d in "ab" for i in range(3)]
     assert synced == [] and [p.read_bytes() for p in paths] == [b"", b"x", b"xx"] * 2
     assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
     fsio.sync_written(paths)
-    assert sorted(synced) == sorted([str(p) for p in paths] + [str(tmp_path / "a"), str(tmp_path / "b")])
+    if syncfs:
+        assert synced == [] and calls == [str(tmp_path / "a")]  # both folders lie on one file system
+        with pytest.raises(fsio.OutputError, match=r"gone: cannot sync: No such file"):
+            fsio.sync_written([tmp_path / "gone" / "f.png"])
+    else:
+        assert sorted(synced) == sorted([str(p) for p in paths] + [str(tmp_path / "a"), str(tmp_path / "b")])
+        with pytest.raises(fsio.OutputError, match=r"gone\.png: cannot sync: No such file"):
+            fsio.sync_written([tmp_path / "gone.png"])
+    synced.clear()
     fsio.atomic_write_bytes(tmp_path / "c.bin", b"abc")  # the default syncs the file itself
-    assert synced[-1].startswith(str(tmp_path / ".c.bin")) and ".tmp" in synced[-1]
-    with pytest.raises(fsio.OutputError, match=r"gone\.png: cannot sync: No such file"):
-        fsio.sync_written([tmp_path / "gone.png"])
+    assert len(synced) == 1 and synced[0].startswith(str(tmp_path / ".c.bin")) and ".tmp" in synced[0]
 
 
 def test_atomic_output_failure_keeps_previous_and_cleans_up(tmp_path: Path) -> None:
