@@ -231,6 +231,39 @@ def split_scale(scale: float) -> tuple[float, float]:
     return hi, lo
 
 
+def screen_lattice_z(seed_cell: NDArray[np.int32], seed_frac: NDArray[np.float32], octaves: int) -> tuple[int, ...]:
+    """The lattice z index of each octave of the screen-space noise (`screen_offsets`), as the shader derives it:
+    the coordinate's z is the seed offset's alone (times 2^i at octave i), the same for every pixel and both
+    channels, so octave i's cell is (cell_z * 2^i + floor(frac_z * 2^i)) mod 256, frac_z in float32."""
+    cz, fz = int(seed_cell[2]) & 255, np.float32(seed_frac[2])
+    out = []
+    for i in range(_check_octaves(octaves)):
+        out.append((cz + int(np.floor(fz * np.float32(2.0 ** i)))) & 255)
+        cz = (cz * 2) & 255
+    return tuple(out)
+
+
+def gradient_table(z: int) -> NDArray[np.uint32]:
+    """(256, 256) uint32, [Y, X]: the hashes (`& 15`) of the eight corners of lattice cell (X, Y, z) of Ken Perlin's
+    improved noise, 4 bits each, in the order the shader blends them: (x, y, z) corners 000, 100, 010, 110, 001,
+    101, 011, 111 from the low bits up. With z fixed (screen-space noise), one fetch of this table replaces the
+    twelve permutation lookups of a noise value (`perlin_noise`: llvmpipe spends most of the pass on them)."""
+    perm = PERM.astype(np.int64)
+
+    def at(i: NDArray[np.int64]) -> NDArray[np.int64]:
+        return perm[i & 255]
+
+    x = np.arange(256, dtype=np.int64)[None, :]
+    y = np.arange(256, dtype=np.int64)[:, None]
+    a, b = at(x) + y, at(x + 1) + y
+    aa, ab, ba, bb = at(a) + z, at(a + 1) + z, at(b) + z, at(b + 1) + z
+    corners = (at(aa), at(ba), at(ab), at(bb), at(aa + 1), at(ba + 1), at(ab + 1), at(bb + 1))
+    out = np.zeros((256, 256), np.uint32)
+    for k, h in enumerate(corners):
+        out |= ((h & 15).astype(np.uint32) << np.uint32(4 * k))
+    return out
+
+
 def _check_size(width: int, height: int) -> None:
     if int(width) != width or int(height) != height or width < 1 or height < 1:
         raise ValueError(f"size: expected positive integers width, height, got ({width!r}, {height!r})")

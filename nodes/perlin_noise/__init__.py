@@ -66,12 +66,16 @@ class PerlinNoise(Node):
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
-        prog = ctx.program("perlin_noise.glsl", {"KIND": 0 if p.kind == "perlin" else 1})
+        perlin = p.kind == "perlin"
+        prog = ctx.program("perlin_noise.glsl", {"KIND": 0, "NOISE_GRAD_TABLE": 1} if perlin else {"KIND": 1})
         seed = ctx.seed
         cell, frac = noise.seed_offset_parts(seed)
         out = ctx.target("out")
         w, h = ctx.size
-        ctx.gl.fullscreen(prog, [out],
+        tables = {}
+        if perlin:
+            tables["t_noise_grad"] = gradient_tables(ctx.gl, noise.screen_lattice_z(cell, frac, p.octaves))
+        ctx.gl.fullscreen(prog, [out], textures=tables,
                           uniforms={"u_scale_split": noise.split_scale(self.frequency(ctx.px_scale)),
                                     "u_seed_cell": tuple(int(c) for c in cell),
                                     "u_seed_frac": tuple(float(f) for f in frac),
@@ -117,6 +121,27 @@ class PerlinNoise(Node):
         if p.kind == "white":
             return noise.white_offsets(width, height, seed, frame, self.cell_ratio((width, height), reference_size))
         return noise.screen_offsets(width, height, self.frequency(px_scale), p.octaves, seed, p.mode)
+
+
+GRADIENT_TABLES_KEPT = 8
+"""Gradient tables (1 MB for 4 octaves) kept per GL context, by their octaves' lattice z (a seed's), newest last."""
+
+
+def gradient_tables(gl: Any, zs: tuple[int, ...]) -> Any:
+    """The R32UI texture array of `noise.gradient_table` for each octave's lattice z (layer i: octave i), made
+    once per GL context and kept for the last `GRADIENT_TABLES_KEPT` seeds."""
+    import moderngl
+
+    kept = gl.resources.setdefault("perlin_noise.gradient_tables", {})
+    tex = kept.pop(zs, None)
+    if tex is None:
+        data = np.stack([noise.gradient_table(z) for z in zs])
+        tex = gl.ctx.texture_array((256, 256, len(zs)), 1, data=data.tobytes(), dtype="u4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # an integer texture: nearest, or it is incomplete
+        while len(kept) >= GRADIENT_TABLES_KEPT:
+            kept.pop(next(iter(kept))).release()
+    kept[zs] = tex  # newest last
+    return tex
 
 
 def channel_absmax(a: np.ndarray) -> tuple[float, float]:

@@ -61,6 +61,48 @@ float improved_noise_split(vec3 p, ivec3 cell, vec3 frac) {
 
 float improved_noise(vec3 p) { return improved_noise_split(p, ivec3(0), vec3(0.0)); }
 
+#ifdef NOISE_GRAD_TABLE
+// Screen-space noise (z the same for every pixel of an octave): the eight corner hashes of lattice cell (X, Y)
+// come from one texel of layer `octave` (noise.gradient_table, built for that octave's z), 4 bits each, instead
+// of twelve permutation lookups; the same hashes, so the same values. Layer i is octave i.
+uniform usampler2DArray t_noise_grad;
+
+float improved_noise_table(vec3 p, ivec3 cell, vec3 frac, int octave) {
+    vec3 pf = floor(p);
+    vec3 qf = floor(frac);
+    vec3 r = (p - pf) + (frac - qf);
+    vec3 rf = floor(r);
+    vec3 f = r - rf;
+    ivec3 c = (cell + ivec3(pf) + ivec3(qf) + ivec3(rf)) & 255;
+    uint g = texelFetch(t_noise_grad, ivec3(c.x, c.y, octave), 0).r;
+    float x = f.x, y = f.y, z = f.z;
+    float u = noise_fade(x), v = noise_fade(y), w = noise_fade(z);
+    return noise_lerp(w,
+        noise_lerp(v, noise_lerp(u, noise_grad(int(g & 15u), x, y, z),
+                                    noise_grad(int((g >> 4u) & 15u), x - 1.0, y, z)),
+                      noise_lerp(u, noise_grad(int((g >> 8u) & 15u), x, y - 1.0, z),
+                                    noise_grad(int((g >> 12u) & 15u), x - 1.0, y - 1.0, z))),
+        noise_lerp(v, noise_lerp(u, noise_grad(int((g >> 16u) & 15u), x, y, z - 1.0),
+                                    noise_grad(int((g >> 20u) & 15u), x - 1.0, y, z - 1.0)),
+                      noise_lerp(u, noise_grad(int((g >> 24u) & 15u), x, y - 1.0, z - 1.0),
+                                    noise_grad(int(g >> 28u), x - 1.0, y - 1.0, z - 1.0))));
+}
+
+float noise_octaves_table(vec3 p, ivec3 cell, vec3 frac, int octaves, int mode) {
+    float sum = 0.0;
+    float k = 1.0;
+    ivec3 c = cell & 255;
+    for (int i = 0; i < octaves; ++i) {
+        float n = improved_noise_table(p * k, c, frac * k, i);
+        sum += (mode == NOISE_FBM ? n : abs(n)) / k;
+        k *= 2.0;
+        c = (c * 2) & 255;
+    }
+    return sum;
+}
+#endif
+
+
 // sum over i < octaves of |noise(2^i q)| / 2^i (mode NOISE_TURBULENCE) or noise(2^i q) / 2^i
 // (NOISE_FBM), q = p + cell + frac.
 float noise_octaves_split(vec3 p, ivec3 cell, vec3 frac, int octaves, int mode) {
@@ -94,10 +136,17 @@ vec2 screen_offset(vec2 frag_coord, vec2 size, vec2 scale_split, ivec3 seed_cell
                    int octaves, int mode) {
     vec2 a = frag_coord;         // (s, t) * (W, H)
     vec2 b = size - frag_coord;  // (1 - s, 1 - t) * (W, H), exact
+#ifdef NOISE_GRAD_TABLE
+    float off_s = noise_octaves_table(vec3(a * scale_split.x, 0.0), seed_cell,
+                                      seed_frac + vec3(a * scale_split.y, 0.0), octaves, mode);
+    float off_t = noise_octaves_table(vec3(b * scale_split.x, 0.0), seed_cell,
+                                      seed_frac + vec3(b * scale_split.y, 0.0), octaves, mode);
+#else
     float off_s = noise_octaves_split(vec3(a * scale_split.x, 0.0), seed_cell,
                                       seed_frac + vec3(a * scale_split.y, 0.0), octaves, mode);
     float off_t = noise_octaves_split(vec3(b * scale_split.x, 0.0), seed_cell,
                                       seed_frac + vec3(b * scale_split.y, 0.0), octaves, mode);
+#endif
     return vec2(off_s, off_t);
 }
 

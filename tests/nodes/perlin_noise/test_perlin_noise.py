@@ -24,6 +24,42 @@ def test_noise_node_matches_float64_cpu(gl, kind):
     assert np.abs(got - ref).max() < (1e-5 if kind == "perlin" else 1e-6)
 
 
+@pytest.mark.parametrize(("seed", "octaves", "mode"),
+                         [(0, 1, "turbulence"), (7, 12, "fbm"), (2**31 - 7, 5, "turbulence")])
+def test_perlin_noise_matches_float64_cpu_across_seeds_and_octaves(gl, seed, octaves, mode):
+    # the gradient tables are built per octave from the seed's lattice z: other seeds, octave counts and modes
+    size = (97, 61)
+    node = PerlinNoise("noise", PerlinNoise.Params(scale=0.031, octaves=octaves, mode=mode))
+    got = run_node(gl, node, {}, size, seed=seed)["out"].read()
+    from nodegraph.node import derive_seed
+
+    ref = node.reference(size[0], size[1], derive_seed(seed, "noise", 0))
+    assert np.abs(got - ref).max() < 1e-5
+
+
+def test_gradient_tables_give_the_permutation_lookups_bits(gl):
+    # one fetch of noise.gradient_table per noise value instead of twelve permutation lookups: the same hashes, so
+    # the pass gives the same bits as the lookups (the shader without NOISE_GRAD_TABLE)
+    from nodegraph_nodes import perlin_noise as pn
+    from nodegraph_nodes._shared import noise
+
+    glsl = pn.PerlinNoise.source_dir() / "perlin_noise.glsl"
+    size = (131, 67)
+    for seed, octaves, mode in [(3, 4, 0), (123456, 9, 1)]:
+        cell, frac = noise.seed_offset_parts(seed)
+        uniforms = {"u_scale_split": noise.split_scale(0.029), "u_seed_cell": tuple(int(c) for c in cell),
+                    "u_seed_frac": tuple(float(f) for f in frac), "u_octaves": octaves, "u_mode": mode,
+                    "u_size": (float(size[0]), float(size[1]))}
+        tables = pn.gradient_tables(gl, noise.screen_lattice_z(cell, frac, octaves))
+        outs = []
+        for defines, textures in [({"KIND": 0}, {}), ({"KIND": 0, "NOISE_GRAD_TABLE": 1}, {"t_noise_grad": tables})]:
+            out = gl.texture(size, "RG32F")
+            gl.fullscreen(gl.program(glsl, defines, node="test"), [out], textures=textures, uniforms=uniforms)
+            outs.append(out.read())
+            gl.release(out)
+        assert outs[0].tobytes() == outs[1].tobytes()
+
+
 # -- chalk: white vs Perlin noise ----------------------------------------------------------------
 def _lag1(a: np.ndarray, axis: int) -> float:
     a = a - a.mean()
