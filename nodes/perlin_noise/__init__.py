@@ -28,7 +28,10 @@ class PerlinNoise(Node):
     reseeds every frame, no coherence, the classic boil; `animate: true` is its older spelling). Turbulence is
     non-negative (mean about 0.43), so each 2x2 matrix also shifts its map by a constant; `mode: fbm` gives
     signed values with mean 0 instead. A float64 CPU version of the same function is in
-    `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6."""
+    `nodes/_shared/noise.py`; the GPU output matches it to about 1e-6. On the GPU each octave's lattice z is the
+    same for every pixel, so the eight corner hashes of a lattice cell come from one fetch of a 256 x 256 table
+    made for that z (`noise.gradient_table`) instead of twelve permutation lookups: the same bits, in 0.55-0.6
+    of the time on llvmpipe (4 octaves at 3840x2160: 0.50-0.55 s -> 0.28-0.37 s)."""
 
     version = "1"
     shaders = ("perlin_noise.glsl",)  # includes improved_noise.glsl: hashed with it

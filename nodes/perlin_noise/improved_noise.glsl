@@ -2,6 +2,8 @@
 // #version, no main). It computes what nodes/perlin_noise/reference.py computes in float64; the mapping
 // of pixels and seeds is documented there. Perlin's permutation is a constant array (reference.PERM);
 // llvmpipe reads it 2.4x faster than an R8UI lookup texture (4 octaves at 800x800: 77 -> 32 ms).
+// Screen-space noise (NOISE_GRAD_TABLE) goes further: its z is fixed per octave, so a cell's eight corner
+// hashes are one texel of a table made on the CPU for that z (noise.gradient_table).
 //
 // Precision: a coordinate is passed as p + cell + frac. p is split exactly into floor and fraction,
 // the integer cell (a seed offset) only ever reaches the lattice index, and the small fractional
