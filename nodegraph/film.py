@@ -221,18 +221,24 @@ class SequenceWriter:
         self._worker.put((path, value, frame, digest))
 
     def close(self) -> None:
-        from .fsio import sync_written
-
         try:
             self._worker.finish()
+        except BaseException:
+            with contextlib.suppress(Exception):  # the frames written before the failure, synced if they can be
+                self._sync()
+            raise
+        else:
+            self._sync()
         finally:
-            try:
-                with self._lock:
-                    unsynced, self._unsynced = self._unsynced, []
-                sync_written(unsynced)
-            finally:
-                if self.manifest is not None:
-                    self.manifest.save()
+            if self.manifest is not None:
+                self.manifest.save()
+
+    def _sync(self) -> None:
+        from .fsio import sync_written
+
+        with self._lock:
+            unsynced, self._unsynced = self._unsynced, []
+        sync_written(unsynced)
 
 
 def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,

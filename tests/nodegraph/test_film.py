@@ -224,3 +224,22 @@ def test_sequence_frames_are_synced_together_once_all_are_written(gl, tmp_path, 
     ex = Executor(pipe, None, mode="loop", requested=[ref], gl=gl)
     film.render_frames(ex, ref, range(4), str(tmp_path / "f_####.png"))
     assert calls == [[f"f_{f:04d}.png" for f in range(4)]]
+
+
+def test_a_failed_sequence_reports_its_own_error_not_a_failed_sync(tmp_path, monkeypatch):
+    # SequenceWriter.close syncs the frames written so far even after a writer failed, without hiding that failure;
+    # with no failure before it, a sync that fails is the error
+    from nodegraph import fsio
+    from nodegraph.errors import SketchgraphError
+
+    def refuse(paths):
+        raise fsio.OutputError("out: cannot sync: Input/output error")
+
+    monkeypatch.setattr(fsio, "sync_written", refuse)
+    seq = film.SequenceWriter(str(tmp_path / "f_####.png"), resume=False)
+    seq._worker.error = RuntimeError("disk on fire")
+    with pytest.raises(SketchgraphError, match="writing frames failed: disk on fire"):
+        seq.close()
+    seq = film.SequenceWriter(str(tmp_path / "f_####.png"), resume=False)
+    with pytest.raises(fsio.OutputError, match="cannot sync"):
+        seq.close()
