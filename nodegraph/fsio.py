@@ -186,11 +186,8 @@ def atomic_output(path: str | os.PathLike[str], nonempty: bool = True) -> Iterat
         if nonempty and tmp.stat().st_size == 0:
             reason = _probe_reason(tmp)
             raise OutputError(f"{show_path(p)}: cannot write: {reason or 'the writer produced an empty file'}")
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
+        with _opened(tmp) as fd:
             _sync_keeping_mode(fd, p)
-        finally:
-            os.close(fd)
         os.replace(tmp, p)
 
 
@@ -226,8 +223,7 @@ def sync_written(paths: Iterable[str | os.PathLike[str]]) -> None:
         seen: set[int] = set()
         for folder in folders:
             try:
-                fd = os.open(folder, os.O_RDONLY)
-                try:
+                with _opened(folder) as fd:
                     dev = os.fstat(fd).st_dev
                     if dev not in seen and syncfs(fd) != 0:
                         import ctypes
@@ -235,27 +231,28 @@ def sync_written(paths: Iterable[str | os.PathLike[str]]) -> None:
                         err = ctypes.get_errno()
                         raise OSError(err, os.strerror(err))
                     seen.add(dev)
-                finally:
-                    os.close(fd)
             except OSError as exc:
                 raise OutputError(f"{show_path(folder)}: cannot sync: {_os_reason(exc)}") from None
         return
     for p in files:
         try:
-            fd = os.open(p, os.O_RDONLY)
-            try:
+            with _opened(p) as fd:
                 os.fsync(fd)
-            finally:
-                os.close(fd)
         except OSError as exc:
             raise OutputError(f"{show_path(p)}: cannot sync: {_os_reason(exc)}") from None
     for folder in folders:
-        with contextlib.suppress(OSError):  # some filesystems refuse to sync a folder; the files are synced
-            fd = os.open(folder, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+        with contextlib.suppress(OSError), _opened(folder) as fd:  # some filesystems refuse to sync a folder
+            os.fsync(fd)
+
+
+@contextlib.contextmanager
+def _opened(path: str | os.PathLike[str]) -> Iterator[int]:
+    """A read-only descriptor of `path` (a file or a folder), closed on leaving."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        yield fd
+    finally:
+        os.close(fd)
 
 
 @functools.cache
