@@ -421,7 +421,8 @@ def _mb(n: int) -> str:
 @click.pass_context
 def bench(ctx: click.Context, target: str | None) -> None:
     """Benchmarks: `bench PIPELINE [--scene M] [--frames N] [--size WxH] [--json F]`, or a named one:
-    shower-door, particles, accuracy, hatching, curvature (`bench NAME --help`)."""
+    film, startup, cold-cache, pencil-shade, shower-door, particles, accuracy, ... (an unknown name lists them
+    all; `bench NAME --help`)."""
     from .tools import bench as benchmod
 
     if target in (None, "-h", "--help"):  # --help after a name goes to that benchmark

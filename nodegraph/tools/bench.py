@@ -37,6 +37,8 @@ NAMED: dict[str, str] = {
     "particles": "nodegraph.tools.bench_particles:command",
     "distributed": "nodegraph.tools.bench_distributed:command",
     "film": "nodegraph.tools.bench_film:command",
+    "startup": "nodegraph.tools.bench_runs:startup_command",
+    "cold-cache": "nodegraph.tools.bench_runs:cold_cache_command",
     "uncertainty-cost": "nodegraph.tools.bench_lines:uncertainty_command",
     "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
     "sizes": "nodegraph.tools.sizes:command",
