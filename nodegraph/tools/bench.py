@@ -76,14 +76,19 @@ def _pipeline_command(path: str) -> click.Command:
     @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
     def cmd(scene: str | None, frames: int, size: str | None, overrides: tuple[str, ...],
             json_path: Path | None, view: str | None = None, up: str | None = None) -> None:
-        result = bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides, view=view, up=up)
-        print_result(result)
-        if json_path:
-            json_path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
-            click.echo(f"wrote {json_path}")
+        emit(bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides, view=view, up=up),
+             json_path)
 
     return cmd
+
+
+def emit(result: dict[str, Any], json_path: Path | None) -> None:
+    """Print a benchmark's figures and, where asked, write them as JSON."""
+    print_result(result)
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
+        click.echo(f"wrote {json_path}")
 
 
 def print_result(result: dict[str, Any]) -> None:

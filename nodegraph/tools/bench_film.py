@@ -16,7 +16,6 @@ beyond frames-only, median over the rounds) show what writing costs.
 
 from __future__ import annotations
 
-import json
 import resource
 import statistics
 import tempfile
@@ -25,8 +24,6 @@ from pathlib import Path
 from typing import Any
 
 import click
-
-from ..fsio import atomic_write_text
 
 DEFAULT_PIPELINE = str(Path(__file__).resolve().parents[2] / "pipelines" / "nienhaus_sketchy.yaml")
 TARGETS = {"png": 0.85, "mp4": 0.8}
@@ -127,11 +124,6 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
 def command(pipeline: str, scene: str | None, frames: int, size: str | None, png_level: int | None, repeat: int,
             json_path: Path | None) -> None:
     """Frames only, a PNG sequence and an MP4 of the same frames, in one run."""
-    from .bench import print_result
+    from .bench import emit
 
-    result = bench_film(pipeline, scene=scene, frames=frames, size=size, png_level=png_level, repeat=repeat)
-    print_result(result)
-    if json_path:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
-        click.echo(f"wrote {json_path}")
+    emit(bench_film(pipeline, scene=scene, frames=frames, size=size, png_level=png_level, repeat=repeat), json_path)

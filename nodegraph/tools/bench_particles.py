@@ -26,7 +26,6 @@ pipeline does. Reported (times are the best of `--repeat` unless said otherwise,
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -190,12 +189,8 @@ def command(scene: str, strokes: int, size: str, seed: int, repeat: int, overrid
             python_repeat: int, lockstep: int, out_dir: Path | None, json_path: Path | None) -> None:
     """Curtis' particle strokes on a scene: time, strokes, coverage, precision, speedup over pure Python."""
     from ..pipeline import parse_size
-    from .bench import print_result
+    from .bench import emit
 
     result = run(scene, strokes, parse_size(size), seed, max(1, repeat), overrides, python, lockstep, out_dir,
                  max(1, python_repeat))
-    print_result(result)
-    if json_path:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
-        click.echo(f"wrote {json_path}")
+    emit(result, json_path)

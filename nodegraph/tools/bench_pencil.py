@@ -13,7 +13,6 @@ The precomputed data's benchmarks run their node through the executor the way a 
 
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +20,7 @@ from typing import Any
 
 import click
 
-from ..fsio import atomic_write_text
+from .bench import emit
 
 HATCHING = """\
 pipeline: bench-hatching
@@ -85,16 +84,6 @@ def _best(fn: Any, repeat: int) -> float:
     return min(times)
 
 
-def _emit(result: dict[str, Any], json_path: Path | None) -> None:
-    from .bench import print_result
-
-    print_result(result)
-    if json_path:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
-        click.echo(f"wrote {json_path}")
-
-
 @click.command()
 @click.option("--size", default=256, show_default=True, help="Tile size in texels.")
 @click.option("--tones", default=32, show_default=True, help="Number of tones.")
@@ -112,7 +101,7 @@ def hatching_command(size: int, tones: int, repeat: int, json_path: Path | None)
     result["compute_s"] = _best(lambda: synthesize_tam(size=size, tones=tones), repeat)
     d = measured_darkness(synthesize_tam(size=size, tones=tones))
     result["darkness_range"] = [float(d[0]), float(d[-1])]
-    _emit(result, json_path)
+    emit(result, json_path)
 
 
 @click.command()
@@ -140,7 +129,7 @@ def curvature_command(scene: str, radius: int, repeat: int, json_path: Path | No
     result["libigl_s"] = _best(lambda: [igl.principal_curvature(np.asarray(m.vertices, dtype=np.float64),
                                                                 np.asarray(m.faces, dtype=np.int64), radius)
                                         for m in meshes.values()], repeat)
-    _emit(result, json_path)
+    emit(result, json_path)
 
 
 @click.command()
@@ -204,4 +193,4 @@ def shade_command(scene: str, frames: int, size: str | None, json_path: Path | N
         result[f"{name}_draws"] = draws[name]
     result.update(copy_pass_ms=copy_ms, speedup=statistics.median(ratios), speedup_min=min(ratios),
                   speedup_max=max(ratios))
-    _emit(result, json_path)
+    emit(result, json_path)

@@ -13,7 +13,6 @@ in the machine's speed moves both runs of a pair alike.
 from __future__ import annotations
 
 import importlib.util
-import json
 import os
 import resource
 import shutil
@@ -28,7 +27,7 @@ from typing import Any
 import click
 
 from ..errors import SketchgraphError
-from ..fsio import atomic_write_text
+from .bench import emit
 from .bench_film import DEFAULT_PIPELINE
 
 STARTUP_TARGETS = {"help_cpu_s": 0.3, "first_image_cpu_s": 1.0}
@@ -158,16 +157,6 @@ def bench_cold_cache(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = No
     return out
 
 
-def _emit(result: dict[str, Any], json_path: Path | None) -> None:
-    from .bench import print_result
-
-    print_result(result)
-    if json_path:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
-        click.echo(f"wrote {json_path}")
-
-
 _pipeline = click.option("--pipeline", default=DEFAULT_PIPELINE, show_default="pipelines/nienhaus_sketchy.yaml")
 _scene = click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file (default: the pipeline's).")
 _json = click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
@@ -185,7 +174,7 @@ _json = click.option("--json", "json_path", type=click.Path(path_type=Path), hel
 def startup_command(pipeline: str, scene: str | None, size: str | None, runs: int, bytecode: str,
                     json_path: Path | None) -> None:
     """CPU seconds of `sketchgraph --help` and of the first image from a warm cache, each in a new process."""
-    _emit(bench_startup(pipeline, scene=scene, size=size, runs=runs, bytecode=bytecode), json_path)
+    emit(bench_startup(pipeline, scene=scene, size=size, runs=runs, bytecode=bytecode), json_path)
 
 
 @click.command()
@@ -196,4 +185,4 @@ def startup_command(pipeline: str, scene: str | None, size: str | None, runs: in
 @_json
 def cold_cache_command(pipeline: str, scene: str | None, size: str, pairs: int, json_path: Path | None) -> None:
     """Wall seconds of a render with an empty cache against `--no-cache`, each in a new process."""
-    _emit(bench_cold_cache(pipeline, scene=scene, size=size, pairs=pairs), json_path)
+    emit(bench_cold_cache(pipeline, scene=scene, size=size, pairs=pairs), json_path)
