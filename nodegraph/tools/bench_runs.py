@@ -41,12 +41,12 @@ def _command() -> list[str]:
     return [sys.executable, "-c", "import sys; from nodegraph.cli import main; sys.argv[0] = 'sketchgraph'; main()"]
 
 
-def timed(args: list[str], env: dict[str, str] | None = None, cwd: Path | None = None) -> tuple[float, float]:
+def timed(args: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
     """Run `sketchgraph ARGS` in a new process: (wall seconds, CPU seconds of the child, user + system). A
     failing run raises with the last line it printed."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run(_command() + args, env=env, cwd=cwd, capture_output=True, text=True)
+    done = subprocess.run(_command() + args, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
