@@ -314,6 +314,9 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         packed: list[tuple[int, Any, float, Path, Any]] = []  # (frame, result, ms so far, path, pack)
         handed_ms = 0.0  # time the current run spent writing the frames before it
         unsynced: list[Path] = []  # PNG frames written unsynced: synced together before the task reports them
+        from .gl import PngRowsBuffer
+
+        rows = PngRowsBuffer()  # the frames' rows, laid out one after another in one buffer
 
         def record(frame: int, result: Any, ms: float, path: Path) -> None:
             out.append({"frame": frame, "digest": frame_digest(result.stats[ref[0]].key, ref[1], path.suffix),
@@ -325,7 +328,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             while packed:
                 frame, result, ms, target, pack = packed.pop(0)
                 t3 = time.perf_counter()
-                path = render.PngRows(pack.read()).write(target, sync=False)
+                path = render.PngRows(pack.read()).write(target, sync=False, rows_buffer=rows)
                 unsynced.append(path)
                 record(frame, result, ms + (time.perf_counter() - t3) * 1000, path)
             while pending:

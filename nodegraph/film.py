@@ -193,6 +193,7 @@ class SequenceWriter:
         self.png_level = PNG_LEVEL if png_level is None else png_level
         self._lock = threading.Lock()
         self._unsynced: list[Path] = []  # PNG frames written unsynced, synced together at `close`
+        self._rows = threading.local()  # each writer thread's `gl.PngRowsBuffer`
         self._worker = _Worker(self._write, threads=WRITER_THREADS)
 
     def _write(self, item: tuple[Path, Any, int, str]) -> None:
@@ -201,7 +202,12 @@ class SequenceWriter:
 
         path, value, frame, digest = item
         if isinstance(value, PngRows):
-            written = value.write(path, self.png_level, sync=False)
+            buffer = getattr(self._rows, "buffer", None)
+            if buffer is None:
+                from .gl import PngRowsBuffer
+
+                buffer = self._rows.buffer = PngRowsBuffer()
+            written = value.write(path, self.png_level, sync=False, rows_buffer=buffer)
             with self._lock:
                 self._unsynced.append(written)
         else:

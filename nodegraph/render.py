@@ -147,11 +147,12 @@ class PngRows:
         """The stream (1-D uint8, h * (1 + w * channels) bytes)."""
         return self.block.rows()
 
-    def write(self, path: Path, level: int | None = None, sync: bool = True) -> Path:
+    def write(self, path: Path, level: int | None = None, sync: bool = True, rows_buffer: Any = None) -> Path:
+        """`rows_buffer`: a `gl.PngRowsBuffer` to lay the rows out in (one per writer thread)."""
         from . import imageio
 
         w, h = self.size
-        return imageio.write_png_rows(path, self.data, w, h, self.channels,
+        return imageio.write_png_rows(path, self.block.rows(rows_buffer), w, h, self.channels,
                                       imageio.PNG_LEVEL if level is None else level, sync)
 
 

@@ -8,7 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from nodegraph import imageio, types
+from nodegraph.gl import PngBlock, PngRowsBuffer
 
 FORMATS = ["R8", "RGBA8", "R16F", "RG16F", "RGBA16F", "R32F", "RG32F", "RGBA32F"]
 # widths where the PNG row stream is and is not 4-aligned, and multiples of 16 pixels, whose rows
@@ -109,12 +113,16 @@ def test_pack_png_read_later_with_slots_alternating_gives_each_frames_rows(gl, r
             wanted.append((gl.read_png_rows(tex)[0], label))  # the whole pass, read at once
             tex.footprint = fp
         packs = []
+        kept = PngRowsBuffer()  # as a writer thread lays out one frame after another
         for i, tex in enumerate(textures):
             packs.append(gl.pack_png(tex, i % 2))
             if i >= 1:
-                rows = packs[i - 1].read().rows()
-                np.testing.assert_array_equal(rows, wanted[i - 1][0], err_msg=wanted[i - 1][1])
-        np.testing.assert_array_equal(packs[-1].read().rows(), wanted[-1][0], err_msg=wanted[-1][1])
+                block = packs[i - 1].read()
+                np.testing.assert_array_equal(block.rows(), wanted[i - 1][0], err_msg=wanted[i - 1][1])
+                np.testing.assert_array_equal(block.rows(kept), wanted[i - 1][0], err_msg=wanted[i - 1][1])
+        block = packs[-1].read()
+        np.testing.assert_array_equal(block.rows(), wanted[-1][0], err_msg=wanted[-1][1])
+        np.testing.assert_array_equal(block.rows(kept), wanted[-1][0], err_msg=wanted[-1][1])
     finally:
         for tex in textures:
             gl.release(tex)
@@ -281,3 +289,46 @@ def test_clear_each_gives_each_attachment_its_own_value_over_stale_contents(gl, 
     np.testing.assert_allclose(stored, 1.0 if depth is not None else 0.25, atol=1e-6)  # a 24-bit depth buffer
     for tex in texs:
         gl.release(tex)
+
+
+def _frame(data, size: tuple[int, int], channels: int) -> PngBlock:
+    """A random PngBlock of a `size` frame: a block somewhere in the rows (or none), a blank of 0 or 255."""
+    w, h = size
+    stride = channels * w
+    blank = np.full(channels, data.draw(st.sampled_from([0, 255])), np.uint8)
+    if data.draw(st.booleans(), "no block"):
+        return PngBlock(size, channels, None, 0, 0, blank)
+    r0 = data.draw(st.integers(0, h - 1), "row0")
+    r1 = data.draw(st.integers(r0 + 1, h), "row end")
+    b0 = data.draw(st.integers(0, stride - 1), "byte0")
+    b1 = data.draw(st.integers(b0 + 1, stride), "byte end")
+    seed = data.draw(st.integers(0, 2**32 - 1), "bytes")
+    block = np.random.default_rng(seed).integers(0, 256, (r1 - r0, b1 - b0), dtype=np.uint8)
+    return PngBlock(size, channels, block, r0, b0, blank)
+
+
+def _rows_by_hand(b: PngBlock) -> np.ndarray:
+    w, h = b.size
+    out = np.zeros((h, 1 + b.channels * w), np.uint8)
+    for y in range(h):
+        for x in range(w):
+            out[y, 1 + b.channels * x:1 + b.channels * (x + 1)] = b.blank
+    if b.block is not None:
+        bh, bw = b.block.shape
+        out[b.row0:b.row0 + bh, 1 + b.byte0:1 + b.byte0 + bw] = b.block
+    return out.reshape(-1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_a_rows_buffer_kept_from_frame_to_frame_lays_out_each_frame_as_a_new_one(data):
+    # blocks moving, growing, shrinking, vanishing, the blank and the frame size changing: each frame laid out
+    # in the kept buffer is the frame's rows as written out byte by byte
+    kept = PngRowsBuffer()
+    channels = data.draw(st.sampled_from([1, 3]), "channels")
+    size = (data.draw(st.integers(1, 9), "w"), data.draw(st.integers(1, 7), "h"))
+    for _ in range(data.draw(st.integers(1, 6), "frames")):
+        if data.draw(st.integers(0, 4), "resize") == 0:
+            size = (data.draw(st.integers(1, 9), "w"), data.draw(st.integers(1, 7), "h"))
+        frame = _frame(data, size, channels)
+        np.testing.assert_array_equal(frame.rows(kept), _rows_by_hand(frame))
