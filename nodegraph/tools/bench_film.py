@@ -6,12 +6,17 @@ The same frames of a pipeline are rendered (no disk cache, as `--frames` in a lo
 - `png`: through `film.render_frames` into an image sequence `f_####.png` (the `run --frames` path);
 - `mp4`: through `film.render_frames` into an H.264 film.
 
-and the JSON gives each rate (the best round of each way) and the ratios png/frames and mp4/frames of those
-rates (targets 0.85 and 0.8; `met`), `ratio_paired_median` (the median over rounds of each round's own ratio;
-the ways take turns going first; `met_paired_median`), and the
+and the JSON gives `ratio_paired_median`, png/frames and mp4/frames as the median over rounds of each
+round's own ratio (the ways take turns going first), checked against the targets 0.85 and 0.8 (`met`);
+`ratio`, the same ratios of each way's best round (`met_best_rounds`); and the
 process's CPU time a frame for each way (all threads: llvmpipe's, the writers', the encoder's). On a shared
 machine the CPU figures move less than the rates: `cpu_ms_per_frame` and `extra_cpu_ms` (a way's CPU a frame
 beyond frames-only, median over the rounds) show what writing costs.
+
+Why the paired median decides: the VM's speed drifts within seconds (a frames-only round of 1.35-1.44 s was
+followed by one of 1.07 s in the same run), so each way's best round may come from a different moment: best
+rounds gave 0.78 and 1.15 in runs whose paired medians were 0.94 and 0.93. A round's own ratio compares
+times taken seconds apart, as `bench cold-cache` compares each pair.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ TARGETS = {"png": 0.85, "mp4": 0.8}
 
 
 def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, frames: int = 60,
-               size: str | None = None, png_level: int | None = None, repeat: int = 1) -> dict[str, Any]:
+               size: str | None = None, png_level: int | None = None, repeat: int = 5) -> dict[str, Any]:
     from .. import film
     from .. import gl as glmod
     from .. import pipeline as pl
@@ -107,8 +112,8 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
         "cpu_ms_per_frame": cpu_ms, "extra_cpu_ms": {k: cpu_ms[k] - cpu_ms["frames"] for k in ("png", "mp4")},
         "targets": TARGETS, **sizes,
     }
-    out["met"] = {k: out["ratio"][k] >= t for k, t in TARGETS.items()}
-    out["met_paired_median"] = {k: paired[k] >= t for k, t in TARGETS.items()}
+    out["met"] = {k: paired[k] >= t for k, t in TARGETS.items()}
+    out["met_best_rounds"] = {k: out["ratio"][k] >= t for k, t in TARGETS.items()}
     return out
 
 
@@ -119,7 +124,8 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
 @click.option("--size", default=None, help="WxH (default: the pipeline's).")
 @click.option("--png-level", type=click.IntRange(0, 9), default=None,
               help="PNG compression level (default: run's default).")
-@click.option("--repeat", default=1, show_default=True, help="Rounds of the three ways (best of each kept).")
+@click.option("--repeat", default=5, show_default=True,
+              help="Rounds of the three ways, each way first in turn; `met` takes the median of the rounds' ratios.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(pipeline: str, scene: str | None, frames: int, size: str | None, png_level: int | None, repeat: int,
             json_path: Path | None) -> None:
