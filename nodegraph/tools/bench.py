@@ -44,6 +44,7 @@ NAMED: dict[str, str] = {
     "sizes": "nodegraph.tools.sizes:command",
     "sketch-depth": "nodegraph.tools.bench_sketch_depth:command",
     "footprint": "nodegraph.tools.bench_sketch_depth:footprint_command",
+    "targets": "nodegraph.tools.bench_targets:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
