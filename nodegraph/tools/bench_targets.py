@@ -222,7 +222,7 @@ def table(result: dict[str, Any]) -> list[str]:
         sign = ">=" if t["at_least"] else "<="
         values = ", ".join(f"{v:.3g}" for v in t["values"])
         verdict = "met" if t["met"] else "NOT met"
-        lines.append(f"{key}: {verdict} in {t['met_runs']} of {t['runs']} ({sign} {t['limit']:g}): {values}")
+        lines.append(f"{key}: {verdict} ({t['met_runs']} of {t['runs']} runs {sign} {t['limit']:g}): {values}")
     lines.append(f"all targets met: {'yes' if result['met'] else 'no'}")
     return lines
 

@@ -34,8 +34,8 @@ def test_table_gives_one_line_a_target_and_the_sitting_verdict():
                       "met": False})
     assert lines[:2] == ["renderer: R", "copy pass: 1.50-2.25 ms"]
     # in the order of TARGETS, whatever the order of the figures
-    assert lines[2] == "pencil_shade_speedup: met in 1 of 1 (>= 2): 2.5"
-    assert lines[3] == "cold_cache_4k: NOT met in 1 of 2 (<= 1.25): 1, 1.3"
+    assert lines[2] == "pencil_shade_speedup: met (1 of 1 runs >= 2): 2.5"
+    assert lines[3] == "cold_cache_4k: NOT met (1 of 2 runs <= 1.25): 1, 1.3"
     assert lines[-1] == "all targets met: no"
 
 
