@@ -31,6 +31,9 @@ import click
 
 from ..errors import SketchgraphError
 from ..fsio import atomic_write_text
+from .bench_film import DEFAULT_PIPELINE
+from .bench_film import TARGETS as FILM_TARGETS
+from .bench_runs import COLD_TARGET, STARTUP_TARGETS, timed
 
 
 @dataclass(frozen=True)
@@ -45,13 +48,15 @@ class Target:
 
 
 TARGETS: tuple[Target, ...] = (
-    Target("png_sequence", "PNG sequence rate / frames only (spot, `bench film` paired median)", 0.85, True),
+    Target("png_sequence", "PNG sequence rate / frames only (spot, `bench film` paired median)", FILM_TARGETS["png"],
+           True),
     Target("pencil_floor_ogre", "pencil on ogre: ms a frame / (draws x copy pass)", 5.0, False),
     Target("pencil_shade_speedup", "pencil_shade against its geometry-shader version (ogre)", 2.0, True),
     Target("gallery_force", "gallery build: --cold wall / --force wall, every node cached", 5.0, True),
-    Target("cold_cache_4k", "3840x2160 with an empty cache / --no-cache (median of pairs)", 1.25, False),
-    Target("help_cpu_s", "sketchgraph --help, CPU seconds (each process)", 0.3, False),
-    Target("first_image_cpu_s", "first image of the default pipeline, warm cache, CPU seconds", 1.0, False),
+    Target("cold_cache_4k", "3840x2160 with an empty cache / --no-cache (median of pairs)", COLD_TARGET, False),
+    Target("help_cpu_s", "sketchgraph --help, CPU seconds (each process)", STARTUP_TARGETS["help_cpu_s"], False),
+    Target("first_image_cpu_s", "first image of the default pipeline, warm cache, CPU seconds",
+           STARTUP_TARGETS["first_image_cpu_s"], False),
     Target("default_floor_spot", "default pipeline on spot: ms a frame / (draws x copy pass)", 3.5, False),
     Target("default_floor_ogre", "default pipeline on ogre: ms a frame / (draws x copy pass)", 3.5, False),
     Target("ogre_fps", "default pipeline on ogre, fps", 30.0, True),
@@ -157,8 +162,6 @@ def gallery_pairs(gallery: Path, work: Path, pairs: int, only: str | None = None
                   progress: Callable[[str], None] = lambda s: None) -> list[float]:
     """`pairs` times: `gallery build --cold` then `--force` of a copy of `gallery`, each process timed (wall);
     returns each pair's ratio cold / force."""
-    from .bench_runs import timed
-
     copy = _copy_gallery(gallery, work)
     pick = ("--only", only) if only else ()
     ratios = []
@@ -174,8 +177,6 @@ def sitting(meshes: Path, gallery: Path, runs: int = 5, quick: bool = False,
             progress: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
     """Run the sitting: every job, then the gallery's pairs. Returns the figures, the evaluation, the renderer
     and the copy pass of each pipeline benchmark (the VM's speed at the time)."""
-    from .bench_runs import timed
-
     missing = [m for m in ("spot.obj", "ogre.obj") if not (meshes / m).is_file()]
     if missing:
         raise SketchgraphError(f"bench targets: {', '.join(missing)} not found in {meshes} (--meshes DIR: the "
@@ -200,19 +201,13 @@ def sitting(meshes: Path, gallery: Path, runs: int = 5, quick: bool = False,
                 copy_pass.append(float(result["copy_pass_ms"]))
             renderer = renderer or result.get("renderer")
         pairs = 1 if quick else max(1, (runs + 1) // 2)
-        only = Path(_default_pipeline()).stem if quick else None
+        only = Path(DEFAULT_PIPELINE).stem if quick else None
         figures["gallery_force"] = gallery_pairs(
             gallery, work, pairs, only, lambda s: progress(f"[{len(todo) + 1}/{len(todo) + 1}] {s}"))
     return {"benchmark": "targets", "started": started, "finished": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
             "runs": runs, "quick": quick, "renderer": renderer,
             "copy_pass_ms": {"min": min(copy_pass), "max": max(copy_pass)} if copy_pass else None,
             "targets": (done := evaluate(figures)), "met": bool(done) and all(t["met"] for t in done.values())}
-
-
-def _default_pipeline() -> str:
-    from .bench_film import DEFAULT_PIPELINE
-
-    return DEFAULT_PIPELINE
 
 
 def table(result: dict[str, Any]) -> list[str]:
