@@ -6,7 +6,7 @@ on spot (the PNG sequence against frames only, `--repeat 5`), `bench pencil` and
 `gallery build --cold` then `--force` on a copy of the gallery, `bench cold-cache` at 3840x2160, `bench
 startup` with the environment's bytecode as it is and with bytecode written, and `bench nienhaus_sketchy` on
 spot and on ogre. `--runs` sets how many times each runs (film and the default pipeline: `--runs`; the others
-`(--runs + 1) // 2`; startup once each way, five processes each). About six minutes at the defaults on the
+`(--runs + 1) // 2`; startup once each way, five processes each). 4.5 to 6 minutes at the defaults on the
 project's 2-core VM.
 
 Each target is met by a run when that run's figure is within the limit (`met_runs` of `runs`); the sitting
@@ -238,7 +238,7 @@ def _span(s: dict[str, float] | None) -> str:
                                             "figures mean little.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(meshes: Path, gallery: Path, runs: int, quick: bool, json_path: Path | None) -> None:
-    """Every target of "Speed where users wait" in one sitting (about six minutes at the defaults)."""
+    """Every target of "Speed where users wait" in one sitting (4.5 to 6 minutes at the defaults)."""
     result = sitting(meshes, gallery, runs, quick, progress=lambda s: click.echo(s, err=True))
     for line in table(result):
         click.echo(line)
