@@ -103,11 +103,16 @@ def _default(scene: str) -> Callable[[dict[str, Any]], dict[str, list[float]]]:
     return read
 
 
+def _half(runs: int) -> int:
+    """How often the benchmarks other than film and the default pipeline run: half of `--runs`, rounded up."""
+    return max(1, (runs + 1) // 2)
+
+
 def jobs(meshes: Path, runs: int = 5, quick: bool = False) -> list[Job]:
     """The sitting's benchmark processes, in order (the gallery's pairs are run apart: `gallery_pairs`).
     `quick`: a few frames and small sizes, to see that everything runs (the figures mean little)."""
     spot, ogre = str(meshes / "spot.obj"), str(meshes / "ogre.obj")
-    few = max(1, (runs + 1) // 2)
+    few = _half(runs)
     frames = ("--frames", "6") if quick else ()
     film = ("--frames", "6", "--repeat", "1") if quick else ("--frames", "60", "--repeat", "5")
     out = [Job(f"bench film, spot ({i + 1}/{runs})", ("bench", "film", "--scene", spot, *film), _film)
@@ -200,7 +205,7 @@ def sitting(meshes: Path, gallery: Path, runs: int = 5, quick: bool = False,
             if "copy_pass_ms" in result:
                 copy_pass.append(float(result["copy_pass_ms"]))
             renderer = renderer or result.get("renderer")
-        pairs = 1 if quick else max(1, (runs + 1) // 2)
+        pairs = 1 if quick else _half(runs)
         only = Path(DEFAULT_PIPELINE).stem if quick else None
         figures["gallery_force"] = gallery_pairs(
             gallery, work, pairs, only, lambda s: progress(f"[{len(todo) + 1}/{len(todo) + 1}] {s}"))
