@@ -117,7 +117,7 @@ def check_installed(wheel: Path, work: Path) -> list[str]:
     if r.returncode != 0:
         return [*problems, f"installed: `sketchgraph run nienhaus_sketchy -o x.png` failed: {r.stderr.strip()}"]
     png = empty / "x.png"
-    check = ("import sys, numpy as np; from nodegraph import imageio; a = imageio.read(sys.argv[1]); "
+    check = ("import sys, numpy as np; from nodegraph.output import imageio; a = imageio.read(sys.argv[1]); "
              "print(a.shape[1], a.shape[0], a.shape[2], float(np.std(a)))")
     r2 = run([str(py), "-c", check, str(png)], empty, env)
     if not png.is_file() or png.read_bytes()[:8] != b"\x89PNG\r\n\x1a\n" or r2.returncode != 0:

@@ -30,6 +30,7 @@ import numpy as np
 
 from . import render
 from .errors import SketchgraphError
+from .output import write
 
 __all__ = ["Pipe", "Session", "default_session", "load"]
 
@@ -58,7 +59,7 @@ class Session:
 
     @property
     def gl(self) -> Any:
-        from . import gl as glmod
+        from .gpu import gl as glmod
 
         return glmod.get()
 
@@ -69,12 +70,12 @@ class Session:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH'),
         `set` ({"node.param": value} or ["node.param=value"]), and `view` and `up` (`--view`, `--up`: the
-        side a mesh file is seen from and its up axis; nodegraph/framing.py). Files the pipeline's nodes write (`write`,
-        `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
+        side a mesh file is seen from and its up axis; nodegraph/scene/framing.py). Files the pipeline's nodes
+        write (`write`, `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
         unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
         pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md). A mesh
-        file parsed by an earlier process with the same disk cache is read from it (nodegraph/meshstore.py)."""
-        from . import meshstore
+        file parsed by an earlier process with the same disk cache is read from it (nodegraph/scene/meshstore.py)."""
+        from .scene import meshstore
 
         meshstore.use_cache(self.cache)
         return Pipe(self, str(pipeline), scene=None if scene is None else str(scene), size=size,
@@ -226,7 +227,7 @@ class Pipe:
 
         `scheduler`: a `dask.distributed.Client` (or "local:N", "tcp://HOST:PORT") renders the frames on that
         cluster, `chunk` frames a task; the images arrive in frame order (docs/distributed.md)."""
-        frame_list = render.parse_frames(frames) if isinstance(frames, str) else [int(f) for f in frames]
+        frame_list = write.parse_frames(frames) if isinstance(frames, str) else [int(f) for f in frames]
         ref = self._ref(output)
         if scheduler is not None:
             yield from self._frames_on(scheduler, frame_list, output, dtype, chunk)
@@ -243,7 +244,7 @@ class Pipe:
         import shutil
 
         from . import distributed as dist
-        from .imageio import read, to_uint8
+        from .output.imageio import read, to_uint8
 
         if dtype not in ("uint8", "float32"):
             raise SketchgraphError(f"dtype: expected 'uint8' or 'float32', found '{dtype}'")
@@ -268,7 +269,7 @@ class Pipe:
     def write(self, path: str | Path, output: str | None = None, frame: int = 0) -> Path:
         """Write an output to a file (PNG, EXR, SVG for strokes), as `sketchgraph run -o` does."""
         ref = self._ref(output)
-        return render.write_frame(self._run([ref], frame).values[ref], Path(path), lambda: self.session.gl)
+        return write.write_frame(self._run([ref], frame).values[ref], Path(path), lambda: self.session.gl)
 
     def _repr_png_(self) -> bytes:
         """Jupyter shows a pipeline as its first output."""
@@ -287,9 +288,9 @@ def to_array(value: Any, dtype: str = "float32") -> np.ndarray:
     """A node value as an image array, row 0 at the top: float32 values, or uint8 as an 8-bit file holds them."""
     if dtype not in ("uint8", "float32"):
         raise SketchgraphError(f"dtype: expected 'uint8' or 'float32', found '{dtype}'")
-    arr = render.to_image(value)[::-1]
+    arr = write.to_image(value)[::-1]
     if dtype == "uint8":
-        from .imageio import to_uint8
+        from .output.imageio import to_uint8
 
         return to_uint8(arr)
     return np.ascontiguousarray(arr, dtype=np.float32)

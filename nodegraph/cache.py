@@ -230,7 +230,7 @@ def renderer_namespace(renderer: str) -> str:
 
 NAMESPACE_PREFIX = "renderer-"
 MESH_STORE = "meshes"
-"""The folder under a cache root where nodegraph/meshstore.py keeps parsed mesh files and what is derived from
+"""The folder under a cache root where nodegraph/scene/meshstore.py keeps parsed mesh files and what is derived from
 them (no renderer namespace: parsing is the same for every renderer)."""
 
 
@@ -373,7 +373,7 @@ class Cache:
 
     def _texture_meta(self, value: Any, meta: dict[str, Any]) -> dict[str, Any]:
         """`meta` with a texture's footprint and value bound, written beside its pixels, so a texture loaded from
-        the cache is drawn from only where its node drew (`nodegraph.footprint`)."""
+        the cache is drawn from only where its node drew (`nodegraph.gpu.footprint`)."""
         extra = {}
         if value.footprint is not None:
             fp = value.footprint
@@ -529,7 +529,7 @@ class Cache:
             "limit": self.limit,
             "by_kind": {"exr": sum(1 for e in ents if e.path.suffix == ".exr"),
                         "npz": sum(1 for e in ents if e.path.suffix == ".npz")},
-            "meshes": sum(1 for e in ents if e.path.parent == self.mesh_store),  # nodegraph/meshstore.py
+            "meshes": sum(1 for e in ents if e.path.parent == self.mesh_store),  # nodegraph/scene/meshstore.py
             "temp_files": len(temps),
             "temp_bytes": sum(t.size for t in temps),
         }

@@ -13,8 +13,9 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from .errors import SketchgraphError
-from .render import frame_path, open_cache, open_pipeline, parse_frames, write_frame, write_value
-from .views import click_options as framing_options
+from .output.write import frame_path, parse_frames, write_frame, write_value
+from .render import open_cache, open_pipeline
+from .scene.views import click_options as framing_options
 
 if TYPE_CHECKING:
     pass
@@ -112,7 +113,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         if watch or explain:
             raise SketchgraphError("--scheduler renders on a cluster; drop --watch and --explain")
         from . import distributed as dist
-        from . import film
+        from .output import film
 
         spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up)
         opened = spec.open()
@@ -145,7 +146,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
                          up=up)
-    from . import film
+    from .output import film
 
     frame_list, fps = film.prepare(pipe, out, frames, fps, camera)
     name = output_name or next(iter(pipe.outputs))
@@ -346,7 +347,7 @@ def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: st
 def schema(scene_format: bool) -> None:
     """JSON Schema of the pipeline format (every node type's params), for editor completion."""
     if scene_format:
-        from .scene import json_schema as scene_schema
+        from .scene.scene import json_schema as scene_schema
 
         click.echo(json.dumps(scene_schema(), indent=2))
         return
@@ -423,7 +424,7 @@ def bench(ctx: click.Context, target: str | None) -> None:
     """Benchmarks: `bench PIPELINE [--scene M] [--frames N] [--size WxH] [--json F]`, or a named one:
     film, startup, cold-cache, pencil-shade, shower-door, particles, accuracy, ... (an unknown name lists them
     all; `bench NAME --help`)."""
-    from .tools import bench as benchmod
+    from .tools.bench import pipeline as benchmod
 
     if target in (None, "-h", "--help"):  # --help after a name goes to that benchmark
         click.echo(ctx.get_help())

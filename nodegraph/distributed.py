@@ -41,8 +41,9 @@ from distributed import WorkerPlugin
 from . import render
 from .cache import Cache, default_root
 from .errors import SketchgraphError, one_line
-from .frames_manifest import FramesManifest, file_sha256, frame_digest
 from .fsio import sync_written
+from .output import write
+from .output.frames_manifest import FramesManifest, file_sha256, frame_digest
 from .values import Tex
 
 PLUGIN_NAME = "sketchgraph"
@@ -176,7 +177,7 @@ class WorkerState:
 
     @property
     def gl(self) -> Any:
-        from . import gl as glmod
+        from .gpu import gl as glmod
 
         return glmod.get()
 
@@ -200,10 +201,10 @@ class WorkerState:
 
     def pipeline(self, spec: PipeSpec, cache_root: str | Path | None | bool = None) -> Any:
         """`spec` opened (kept for later tasks); a mesh file another process parsed before is read from the
-        shared cache at `cache_root` (nodegraph/meshstore.py; False: no cache, parsed here)."""
+        shared cache at `cache_root` (nodegraph/scene/meshstore.py; False: no cache, parsed here)."""
         pipe = self._pipes.get(spec)
         if pipe is None:
-            from . import meshstore
+            from .scene import meshstore
 
             meshstore.use_cache(None if cache_root is False else
                                 Cache(None if cache_root in (None, True) else Path(str(cache_root))))
@@ -314,7 +315,7 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
         packed: list[tuple[int, Any, float, Path, Any]] = []  # (frame, result, ms so far, path, pack)
         handed_ms = 0.0  # time the current run spent writing the frames before it
         unsynced: list[Path] = []  # PNG frames written unsynced: synced together before the task reports them
-        from .gl import PngRowsBuffer
+        from .gpu.gl import PngRowsBuffer
 
         rows = PngRowsBuffer()  # the frames' rows, laid out one after another in one buffer
 
@@ -328,19 +329,19 @@ def render_frames_task(spec: PipeSpec, frames: list[int], pattern: str, many: bo
             while packed:
                 frame, result, ms, target, pack = packed.pop(0)
                 t3 = time.perf_counter()
-                path = render.PngRows(pack.read()).write(target, sync=False, rows_buffer=rows)
+                path = write.PngRows(pack.read()).write(target, sync=False, rows_buffer=rows)
                 unsynced.append(path)
                 record(frame, result, ms + (time.perf_counter() - t3) * 1000, path)
             while pending:
                 frame, result, run_ms = pending.pop(0)
                 t3 = time.perf_counter()
-                target = render.frame_path(pattern, frame, many)
+                target = write.frame_path(pattern, frame, many)
                 value = result.values[ref]
                 if target.suffix.lower() == ".png" and isinstance(value, Tex):
                     pack = ex.gl.pack_png(value)
                     packed.append((frame, result, run_ms + (time.perf_counter() - t3) * 1000, target, pack))
                 else:
-                    path = render.write_frame(value, target, lambda: ex.gl)
+                    path = write.write_frame(value, target, lambda: ex.gl)
                     record(frame, result, run_ms + (time.perf_counter() - t3) * 1000, path)
             if last and packed:
                 hand_over()
@@ -536,11 +537,11 @@ class FrameSink(Protocol):
 
 
 class _FilmSink:
-    """`nodegraph.film.FilmWriter` behind the sink protocol: frames arrive in order; `abort` on a failure
+    """`nodegraph.output.film.FilmWriter` behind the sink protocol: frames arrive in order; `abort` on a failure
     removes the partial film, so the output is a complete film or nothing."""
 
     def __init__(self, path: Path, fps: float, size: tuple[int, int], crf: int | None = None) -> None:
-        from .film import FilmWriter
+        from .output.film import FilmWriter
 
         self._film = FilmWriter(path, fps, size, crf)
 
@@ -555,7 +556,7 @@ class _FilmSink:
 
 
 def open_sink(path: Path, fps: float, size: tuple[int, int], crf: int | None = None) -> FrameSink:
-    """The film encoder (`nodegraph.film`) for a video path."""
+    """The film encoder (`nodegraph.output.film`) for a video path."""
     return _FilmSink(path, fps, size, crf)
 
 
@@ -625,7 +626,7 @@ class FrameRun:
         self.ref = ref_of(self.pipe, spec.output)
 
     def path(self, frame: int) -> Path:
-        return render.frame_path(self.pattern, frame, self.many)
+        return write.frame_path(self.pattern, frame, self.many)
 
     def __iter__(self) -> Iterator[tuple[int, Path]]:
         from distributed import as_completed
@@ -782,7 +783,7 @@ def render_frames(client: Any, spec: PipeSpec, frames: Sequence[int], out: str |
                        cache_root=cache_root, retries=retries, resources=resources, many=True)
         if sink is None:
             sink = open_sink(out, fps, run.pipe.size)
-        from .imageio import read, to_uint8
+        from .output.imageio import read, to_uint8
 
         try:
             for frame, path in run:

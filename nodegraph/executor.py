@@ -95,7 +95,7 @@ class Executor:
     @property
     def gl(self) -> Any:
         if self._gl is None:
-            from . import gl as glmod
+            from .gpu import gl as glmod
 
             self._gl = glmod.get()
             self._gl.check_size(self.pipeline.size, f"pipeline '{self.pipeline.name}' size")

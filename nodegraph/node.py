@@ -194,7 +194,7 @@ class Node:
 
     def key_parts(self, ctx: HashContext, input_keys: dict[str, str]) -> dict[str, Any]:
         """What `key()` digests (tools/diff.py explains a changed key part by part)."""
-        from .glsl import source_digest
+        from .gpu.glsl import source_digest
 
         # the params' JSON form once per node (they are frozen), the shader paths once per class: a frame loop
         # asks for every node's key every frame
@@ -317,10 +317,10 @@ class RunContext:
 
     @property
     def gl(self) -> Any:
-        """The GL wrapper (`nodegraph.gl.GL`); created on first use when given as a callable."""
+        """The GL wrapper (`nodegraph.gpu.gl.GL`); created on first use when given as a callable."""
         src = self.gl_source
         if src is None:
-            from . import gl as glmod
+            from .gpu import gl as glmod
 
             return glmod.get()
         return src() if callable(src) else src

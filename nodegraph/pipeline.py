@@ -232,7 +232,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
     _check_cycles(pipe, loc)
     _check_sizes(pipe, loc)
     if load_scene:
-        from .scene import load_scene as _load_scene
+        from .scene.scene import load_scene as _load_scene
 
         if scene is not None:
             where = Location("--scene")

@@ -1,14 +1,11 @@
-"""The library face's plumbing: open a pipeline with the command line's overrides, parse sizes and frame
-ranges, name frame files, turn node values into images and write them. The CLI, the tools and the Python
-API (`nodegraph.api`) all call these."""
+"""The library face's plumbing: open a pipeline with the command line's overrides, and the node cache. The
+CLI, the tools and the Python API (`nodegraph.api`) all call these; frame ranges, frame file names and
+writing values are `nodegraph.output.write`'s."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-
-from .errors import SketchgraphError
 
 if TYPE_CHECKING:
     from .pipeline import Pipeline
@@ -28,143 +25,10 @@ def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None =
 
 def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:
     """The node cache (None with `no_cache`); mesh files parsed in this process are kept under its root, and
-    read from there in later ones (`nodegraph/meshstore.py`)."""
-    from . import meshstore
+    read from there in later ones (`nodegraph/scene/meshstore.py`)."""
     from .cache import Cache
+    from .scene import meshstore
 
     cache = None if no_cache else Cache(cache_dir)
     meshstore.use_cache(cache)
     return cache
-
-
-MAX_FRAMES = 1_000_000
-"""Most frames one --frames range may name."""
-MAX_FRAME = 2**31 - 1
-"""Frame numbers are stored as 32-bit integers (shader uniforms, seeds): |frame| at most this."""
-
-
-def parse_frames(text: str | None) -> list[int]:
-    if text is None:
-        return [0]
-    shown = text if len(text) <= 60 else text[:57] + "..."
-    m = re.fullmatch(r"\s*(-?\d{1,30})\s*(?::\s*(-?\d{1,30})\s*(?::\s*(\d{1,30})\s*)?)?", text)
-    if not m:
-        raise SketchgraphError(f"--frames: expected N or START:END[:STEP] (END exclusive), found '{shown}'")
-    numbers = [int(g) for g in m.groups() if g is not None]
-    if any(abs(n) > MAX_FRAME for n in numbers):
-        raise SketchgraphError(f"--frames: expected frame numbers between {-MAX_FRAME} and {MAX_FRAME}, found "
-                               f"'{shown}'")
-    start = numbers[0]
-    if m.group(2) is None:
-        return [start]
-    end, step = int(m.group(2)), int(m.group(3) or 1)
-    if end <= start or step < 1:
-        raise SketchgraphError(f"--frames: empty range '{shown}'")
-    frames = range(start, end, step)
-    if len(frames) > MAX_FRAMES:
-        raise SketchgraphError(f"--frames: expected at most {MAX_FRAMES} frames, found {len(frames)} in '{shown}'")
-    return list(frames)
-
-
-def frame_path(pattern: str, frame: int, many: bool) -> Path:
-    m = re.search(r"#+", pattern)
-    if m:
-        return Path(pattern[:m.start()] + str(frame).zfill(len(m.group(0))) + pattern[m.end():])
-    if many:
-        p = Path(pattern)
-        return p.with_name(f"{p.stem}_{frame:04d}{p.suffix}")
-    return Path(pattern)
-
-
-def to_image(value: Any) -> Any:
-    """A node value as a float (H, W, C) array for writing."""
-    import numpy as np
-
-    from .values import Strokes, Tex, TexArray
-
-    if isinstance(value, np.ndarray):  # already read back (film.render_frames reads on the render thread)
-        return value
-    if isinstance(value, Tex):
-        return value.read()
-    if isinstance(value, TexArray):
-        arr = value.read()
-        return np.concatenate(list(arr), axis=1)  # layers side by side
-    if isinstance(value, Strokes):
-        from .strokes import rasterize_strokes
-
-        return rasterize_strokes(value)
-    raise SketchgraphError(f"cannot write a {type(value).__name__} as an image")
-
-
-def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> Path:
-    from . import imageio
-    from .values import Strokes
-
-    if isinstance(value, Path):  # a File output: the node already wrote it
-        return value
-
-    if path.suffix.lower() == ".svg":
-        if not isinstance(value, Strokes):
-            raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
-        from .fsio import atomic_write_text
-        from .strokes import to_svg
-
-        return atomic_write_text(path, to_svg(value))
-    arr = to_image(value)
-    if path.suffix.lower() != ".exr" and arr.shape[2] == 4:
-        arr = arr[:, :, :3]
-    return imageio.write(path, arr, meta, half=False)
-
-
-class Bytes8:
-    """A frame already converted to 8-bit file values on the GPU (`GL.read_uint8`: (H, W, 4), row 0 at the
-    top) and how many channels the texture has (1: grey; otherwise RGB is written)."""
-
-    def __init__(self, data: Any, channels: int):  # np.ndarray
-        self.data = data
-        self.channels = channels
-
-    def png(self) -> Any:
-        return self.data[:, :, :1] if self.channels == 1 else self.data[:, :, :3]
-
-
-class PngRows:
-    """A frame already laid out on the GPU as a PNG's row bytes: the `PngBlock` read back (`GL.pack_png`);
-    `write` lays the rows out (`PngBlock.rows`), compresses and writes them, all on the caller's thread (a
-    writer thread in a sequence)."""
-
-    def __init__(self, block: Any):  # gl.PngBlock
-        self.block = block
-        self.size: tuple[int, int] = block.size
-        self.channels: int = block.channels
-
-    @classmethod
-    def of(cls, tex: Any, gl: Any) -> PngRows:
-        return cls(gl.read_png_block(tex))
-
-    @property
-    def data(self) -> Any:
-        """The stream (1-D uint8, h * (1 + w * channels) bytes)."""
-        return self.block.rows()
-
-    def write(self, path: Path, level: int | None = None, sync: bool = True, rows_buffer: Any = None) -> Path:
-        """`rows_buffer`: a `gl.PngRowsBuffer` to lay the rows out in (one per writer thread)."""
-        from . import imageio
-
-        w, h = self.size
-        return imageio.write_png_rows(path, self.block.rows(rows_buffer), w, h, self.channels,
-                                      imageio.PNG_LEVEL if level is None else level, sync)
-
-
-def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:
-    """A rendered image, alone or one frame of a sequence: a texture bound for a PNG is converted to 8 bits and
-    laid out as PNG rows on the GPU (`PngRows`), then compressed by `imageio.write_png_rows` at `png_level`
-    (as `film.SequenceWriter` does); anything else goes to `write_value`. The same pixels as `write_value`
-    (OpenImageIO's PNG writer, which single images used before: 74-114 ms of CPU for the default 800x800
-    image against 5 ms at level 1, and 153 KB against 149 KB), and serial and distributed sequences give the
-    same bytes. `gl`: the GL wrapper, or a function giving it (called only for a texture)."""
-    from .values import Tex
-
-    if isinstance(value, Tex) and path.suffix.lower() == ".png":
-        return PngRows.of(value, gl() if callable(gl) else gl).write(path, png_level)
-    return write_value(value, path)

@@ -13,7 +13,7 @@ from . import types
 class Footprint:
     """Where a texture's content may differ from one value: outside `rect` ((x, y, w, h) in pixels, rows from the
     bottom) every texel holds `blank` (one value a channel). Given by the node that made the texture when it
-    knows (the G-buffer outside the objects' projected boxes); `nodegraph.footprint` explains the use."""
+    knows (the G-buffer outside the objects' projected boxes); `nodegraph.gpu.footprint` explains the use."""
 
     rect: tuple[int, int, int, int]
     blank: tuple[float, ...]
@@ -120,3 +120,8 @@ class Arrays:
 
 def nbytes(value: object) -> int:
     return int(getattr(value, "nbytes", 0))
+
+
+def to_uint8(arr: np.ndarray) -> np.ndarray:
+    """Float values as 8-bit file values: clipped to [0, 1], times 255, rounded to nearest."""
+    return np.clip(np.rint(np.asarray(arr, dtype=np.float32) * 255.0), 0, 255).astype(np.uint8)

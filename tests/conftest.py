@@ -23,8 +23,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 @pytest.fixture(scope="session")
 def gl():
     """The process's headless GL context; tests that need GL skip with the reason when there is none."""
-    from nodegraph import gl as glmod
     from nodegraph.errors import GLUnavailableError
+    from nodegraph.gpu import gl as glmod
 
     try:
         ctx = glmod.get()
@@ -45,10 +45,10 @@ def _gl_errors(request: pytest.FixtureRequest):
 
 @pytest.fixture(autouse=True)
 def _mesh_store_reset():
-    """A command or API call in a test points the mesh store at its cache (nodegraph/meshstore.py); the next
+    """A command or API call in a test points the mesh store at its cache (nodegraph/scene/meshstore.py); the next
     test starts without one, so a mesh it loads is parsed as the test expects."""
     yield
-    from nodegraph import meshstore
+    from nodegraph.scene import meshstore
 
     meshstore.configure(None)
 

@@ -143,7 +143,7 @@ def _as_array(value: Any) -> np.ndarray | None:
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, Strokes):
-        from ..strokes import rasterize_strokes
+        from ..output.strokes import rasterize_strokes
 
         return rasterize_strokes(value)
     return None

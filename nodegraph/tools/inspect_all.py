@@ -312,8 +312,8 @@ def shown(value: Any, host: Any, port: str, doc: str = "", box: int = 192) -> vi
 def write_exact(value: Any, base: Path, attrs: dict[str, str], host: Any = None) -> Path | None:
     """The exact value: textures (and arrays, layers side by side) as float EXR, strokes as SVG, arrays as npz.
     `host`: a texture's data, read once."""
-    from .. import imageio
-    from ..strokes import to_svg
+    from ..output import imageio
+    from ..output.strokes import to_svg
     from ..values import Arrays, Strokes, Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)) and host is None:
@@ -349,7 +349,7 @@ def write_inspection(insp: Inspection, out: Path, exact: bool = True, cell: int 
     """DIR/NODE.PORT.{exr,png}, DIR/contact_sheet.png, DIR/stats.json and DIR/index.html. The PNGs are
     compressed at the frame sequences' fast level (`imageio.PNG_LEVEL`): at the gallery's zlib level 6 they
     took 0.52 s of `inspect pencil --all` on ogre (8 pictures, 800x800 to 800x2404), a sixth of the command."""
-    from .. import imageio
+    from ..output import imageio
 
     out.mkdir(parents=True, exist_ok=True)
     images: dict[PortRef, str] = {}
@@ -381,7 +381,7 @@ def write_png(path: Path, img: np.ndarray, level: int = PNG_LEVEL) -> np.ndarray
     several times faster than OIIO's writer, and the same bytes for the same pixels with the same compressor).
     `level`: the gallery's `PNG_LEVEL` unless given (`write_inspection` gives `imageio.PNG_LEVEL`). Returns the
     8-bit pixels written."""
-    from .. import imageio
+    from ..output import imageio
 
     img8 = viz.to_uint8(img)
     imageio.write_png8(path, img8, level)

@@ -123,7 +123,7 @@ def visualize(value: Any, port: str, doc: str = "") -> Panel:
     if isinstance(value, np.ndarray) and value.ndim == 4:
         return visualize_array(value, port, doc=doc)
     if isinstance(value, Strokes):
-        from ..strokes import rasterize_strokes
+        from ..output.strokes import rasterize_strokes
 
         grey = rasterize_strokes(value)[::-1, :, 0]
         return Panel(np.repeat(grey[:, :, None], 3, axis=2), "strokes", f"{len(value.polylines)} strokes")
@@ -346,7 +346,7 @@ def write_png(path: str | Path, img: np.ndarray) -> Path:
     """A display-order (row 0 = top) float RGB image in [0, 1] as an 8-bit PNG (`imageio.write_png8` at its fast
     level: the diff images, wedge sheets; quantised here, so the pixels depend on NumPy only). Another extension
     (`wedge -o sheet.jpg`) is written in its own format by `imageio.write`."""
-    from .. import imageio
+    from ..output import imageio
 
     a = to_uint8(img)
     if Path(path).suffix.lower() != ".png":
@@ -356,7 +356,7 @@ def write_png(path: str | Path, img: np.ndarray) -> Path:
 
 def read_png(path: str | Path) -> np.ndarray:
     """An image file as display-order float32 (H, W, C)."""
-    from .. import imageio
+    from ..output import imageio
 
     return np.ascontiguousarray(imageio.read(path)[::-1])
 

@@ -152,7 +152,7 @@ class Watcher:
         return event
 
     def _run(self, pipe: Pipeline, event: WatchEvent) -> None:
-        from ..render import write_value
+        from ..output.write import write_value
 
         name = self.output_name or next(iter(pipe.outputs))
         if name not in pipe.outputs:

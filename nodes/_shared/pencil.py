@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from nodegraph import footprint
+from nodegraph.gpu import footprint
 
 from .params import Color  # RGB in [0, 1], finite: checked when the pipeline loads
 

@@ -106,9 +106,9 @@ def defines(k: Kernels) -> dict[str, int]:
 def pass_rects(rect: tuple[int, int, int, int], k: Kernels, size: tuple[int, int]
                ) -> tuple[tuple[int, int, int, int], tuple[int, int, int, int]]:
     """Where the two passes of tent_sobel.glsl can differ from their value on a constant input, given the
-    rectangle outside which their input is constant (`nodegraph.footprint`): the x pass's window reaches
+    rectangle outside which their input is constant (`nodegraph.gpu.footprint`): the x pass's window reaches
     tent_r + sobel_r pixels along x, the y pass's as far along y."""
-    from nodegraph import footprint
+    from nodegraph.gpu import footprint
 
     win = k.tent_r + k.sobel_r
     across = footprint.grow(rect, win, 0, size)

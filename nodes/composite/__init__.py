@@ -6,8 +6,8 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from nodegraph import footprint
 from nodegraph.errors import NodeError
+from nodegraph.gpu import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 

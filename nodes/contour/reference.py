@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodegraph import sampling
+from nodegraph.gpu import sampling
 
 
 def light_contribution(normal: np.ndarray, light: np.ndarray) -> np.ndarray:

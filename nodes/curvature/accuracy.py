@@ -52,7 +52,7 @@ def torus_truth(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
 
 def ellipsoid_mesh(level: int) -> tuple[np.ndarray, np.ndarray]:
-    from nodegraph.primitives import ellipsoid
+    from nodegraph.scene.primitives import ellipsoid
 
     m = ellipsoid(*ELLIPSOID_ABC, subdiv=level)
     return np.asarray(m.vertices), np.asarray(m.faces)
@@ -139,7 +139,7 @@ def measure(quick: bool, meshes_dir: Path | None = None, log: Callable[[str], No
             + ", ".join(f"r{e['radius']} {e['direction_p95_deg']:.1f}deg" for e in row))
     shared = {}
     if not quick and meshes_dir is not None:
-        from nodegraph.meshes import load_mesh
+        from nodegraph.scene.meshes import load_mesh
 
         for p in sorted(meshes_dir.glob("*.obj")):
             with warnings.catch_warnings():

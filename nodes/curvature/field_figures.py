@@ -2,7 +2,7 @@
 the measured principal directions and the node's time, for both `field` methods over a sweep of `smoothing`.
 
     python -m nodegraph_nodes.curvature.field_figures ../shared/meshes/{spot,cow,...}.obj --json docs/charts/field.json
-    python -m nodegraph.tools.accuracy_charts field docs/charts/field.json docs/charts   # the charts
+    python -m nodegraph.tools.bench.accuracy_charts field docs/charts/field.json docs/charts   # the charts
 
 Smoothness: the mean angle between neighbouring vertices' lines after transport into a common frame (0 to
 90 degrees; lower is smoother). Alignment: the mean angle to libigl's measured dmin over the measured
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from nodegraph.fsio import atomic_write_text
-from nodegraph.meshes import load_mesh
+from nodegraph.scene.meshes import load_mesh
 
 from . import Curvature
 from .field import alignment_deg, anisotropy, smoothness_deg

@@ -1,6 +1,6 @@
 """Stability sweeps of principal curvature (vertex noise, mesh resolution, umbilic and flat regions), each
 measured against the analytic surfaces of `accuracy.py`. Each returns a sweep spec (title, axis labels,
-points, break criteria, finding, behaviour) that `nodegraph.tools.stability` turns into its record."""
+points, break criteria, finding, behaviour) that `nodegraph.tools.bench.stability` turns into its record."""
 
 from __future__ import annotations
 
@@ -69,7 +69,7 @@ def sweep_resolution(quick: bool, log: Callable[[str], None] = _quiet) -> dict[s
 
 
 def sweep_umbilic(quick: bool, log: Callable[[str], None] = _quiet) -> dict[str, Any]:
-    from nodegraph.primitives import sphere
+    from nodegraph.scene.primitives import sphere
 
     s = sphere(1.0, 4)
     U = np.asarray(s.vertices)

@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from nodegraph import footprint
+from nodegraph.gpu import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodegraph.sampling import bilinear, nearest, pixel_uv
+from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
 
 
 def depth_sprite(color: np.ndarray, offsets: np.ndarray, depth: np.ndarray, under_color: np.ndarray | None = None,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodegraph.sampling import shifted, smoothstep
+from nodegraph.gpu.sampling import shifted, smoothstep
 
 
 def edge_detect(normal_depth: np.ndarray, operator: str = "four_neighbour", mode: str = "normal_depth",

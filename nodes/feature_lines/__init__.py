@@ -8,9 +8,10 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from nodegraph import footprint, origin
 from nodegraph.errors import NodeError
+from nodegraph.gpu import footprint
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
+from nodegraph.scene import origin
 from nodegraph.types import ARRAYS, SCENE, Texture
 from nodegraph.values import Footprint
 
@@ -202,7 +203,7 @@ class FeatureLines(Node):
 
 def _draw(gl: Any, prog: Any, textures: dict[str, Any], uniforms: dict[str, Any], pts: np.ndarray,
           inten: np.ndarray) -> None:
-    from nodegraph.gl import bind
+    from nodegraph.gpu.gl import bind
 
     data = np.concatenate([pts.astype(np.float32), inten.astype(np.float32)[:, None]], axis=1)
     buf = gl.ctx.buffer(np.ascontiguousarray(data).tobytes())

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field, field_validator
 
-from nodegraph import imageio
 from nodegraph.node import HashContext, Node, NodeParams, Output, RunContext
+from nodegraph.output import imageio
 from nodegraph.types import Texture
 
 

@@ -8,8 +8,8 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from nodegraph.errors import MeshError
-from nodegraph.gltf import load_any_mesh as load_mesh
 from nodegraph.node import HashContext, Node, NodeParams, Output, RunContext
+from nodegraph.scene.gltf import load_any_mesh as load_mesh
 from nodegraph.types import MESH
 
 

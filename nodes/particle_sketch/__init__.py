@@ -3,7 +3,7 @@
 The float64 CPU core (force field, particle system, measures) is in `core`, the compiled sequential
 sketcher in `jit`; both use `common` (parameters, result) and `rng` (counter-based random numbers), and the
 filters are `nodes/_shared/filters.py`. This node wraps `core.simulate`; its strokes are written as SVG by
-`nodegraph.strokes.to_svg` (the strokes_svg node). `python -m nodegraph_nodes.particle_sketch.bench`
+`nodegraph.output.strokes.to_svg` (the strokes_svg node). `python -m nodegraph_nodes.particle_sketch.bench`
 measures the core on synthetic depth, `sketchgraph bench particles` the node chain on a real scene
 (docs/particles.md).
 """
@@ -15,8 +15,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
-from nodegraph import footprint
 from nodegraph.errors import NodeError
+from nodegraph.gpu import footprint
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import STROKES, Texture
 from nodegraph.values import Footprint, Strokes

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from nodegraph.fsio import atomic_output, atomic_write_text
-from nodegraph.strokes import to_svg
+from nodegraph.output.strokes import to_svg
 from nodegraph.values import Strokes
 
 from . import core, synthetic

@@ -1,6 +1,6 @@
 """Stability of the particle sketcher at extreme parameters: each sweep starts at the core's default and moves
 one parameter (drag, randomness, mass) away; coverage and precision against the edge map at every step.
-`sweep` returns a sweep spec that `nodegraph.tools.stability` turns into its record."""
+`sweep` returns a sweep spec that `nodegraph.tools.bench.stability` turns into its record."""
 
 from __future__ import annotations
 

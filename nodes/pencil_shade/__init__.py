@@ -9,10 +9,10 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from nodegraph import meshes, meshstore, origin
 from nodegraph.errors import NodeError
-from nodegraph.gl import MeshArrays, bind
+from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
+from nodegraph.scene import meshes, meshstore, origin
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
 from .._shared.culling import HOLE_SHARE_CULL
@@ -239,7 +239,7 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float,
               node: Node) -> tuple[Any, np.ndarray, np.ndarray] | None:
-    """The program's vertex array over position (relative to the mesh's origin, nodegraph/origin.py), split
+    """The program's vertex array over position (relative to the mesh's origin, nodegraph/scene/origin.py), split
     normal, curvature direction, trust and corner slot, built once per (mesh, crease angle, curvature) and
     kept across frames, that origin, and each triangle's slots as `_slot_codes` gives them."""
     if mesh.n_faces == 0:
@@ -275,7 +275,7 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
 
 
 def _mesh_corner_slots(mesh: Any, ra: Any, crease_angle: float) -> np.ndarray:
-    """`corner_slots` of the mesh's render triangles, kept on disk for a large mesh (nodegraph/meshstore.py):
+    """`corner_slots` of the mesh's render triangles, kept on disk for a large mesh (nodegraph/scene/meshstore.py):
     the greedy pass is a Python loop, 0.69 s of CPU on ogre's 124k triangles in every process that draws it."""
     def make() -> dict[str, np.ndarray]:
         return {"value": corner_slots(ra.indices, ra.n_vertices).astype(np.uint8)}

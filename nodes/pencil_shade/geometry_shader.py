@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from nodegraph import origin
-from nodegraph.gl import MeshArrays, bind
+from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import RunContext
+from nodegraph.scene import origin
 
 from .._shared.curvature import DirectionSource, object_field
 from .._shared.pencil import view_light

@@ -8,10 +8,11 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, model_serializer, model_validator
 
-from nodegraph import footprint, meshes, meshstore, origin
-from nodegraph.gl import MeshArrays, bind
-from nodegraph.meshes import MeshWarning
+from nodegraph.gpu import footprint
+from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
+from nodegraph.scene import meshes, meshstore, origin
+from nodegraph.scene.meshes import MeshWarning
 from nodegraph.types import SCENE, Texture, components
 from nodegraph.values import Footprint
 
@@ -52,7 +53,7 @@ class Rasterize(Node):
     warn).
 
     Geometry is drawn relative to the camera's eye and each mesh's box centre where the scene lies far
-    from the origin (`nodegraph/origin.py`), so a scene at 1e8 renders like the same scene at 0; a scene
+    from the origin (`nodegraph/scene/origin.py`), so a scene at 1e8 renders like the same scene at 0; a scene
     that cannot be represented even so gets one `PrecisionWarning`."""
 
     version = "3"
@@ -69,7 +70,7 @@ class Rasterize(Node):
         "linear_depth": Output(Texture("R32F"), "Distance along the view axis in scene units; 0 = background."),
         "position": Output(Texture("RGBA32F"), "Object-space position g(s,t) (paper §4.3), alpha = coverage; for "
                            "a mesh whose box centre lies over 64 box radii from its origin, relative to that "
-                           "centre (nodegraph/origin.py)."),
+                           "centre (nodegraph/scene/origin.py)."),
         "object_id": Output(Texture("R32F"), "Index of the object + 1; 0 = background."),
     }
 
@@ -117,7 +118,7 @@ class Rasterize(Node):
     def hash_extra(self, ctx: HashContext) -> Any:
         extra = origin.hash_extra(ctx.scene, ctx.frame)
         if ctx.scene is not None and any(o.mesh.rest is not None for o in ctx.scene.objects):
-            from nodegraph.glsl import source_digest
+            from nodegraph.gpu.glsl import source_digest
 
             # posed meshes: `position` is the rest pose's, drawn by a pass of its own
             return {"origin": extra, "rest": source_digest(self.source_dir() / REST_SHADER)}
@@ -321,7 +322,7 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = 
     the same direction (no cracks where normals are split), and components that touch keep their own.
 
     `render_arrays`: the render vertices to give directions for (default: the mesh's own, and then the
-    directions of a large mesh are kept on disk, nodegraph/meshstore.py: ogre's took 0.12 s); a posed mesh's,
+    directions of a large mesh are kept on disk, nodegraph/scene/meshstore.py: ogre's took 0.12 s); a posed mesh's,
     to read the directions of its rest pose (`mesh` the rest mesh, same vertices and faces).
     """
     if render_arrays is not None:

@@ -8,7 +8,7 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.scene import load_scene, scene_for_mesh
+from nodegraph.scene.scene import load_scene, scene_for_mesh
 from nodegraph.types import MESH, SCENE
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodegraph.sampling import bilinear, nearest, pixel_uv
+from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
 
 
 def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,

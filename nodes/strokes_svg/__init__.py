@@ -37,7 +37,7 @@ class StrokesSvg(Node):
             return v
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        from nodegraph.render import frame_path, write_value
+        from nodegraph.output.write import frame_path, write_value
 
         path = frame_path(str(self.output_path("path")), ctx.frame, False)
         return {"file": write_value(inputs["strokes"], path)}

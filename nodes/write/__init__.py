@@ -7,8 +7,8 @@ from typing import Any
 
 from pydantic import Field, field_validator
 
-from nodegraph.imageio import WRITABLE
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
+from nodegraph.output.imageio import WRITABLE
 from nodegraph.types import FILE, Texture
 
 
@@ -41,7 +41,7 @@ class Write(Node):
             return v
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-        from nodegraph.render import frame_path, write_value
+        from nodegraph.output.write import frame_path, write_value
 
         return {"file": write_value(inputs["image"], frame_path(str(self.output_path("path")), ctx.frame, False))}
 

@@ -11,9 +11,9 @@ import pytest
 import yaml
 
 import nodegraph as ng
-from nodegraph import scene as sc
 from nodegraph.errors import PipelineError
 from nodegraph.node import HashContext
+from nodegraph.scene import scene as sc
 from tests import gltf_files as gf
 
 SLIDE = """

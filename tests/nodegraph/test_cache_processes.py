@@ -84,11 +84,11 @@ def _bad_entries(root: Path, pipeline: Path, sizes: list[int]) -> tuple[list[str
         for nid in ex.plan.order:
             for port in ex.pipeline.nodes[nid].outputs:
                 planned[(keys[nid], ex._entry(nid, port))] = (ex, nid, port)
-    from nodegraph import gl as glmod
+    from nodegraph.gpu import gl as glmod
 
     cache = Cache(root, renderer=glmod.get().renderer)  # the runs' entries live in this renderer's namespace
     problems = []
-    # node entries only: the mesh store's files (`meshes/`, nodegraph/meshstore.py) are not outputs
+    # node entries only: the mesh store's files (`meshes/`, nodegraph/scene/meshstore.py) are not outputs
     entries = [e for e in cache.entries() if e.path.parent != cache.mesh_store]
     for e in entries:
         key, rest = e.path.name.split(".", 1)

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from nodegraph import imageio
 from nodegraph.cli import main
+from nodegraph.output import imageio
 from tests.conftest import shared_mesh
 
 ROOT = Path(__file__).resolve().parents[2]

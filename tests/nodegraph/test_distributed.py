@@ -20,7 +20,7 @@ from nodegraph import distributed as dist  # noqa: E402
 from nodegraph.cache import MESH_STORE, Cache, renderer_namespace  # noqa: E402
 from nodegraph.cli import main  # noqa: E402
 from nodegraph.errors import NodeError, PipelineError  # noqa: E402
-from nodegraph.frames_manifest import FramesManifest, manifest_path  # noqa: E402
+from nodegraph.output.frames_manifest import FramesManifest, manifest_path  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 PIPELINES = ROOT / "pipelines"
@@ -159,7 +159,7 @@ class ListSink:
 
 
 def test_video_outputs_feed_a_sink_in_frame_order(cluster, serial: Path, tmp_path: Path) -> None:
-    from nodegraph.imageio import read, to_uint8
+    from nodegraph.output.imageio import read, to_uint8
 
     client, root = cluster
     sink = ListSink()
@@ -238,7 +238,7 @@ def test_gallery_build_is_byte_identical_to_serial(cluster, tmp_path: Path) -> N
 def test_frames_manifest_round_trip(tmp_path: Path) -> None:
     m = FramesManifest(tmp_path / "f_####.png")
     (tmp_path / "f_0001.png").write_bytes(b"x")
-    from nodegraph.frames_manifest import file_sha256
+    from nodegraph.output.frames_manifest import file_sha256
 
     m.record(1, "d1", file_sha256(tmp_path / "f_0001.png"))
     m.save()
@@ -262,9 +262,9 @@ def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path
     # hand-over and read back and written at the one after (GL.pack_png), an EXR frame at the next hand-over;
     # each file has the bytes (PNG) or values (EXR) of its frame rendered and written alone, and the task
     # reports the frames in order with their files' hashes; PNG frames are synced together before it returns
-    from nodegraph import imageio, render
     from nodegraph.executor import Executor
-    from nodegraph.frames_manifest import file_sha256
+    from nodegraph.output import imageio, write
+    from nodegraph.output.frames_manifest import file_sha256
     from tests import gltf_files as gf
 
     spec = dist.PipeSpec.make("nienhaus_sketchy", size="64x48", scene=str(gf.animated_box(tmp_path / "box.glb")))
@@ -282,7 +282,7 @@ def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path
     for f, info in zip(frames, res["frames"], strict=True):
         got = Path(info["path"])
         assert got == tmp_path / "seq" / f"f_{f:04d}{ext}" and info["sha256"] == file_sha256(got) and info["ms"] > 0
-        one = render.write_frame(Executor(pipe, None, requested=[ref], gl=gl).run(f).values[ref],
+        one = write.write_frame(Executor(pipe, None, requested=[ref], gl=gl).run(f).values[ref],
                                  tmp_path / "one" / f"f_{f:04d}{ext}", gl)
         if ext == ".png":
             assert got.read_bytes() == one.read_bytes()

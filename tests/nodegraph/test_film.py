@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph import film
 from nodegraph.cli import main
+from nodegraph.output import film
 from tests import gltf_files as gf
 
 
@@ -128,7 +128,7 @@ def _animated(tmp_path, size=(48, 40)):
 def test_sequence_read_back_during_the_next_run_has_the_bytes_of_frames_written_one_by_one(gl, tmp_path,
                                                                                         monkeypatch):
     from nodegraph.executor import Executor
-    from nodegraph.render import write_frame
+    from nodegraph.output.write import write_frame
 
     pipe, ref = _animated(tmp_path)
     frames = [0, 1, 2, 3, 4]

@@ -1,4 +1,4 @@
-"""Footprints (nodegraph/footprint.py): the pixel rectangles hold every projected point, passes drawn inside one
+"""Footprints (nodegraph/gpu/footprint.py): the pixel rectangles hold every projected point, passes drawn inside one
 give the pixels of the whole pass, and the G-buffer's footprint holds every covered pixel (built-in scene, the
 shared meshes, enlarged geometry, a skinned glTF along its animation)."""
 
@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nodegraph import footprint
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
-from nodegraph.glsl import ENGINE_GLSL
+from nodegraph.gpu import footprint
+from nodegraph.gpu.glsl import ENGINE_GLSL
 from nodegraph.values import Footprint
 from tests import gltf_files as gf
 from tests.helpers import shared_mesh

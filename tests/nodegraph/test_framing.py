@@ -8,12 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import framing, primitives
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
-from nodegraph.meshes import Mesh, merge_meshes
-from nodegraph.scene import load_scene, translation
+from nodegraph.scene.meshes import Mesh, merge_meshes
+from nodegraph.scene.scene import framing, load_scene, primitives, translation
 
 PIPE = """pipeline: t
 size: [96, 96]

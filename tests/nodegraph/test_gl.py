@@ -10,8 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nodegraph import imageio, types
-from nodegraph.gl import PngBlock, PngRowsBuffer
+from nodegraph import types
+from nodegraph.gpu.gl import PngBlock, PngRowsBuffer
+from nodegraph.output import imageio
 
 FORMATS = ["R8", "RGBA8", "R16F", "RG16F", "RGBA16F", "R32F", "RG32F", "RGBA32F"]
 # widths where the PNG row stream is and is not 4-aligned, and multiples of 16 pixels, whose rows

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from nodegraph import glsl
 from nodegraph.errors import GLUnavailableError, ShaderError
+from nodegraph.gpu import glsl
 
 
 def _write(d: Path, name: str, text: str) -> Path:
@@ -74,7 +74,7 @@ def test_every_node_shader_compiles(gl):
 def test_missing_gl_is_one_line_naming_the_package(monkeypatch: pytest.MonkeyPatch):
     import moderngl
 
-    from nodegraph import gl as glmod
+    from nodegraph.gpu import gl as glmod
 
     def boom(**kwargs):
         raise RuntimeError("eglGetDisplay failed\nmore detail")
@@ -90,7 +90,7 @@ def test_missing_gl_is_one_line_naming_the_package(monkeypatch: pytest.MonkeyPat
 def test_source_digest_follows_the_shader_and_its_includes(tmp_path: Path):
     """A node's key hashes its shaders with their includes; editing only an include must change it, also
     within one process (the digest is cached by the files' modification times and sizes)."""
-    from nodegraph.glsl import source_digest
+    from nodegraph.gpu.glsl import source_digest
 
     inc = tmp_path / "lib.glsl"
     top = tmp_path / "top.glsl"

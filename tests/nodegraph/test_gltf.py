@@ -10,11 +10,11 @@ import numpy as np
 import pygltflib as g
 import pytest
 
-from nodegraph import animation as an
-from nodegraph import scene as sc
 from nodegraph.errors import PipelineError
-from nodegraph.gltf import load_any_mesh, load_asset
-from nodegraph.meshes import MeshWarning
+from nodegraph.scene import animation as an
+from nodegraph.scene import scene as sc
+from nodegraph.scene.gltf import load_any_mesh, load_asset
+from nodegraph.scene.meshes import MeshWarning
 from tests import gltf_files as gf
 
 

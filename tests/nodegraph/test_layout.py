@@ -94,7 +94,7 @@ def test_the_graph_sees_known_imports():
     assert g.has_edge("nodegraph.executor", "nodegraph.cache")  # from .cache import Cache
     assert g.has_edge("nodegraph.tools.gallery.build", "nodegraph.tools.gallery.model")  # from .model import ...
     assert g.has_edge("nodegraph.tools.gallery.build", "nodegraph.executor")  # from ...executor import ...
-    assert g.has_edge("nodegraph.tools.accuracy", "nodegraph.tools.stability")  # function-level import
+    assert g.has_edge("nodegraph.tools.bench.accuracy", "nodegraph.tools.bench.stability")  # function-level import
     assert g.has_edge("nodes.curvature.stability", "nodes.curvature.principal")
 
 
@@ -139,3 +139,62 @@ def test_the_engine_and_library_face_do_not_import_the_tools():
     bad = sorted((a, b) for a, b in import_graph().edges if b.startswith("nodegraph.tools")
                  and not a.startswith(("nodegraph.tools", "nodegraph.cli")))
     assert not bad, "imports point down only (tools sit above the engine): " + ", ".join(f"{a} -> {b}" for a, b in bad)
+
+
+# -- the wings (DESIGN.md, "Layout, turn 3") --------------------------------------------------------
+# Lowest first. A module may import modules of its own layer and of layers below it, never above. The core
+# is two layers: its leaves (which the wings use) below the wings, the engine (which runs nodes on the GPU
+# and loads scenes) above them.
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("leaves", ("nodegraph.errors", "nodegraph.types", "nodegraph.values", "nodegraph.fsio", "nodegraph.yamlio",
+                "nodegraph.schemas", "nodegraph.cache", "nodegraph.blas")),
+    ("scene", ("nodegraph.scene",)),
+    ("gpu", ("nodegraph.gpu",)),
+    ("output", ("nodegraph.output",)),
+    ("engine", ("nodegraph.node", "nodegraph.registry", "nodegraph.shipped", "nodegraph.pipeline", "nodegraph.plan",
+                "nodegraph.executor")),
+    ("face", ("nodegraph", "nodegraph.render", "nodegraph.api", "nodegraph.distributed")),
+    ("tools", ("nodegraph.tools",)),
+    ("cli", ("nodegraph.cli",)),
+)
+WINGS = ("scene", "gpu", "output")
+
+
+def layer_of(module: str) -> int | None:
+    """The index in LAYERS of a nodegraph module: a wing or tools holds its whole folder; other entries name
+    single modules (the package itself, `nodegraph`, is its `__init__`)."""
+    for i, (name, members) in enumerate(LAYERS):
+        for m in members:
+            if module == m or (name in (*WINGS, "tools") and module.startswith(m + ".")):
+                return i
+    return None
+
+
+def test_every_engine_module_has_a_layer():
+    loose = sorted(m for m in import_graph() if m.startswith("nodegraph") and layer_of(m) is None)
+    assert not loose, f"modules in no layer (add them to LAYERS in tests/nodegraph/test_layout.py): {loose}"
+
+
+def test_the_wings_are_folders():
+    root = ROOT / "nodegraph"
+    for wing in (*WINGS, "tools/bench"):
+        assert (root / wing / "__init__.py").is_file(), wing
+    flat = sorted(p.stem for p in root.glob("*.py"))
+    assert len(flat) <= 20, f"nodegraph/ holds {len(flat)} flat modules: {flat}"
+    assert not sorted(p.name for p in (root / "tools").glob("bench*.py")), "benchmarks live in nodegraph/tools/bench/"
+
+
+def test_imports_point_down_the_layers():
+    bad = sorted((a, b) for a, b in import_graph().edges if a.startswith("nodegraph") and b.startswith("nodegraph")
+                 and layer_of(a) is not None and layer_of(b) is not None and layer_of(b) > layer_of(a))
+    assert not bad, "imports point down only: " + ", ".join(
+        f"{a} ({LAYERS[layer_of(a)][0]}) -> {b} ({LAYERS[layer_of(b)][0]})" for a, b in bad)
+
+
+def test_the_layer_check_sees_an_upward_import(tmp_path: Path):
+    """The check is not vacuous: an import from the scene wing up into the gpu wing is caught."""
+    g = import_graph().copy()
+    g.add_edge("nodegraph.scene.meshes", "nodegraph.gpu.gl")
+    up = [(a, b) for a, b in g.edges if a.startswith("nodegraph") and b.startswith("nodegraph")
+          and layer_of(b) is not None and layer_of(a) is not None and layer_of(b) > layer_of(a)]
+    assert up == [("nodegraph.scene.meshes", "nodegraph.gpu.gl")]

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from nodegraph.errors import MeshError, PipelineError
-from nodegraph.meshes import MeshWarning, clear_mesh_cache, load_mesh
+from nodegraph.scene.meshes import MeshWarning, clear_mesh_cache, load_mesh
 from tests.nodegraph.faultkit import assert_one_line_error, cli, cli_subprocess, tiny_pipeline
 
 SECRET = "do-not-echo-this-secret"
@@ -178,7 +178,7 @@ def test_scene_object_mesh_that_is_dev_zero(tmp_path: Path) -> None:
 def test_scene_transform_must_be_finite(tmp_path: Path, field: str, value: str) -> None:
     scene = tmp_path / "s.yaml"
     scene.write_text(f"objects:\n  - primitive: {{type: box}}\n    transform: {{{field}: {value}}}\n")
-    from nodegraph.scene import scene_from_yaml
+    from nodegraph.scene.scene import scene_from_yaml
 
     with pytest.raises(PipelineError) as info:
         scene_from_yaml(scene)

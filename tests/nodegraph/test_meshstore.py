@@ -1,4 +1,4 @@
-"""The mesh store (nodegraph/meshstore.py): a mesh file parsed in one process is read from the disk in the
+"""The mesh store (nodegraph/scene/meshstore.py): a mesh file parsed in one process is read from the disk in the
 next, the same arrays to the bit, its warnings given again, a changed or damaged file parsed anew, and the
 framing's front direction kept with it."""
 
@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import framing, meshes, meshstore, scene
 from nodegraph.cache import Cache, CacheWarning
+from nodegraph.scene import framing, meshes, meshstore, scene
 
 # a square pyramid whose base is split in two triangles, plus one degenerate face (a repeated vertex): the
 # repair drops it with a MeshWarning

@@ -10,12 +10,12 @@ from nodegraph_nodes.edge_detect.reference import edge_detect as edge_detect_ref
 
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
-from nodegraph.meshes import Mesh
-from nodegraph.primitives import torus
 from nodegraph.registry import default
-from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
+from nodegraph.scene.meshes import Mesh
+from nodegraph.scene.primitives import torus
+from nodegraph.scene.scene import Scene, SceneObject, frame_camera, load_scene
+from nodegraph.tools.bench.measure import NodeRunner
 from nodegraph.tools.explain import explain
-from nodegraph.tools.measure import NodeRunner
 
 SIZE = (240, 180)
 

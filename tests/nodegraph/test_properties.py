@@ -172,7 +172,7 @@ FRAMES_TEXT = st.one_of(
 @given(frames=FRAMES_TEXT)
 def test_frames(tmp_path_factory: pytest.TempPathFactory, frames: str) -> None:
     from nodegraph.errors import SketchgraphError
-    from nodegraph.render import MAX_FRAMES, parse_frames
+    from nodegraph.output.write import MAX_FRAMES, parse_frames
 
     t0 = time.perf_counter()
     try:
@@ -272,7 +272,7 @@ def test_mesh_files_load_or_refuse(tmp_path_factory: pytest.TempPathFactory, mes
     import warnings
 
     from nodegraph.errors import MeshError
-    from nodegraph.meshes import clear_mesh_cache, load_mesh
+    from nodegraph.scene.meshes import clear_mesh_cache, load_mesh
 
     fmt, data = mesh
     p = tmp_path_factory.mktemp("mesh") / f"m.{fmt}"

@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import fsio, imageio
+from nodegraph import fsio
 from nodegraph.errors import SketchgraphError
-from nodegraph.render import MAX_FRAMES, parse_frames
+from nodegraph.output import imageio
+from nodegraph.output.write import MAX_FRAMES, parse_frames
 from tests.nodegraph.faultkit import ROOT, assert_one_line_error, cli, cli_subprocess, tiny_pipeline
 
 
@@ -205,7 +206,7 @@ def test_file_size_limit_keeps_previous_image(tmp_path: Path) -> None:
     assert ok.code == 0, ok.stderr
     before = out_png.read_bytes()
     limit = _file_size_limit(len(before) + 64)
-    code = ("import numpy as np, sys; from nodegraph import imageio\n"
+    code = ("import numpy as np, sys; from nodegraph.output import imageio\n"
             "imageio.write(sys.argv[1], np.random.default_rng(0).random((256, 256, 3)).astype(np.float32))\n")
     proc = subprocess.run([sys.executable, "-c", code, str(out_png)], capture_output=True, text=True, cwd=ROOT,
                           timeout=120, preexec_fn=limit)  # noqa: PLW1509
@@ -218,8 +219,8 @@ def test_file_size_limit_keeps_previous_image(tmp_path: Path) -> None:
 
 
 def test_svg_write_is_atomic(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from nodegraph import strokes
-    from nodegraph.render import write_value
+    from nodegraph.output import strokes
+    from nodegraph.output.write import write_value
     from nodegraph.values import Strokes
 
     p = tmp_path / "s.svg"
@@ -273,7 +274,7 @@ def test_size_bounds(tmp_path: Path, size: str, needle: str) -> None:
 
 def test_size_checked_against_the_contexts_max_texture_size(tmp_path: Path, gl,
                                                             monkeypatch: pytest.MonkeyPatch) -> None:
-    from nodegraph.gl import GL
+    from nodegraph.gpu.gl import GL
 
     monkeypatch.setattr(GL, "max_texture_size", property(lambda self: 32))
     out = cli("run", tiny_pipeline(tmp_path), "-o", tmp_path / "o.png", "--no-cache", "--size", "40x20")

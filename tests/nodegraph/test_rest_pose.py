@@ -11,8 +11,8 @@ import pytest
 from nodegraph_nodes.pencil_shade import skinned_directions
 
 import nodegraph as ng
-from nodegraph import scene as sc
-from nodegraph.tools.showerdoor import compare_rest_pose, surface_pair_metric
+from nodegraph.scene import scene as sc
+from nodegraph.tools.bench.showerdoor import compare_rest_pose, surface_pair_metric
 from tests import gltf_files as gf
 
 

@@ -12,17 +12,17 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nodegraph import primitives
-from nodegraph import scene as scene_module
 from nodegraph.errors import MeshError, PipelineError
-from nodegraph.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
-from nodegraph.scene import (
+from nodegraph.scene import scene as scene_module
+from nodegraph.scene.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
+from nodegraph.scene.scene import (
     Camera,
     Orbit,
     Scene,
     SceneObject,
     frame_camera,
     load_scene,
+    primitives,
 )
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "meshes"
@@ -639,8 +639,7 @@ def test_cloister() -> None:
 
 def test_mesh_files_are_seen_from_their_most_revealing_side():
     """A long box along X is seen from the side (largest projected area), not end-on."""
-    from nodegraph import primitives
-    from nodegraph.scene import best_view_direction
+    from nodegraph.scene.scene import best_view_direction, primitives
 
     long_x = primitives.box((4.0, 1.0, 1.0))
     d = best_view_direction(long_x)
@@ -651,7 +650,7 @@ def test_mesh_files_are_seen_from_their_most_revealing_side():
 
 
 def test_hole_share_bounds_what_holes_can_show():
-    from nodegraph import primitives
+    from nodegraph.scene import primitives
 
     assert primitives.box((1.0, 1.0, 1.0)).hole_share() == 0.0
     # a unit square: one loop of length 4 over area 1 -> 16 / (4 pi)
@@ -660,7 +659,7 @@ def test_hole_share_bounds_what_holes_can_show():
     t = primitives.torus(1.0, 0.3, 64, 24)
     keep = np.ones(len(t.faces), bool)
     keep[:4] = False
-    from nodegraph.meshes import Mesh
+    from nodegraph.scene.meshes import Mesh
 
     cut = Mesh("cut", t.vertices, t.faces[keep])
     assert 0 < cut.hole_share() < 0.01
@@ -668,7 +667,7 @@ def test_hole_share_bounds_what_holes_can_show():
 
 def test_the_field_of_view_spans_the_shorter_side():
     """A framed subject stays inside tall images as well as wide ones."""
-    from nodegraph.scene import Camera
+    from nodegraph.scene.scene import Camera
 
     cam = Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=40.0, near=1, far=10)
     edge = np.tan(np.radians(20.0)) * 5  # a point at the edge of the field of view, at the target's depth

@@ -10,7 +10,7 @@ import jsonschema
 import pytest
 import yaml
 
-from nodegraph import scene as sc
+from nodegraph.scene import scene as sc
 
 ROOT = Path(__file__).resolve().parents[2]
 DOC = ROOT / "docs" / "scenes.md"

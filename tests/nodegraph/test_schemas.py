@@ -12,8 +12,8 @@ import yaml
 from click.testing import CliRunner
 
 from nodegraph import pipeline as pl
-from nodegraph import scene as sc
 from nodegraph.cli import main
+from nodegraph.scene import scene as sc
 from nodegraph.schemas import unresolved_refs
 
 ROOT = Path(__file__).resolve().parents[2]

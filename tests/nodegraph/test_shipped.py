@@ -7,10 +7,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from nodegraph import imageio, shipped
 from nodegraph import pipeline as pl
+from nodegraph import shipped
 from nodegraph.cli import main
 from nodegraph.errors import PipelineError, SketchgraphError
+from nodegraph.output import imageio
 
 ROOT = Path(__file__).resolve().parents[2]
 REPO_PIPELINES = sorted(p.stem for p in (ROOT / "pipelines").glob("*.yaml"))

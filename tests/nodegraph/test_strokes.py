@@ -6,7 +6,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from nodegraph.strokes import to_svg
+from nodegraph.output.strokes import to_svg
 from nodegraph.values import Strokes
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from nodegraph.shipped import names
-from nodegraph.tools import sizes
+from nodegraph.tools.bench import sizes
 
 # Particle pipelines: two renders of one pipeline at one size with another particle seed score about 0.91 (the
 # strokes are random), so they are held at the issue's 0.85; with depth_edges' and force_field's filters in

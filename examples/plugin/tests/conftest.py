@@ -9,8 +9,8 @@ import pytest
 
 @pytest.fixture(scope="session")
 def gl():
-    from nodegraph import gl as glmod
     from nodegraph.errors import GLUnavailableError
+    from nodegraph.gpu import gl as glmod
 
     try:
         return glmod.get()

@@ -12,11 +12,12 @@ from click.testing import CliRunner
 from sketchgraph_posterize import Posterize
 from sketchgraph_posterize.reference import posterize
 
-from nodegraph import imageio, registry
 from nodegraph import pipeline as pl
+from nodegraph import registry
 from nodegraph.cli import main
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
+from nodegraph.output import imageio
 
 TOON = Path(__file__).resolve().parents[1] / "pipelines" / "toon.yaml"
 

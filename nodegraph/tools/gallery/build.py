@@ -364,7 +364,7 @@ class BuildReport:
 
 
 def _renderer() -> str:
-    from ... import gl as glmod
+    from ...gpu import gl as glmod
 
     return glmod.get().renderer
 

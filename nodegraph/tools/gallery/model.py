@@ -124,7 +124,7 @@ def _frames(value: Any, where: str) -> list[int] | None:
     if isinstance(value, int):
         return [value]
     if isinstance(value, str):
-        from ...render import parse_frames
+        from ...output.write import parse_frames
 
         return parse_frames(value)
     if isinstance(value, list) and value and all(isinstance(v, int) for v in value):
@@ -238,8 +238,8 @@ class EntryResult:
 def node_cache(gallery: Gallery, no_cache: bool = False, cache_dir: Path | None = None, cold: bool = False) -> Any:
     """The gallery's own node cache (gallery/out/cache unless `cache_dir`), so that gallery builds neither
     depend on nor evict what other runs cached. `cold` empties it first."""
-    from ... import meshstore
     from ...cache import Cache
+    from ...scene import meshstore
 
     if no_cache:
         if cold:
@@ -275,8 +275,8 @@ class TemporaryCache:
     """A fresh, empty node cache for a cold build (removed afterwards)."""
 
     def __enter__(self) -> Any:
-        from ... import meshstore
         from ...cache import Cache
+        from ...scene import meshstore
 
         self._dir = tempfile.mkdtemp(prefix="sketchgraph-cold-")
         cache = Cache(Path(self._dir))
@@ -284,7 +284,7 @@ class TemporaryCache:
         return cache
 
     def __exit__(self, *exc: Any) -> None:
-        from ... import meshstore
+        from ...scene import meshstore
 
         meshstore.use_cache(None)
         shutil.rmtree(self._dir, ignore_errors=True)

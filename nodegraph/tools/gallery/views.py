@@ -85,7 +85,7 @@ class Views:
 
     # -- full-size output pictures ---------------------------------------------------------------------
     def png(self, key: str, port: str, fmt: str | None) -> tuple[bytes, str, list[int]] | None:
-        from ...imageio import _png_complete
+        from ...output.imageio import _png_complete
 
         d = self._load(key, _suffix("png", port, fmt, None))
         if d is None or not {"png", "pixels_sha256", "size"} <= set(d):

@@ -16,10 +16,10 @@ from nodegraph_nodes.curvature.accuracy import (
 )
 from nodegraph_nodes.edge_detect import EdgeDetect
 
-from nodegraph.tools.accuracy import TARGET_F1
-from nodegraph.tools.accuracy_charts import pareto
-from nodegraph.tools.groundtruth import line_drawing, precision_recall
-from nodegraph.tools.measure import NodeRunner, gbuffer, release, scene_for
+from nodegraph.tools.bench.accuracy import TARGET_F1
+from nodegraph.tools.bench.accuracy_charts import pareto
+from nodegraph.tools.bench.groundtruth import line_drawing, precision_recall
+from nodegraph.tools.bench.measure import NodeRunner, gbuffer, release, scene_for
 from tests.conftest import shared_mesh
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from nodegraph import pipeline as pl
-from nodegraph.tools import bench_lines as B
+from nodegraph.tools.bench import lines as B
 
 
 def _summary(x: float) -> dict[str, float]:

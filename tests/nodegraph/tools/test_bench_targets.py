@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from nodegraph.cli import main
-from nodegraph.tools import bench_targets as bt
+from nodegraph.tools.bench import targets as bt
 
 ROOT = Path(__file__).resolve().parents[3]
 

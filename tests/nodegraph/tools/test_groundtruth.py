@@ -1,15 +1,15 @@
-"""The line-drawing ground truth (nodegraph.tools.groundtruth) against hand-computed geometry."""
+"""The line-drawing ground truth (nodegraph.tools.bench.groundtruth) against hand-computed geometry."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from nodegraph.meshes import Mesh
-from nodegraph.primitives import box, plane
-from nodegraph.scene import Camera, Scene, SceneObject, load_scene, translation
-from nodegraph.tools.groundtruth import feature_edges, line_drawing, precision_recall
-from nodegraph.tools.measure import gbuffer, release
+from nodegraph.scene.meshes import Mesh
+from nodegraph.scene.primitives import box, plane
+from nodegraph.scene.scene import Camera, Scene, SceneObject, load_scene, translation
+from nodegraph.tools.bench.groundtruth import feature_edges, line_drawing, precision_recall
+from nodegraph.tools.bench.measure import gbuffer, release
 
 
 def _kinds(fe):
@@ -127,7 +127,7 @@ def test_hidden_lines_are_removed_by_the_depth_buffer(gl):
 
 
 def test_edges_crossing_the_near_plane_are_clipped_there():
-    from nodegraph.tools.groundtruth import _sample_edges
+    from nodegraph.tools.bench.groundtruth import _sample_edges
 
     cam = Camera(eye=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0), fov_y_deg=60.0, near=0.1,
                  far=20.0)

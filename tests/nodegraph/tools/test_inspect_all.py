@@ -131,9 +131,9 @@ def test_inspect_page_links_resolve(inspected):
 
 
 def test_inspect_all_exr_is_exact(inspected, cache_dir, tmp_path):
-    from nodegraph import imageio
     from nodegraph import pipeline as pl
     from nodegraph.executor import Executor
+    from nodegraph.output import imageio
 
     pipe = pl.load(NIENHAUS, size=(40, 32))
     ex = Executor(pipe, None, requested=[pipe.outputs["image"]])
@@ -273,7 +273,7 @@ def test_inspect_all_from_the_cache_writes_the_same_files(gl, tmp_path, cache_di
     assert {n["status"] for n in stats["nodes"]} <= {"disk", "pass-through"}
     files = sorted(p.name for p in outs[0].iterdir() if p.suffix in (".png", ".exr"))
     assert files and files == sorted(p.name for p in outs[1].iterdir() if p.suffix in (".png", ".exr"))
-    from nodegraph import imageio
+    from nodegraph.output import imageio
 
     for f in files:
         if f.endswith(".png"):

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from nodegraph.scene import load_scene
-from nodegraph.tools import showerdoor
+from nodegraph.scene.scene import load_scene
+from nodegraph.tools.bench import showerdoor
 
 
 def test_static_camera_gives_zero_for_both(gl):

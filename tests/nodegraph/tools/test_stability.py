@@ -13,10 +13,10 @@ from nodegraph_nodes.curvature.accuracy import ellipsoid_truth, torus_mesh
 from nodegraph_nodes.curvature.principal import DirectionSource, Reason, compute_curvature
 
 from nodegraph.errors import MeshError
-from nodegraph.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
-from nodegraph.primitives import plane, sphere
-from nodegraph.tools.measure import gbuffer, release, scene_for
-from nodegraph.tools.stability import (
+from nodegraph.scene.meshes import Mesh, MeshWarning, clear_mesh_cache, load_mesh
+from nodegraph.scene.primitives import plane, sphere
+from nodegraph.tools.bench.measure import gbuffer, release, scene_for
+from nodegraph.tools.bench.stability import (
     broken_mesh_cases,
     edge_scores,
     linearize_window_depth,
@@ -105,7 +105,7 @@ def test_curvature_is_scale_invariant():
 
 # -- grazing angles and thin features -------------------------------------------------------------------
 def test_grazing_floor_four_neighbour_holds_sobel_marks_false_edges(gl):
-    from nodegraph.tools.stability import sweep_grazing
+    from nodegraph.tools.bench.stability import sweep_grazing
 
     sweep = sweep_grazing(quick=True, size=320)
     at = {(p["series"], p["x"]): p for p in sweep["points"]}
@@ -124,7 +124,7 @@ def test_thin_rod_outlines_merge_and_vanish_without_nan(gl):
         nd = gbuffer(gl, scene, (size, size))["normal_depth"]
         from nodegraph_nodes.edge_detect import EdgeDetect
 
-        from nodegraph.tools.measure import NodeRunner
+        from nodegraph.tools.bench.measure import NodeRunner
 
         e = NodeRunner(gl, (size, size), scene).run(EdgeDetect("e"), {"normal_depth": nd}, frozenset({"out"}))
         arr = e["out"].read()[..., 0]

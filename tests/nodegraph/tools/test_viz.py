@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nodegraph import imageio
+from nodegraph.output import imageio
 from nodegraph.tools import viz
 
 

@@ -14,10 +14,10 @@ from nodegraph import pipeline as pl
 from nodegraph.cache import Cache
 from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
-from nodegraph.meshes import Mesh
 from nodegraph.node import HashContext
-from nodegraph.primitives import sphere
-from nodegraph.scene import Scene, SceneObject, compose, frame_camera
+from nodegraph.scene.meshes import Mesh
+from nodegraph.scene.primitives import sphere
+from nodegraph.scene.scene import Scene, SceneObject, compose, frame_camera
 from tests.helpers import assert_outputs_as_planned, run_minimal
 
 R_MAJOR, R_MINOR = 2.0, 0.5

@@ -10,7 +10,7 @@ from nodegraph_nodes.depth_sprite.reference import depth_sprite as depth_sprite_
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
-from nodegraph.sampling import nearest
+from nodegraph.gpu.sampling import nearest
 from tests.helpers import ROOT, assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
 
 

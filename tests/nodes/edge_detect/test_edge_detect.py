@@ -10,7 +10,7 @@ from nodegraph_nodes.rasterize import Rasterize
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError, PortTypeError
-from nodegraph.scene import load_scene
+from nodegraph.scene.scene import load_scene
 from tests.helpers import assert_one_line_located, assert_outputs_as_planned, run_minimal, run_node
 
 

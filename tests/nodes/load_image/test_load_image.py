@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import imageio
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
+from nodegraph.output import imageio
 from tests.helpers import RASTER, assert_outputs_as_planned, run_minimal
 
 

@@ -17,9 +17,9 @@ from scipy.spatial import Delaunay
 
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
-from nodegraph.meshes import Mesh, MeshWarning
 from nodegraph.node import derive_seed
-from nodegraph.scene import Scene, SceneObject, frame_camera, load_scene
+from nodegraph.scene.meshes import Mesh, MeshWarning
+from nodegraph.scene.scene import Scene, SceneObject, frame_camera, load_scene
 from tests.helpers import assert_outputs_as_planned, run_minimal, run_node, shared_mesh
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -234,7 +234,7 @@ def test_object_noise_shape_format_and_port_type_error(gl):
 def test_a_huge_depth_range_warns_once(gl):
     from nodegraph_nodes import rasterize as rmod
 
-    from nodegraph.scene import Camera
+    from nodegraph.scene.scene import Camera
 
     scene = load_scene("builtin:box")
     cam = scene.camera_at(0)

@@ -186,10 +186,10 @@ def test_composite_needs_a_layer():
 
 
 def test_bench_particles_reports_the_figures(gl, tmp_path):
-    from nodegraph.tools import bench
-    from nodegraph.tools.bench_particles import run
+    from nodegraph.tools.bench import pipeline as bench
+    from nodegraph.tools.bench.particles import run
 
-    assert bench.NAMED["particles"] == "nodegraph.tools.bench_particles:command"
+    assert bench.NAMED["particles"] == "nodegraph.tools.bench.particles:command"
     r = run("builtin:cloister", 300, (160, 160), repeat=1, python_repeat=1, overrides=("max_steps=10",),
             out=tmp_path)
     for key in ("strokes", "seconds", "coverage", "precision", "python_reference_seconds", "speedup_vs_python"):

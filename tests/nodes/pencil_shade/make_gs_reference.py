@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from nodegraph import imageio
 from nodegraph import pipeline as pl
 from nodegraph.executor import Executor
+from nodegraph.output import imageio
 
 # name -> (scene, size, frame): closed meshes (torus, spot: back faces culled), an open one drawn two-sided
 # (teapot) and the dense one (ogre: 124k triangles, most of them a few pixels)

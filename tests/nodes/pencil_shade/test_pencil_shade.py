@@ -19,8 +19,8 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import NodeError
 from nodegraph.executor import Executor
 from nodegraph.node import RunContext
-from nodegraph.primitives import plane, sphere, torus
-from nodegraph.scene import Camera, Scene, SceneObject
+from nodegraph.scene.primitives import plane, sphere, torus
+from nodegraph.scene.scene import Camera, Scene, SceneObject
 from nodegraph.values import Arrays
 from tests.helpers import assert_outputs_as_planned, run_minimal
 
@@ -257,7 +257,7 @@ def test_frame_loop_reuses_hatching_and_curvature(gl):
 def test_golden_pencil_torus(gl, request):
     """pencil.yaml on builtin:torus at 128x96 against tests/golden/pencil_torus.exr (regenerate with
     --regen-golden; a failure writes the image and a diff to tests/_failures/)."""
-    from nodegraph import imageio
+    from nodegraph.output import imageio
     from tests.helpers import FAILURES, GOLDEN
 
     # reference_size 96: px_scale 1, so this also checks that the scaled params are exactly the old ones there
@@ -297,7 +297,7 @@ def test_same_pixels_as_the_geometry_shader(gl, name: str):
     (the G-buffer's angles are interpolated and divided where the geometry shader handed them on flat; the
     projection is multiplied once on the CPU in float64) and, on ogre.obj, where back faces seen through its
     small holes are now culled (one pixel of 256x256)."""
-    from nodegraph import imageio
+    from nodegraph.output import imageio
     from tests.helpers import GOLDEN, shared_mesh
     from tests.nodes.pencil_shade.make_gs_reference import CASES
     from tests.nodes.pencil_shade.make_gs_reference import render as render_pipeline
@@ -324,7 +324,7 @@ def test_the_kept_geometry_shader_draws_the_stored_references(gl):
     drew when the references were made (bit for bit on this renderer; within rounding on another)."""
     from nodegraph_nodes.pencil_shade import geometry_shader
 
-    from nodegraph import imageio
+    from nodegraph.output import imageio
     from tests.helpers import GOLDEN
     from tests.nodes.pencil_shade.make_gs_reference import load
 
@@ -358,7 +358,7 @@ def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mi
     clockwise) culled the same way, and three layers read from the mipmaps."""
     from nodegraph_nodes.pencil_shade import geometry_shader
 
-    from nodegraph.scene import Scene, SceneObject
+    from nodegraph.scene.scene import Scene, SceneObject
 
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(200, 150), scene="builtin:primitives",
                    overrides=[f"shade.anchor={anchor}", *more])

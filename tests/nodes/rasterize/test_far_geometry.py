@@ -1,4 +1,4 @@
-"""Geometry far from the origin renders like the same geometry at the origin (nodegraph/origin.py).
+"""Geometry far from the origin renders like the same geometry at the origin (nodegraph/scene/origin.py).
 
 An icosphere of radius 1, moved along the diagonal (1, 1, 1)/sqrt(3) by 1e3 .. 1e9 with the camera moved
 with it, either by its transform (the mesh stays at its origin) or in its vertices (a mesh file far from
@@ -19,8 +19,7 @@ import numpy as np
 import pytest
 from nodegraph_nodes.rasterize import Rasterize
 
-from nodegraph import origin, primitives
-from nodegraph.scene import Camera, Scene, SceneObject, frame_camera, translation
+from nodegraph.scene.scene import Camera, Scene, SceneObject, frame_camera, origin, primitives, translation
 from tests.helpers import run_node
 
 SIZE = (128, 128)

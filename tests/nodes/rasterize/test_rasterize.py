@@ -8,7 +8,7 @@ from scipy.ndimage import maximum_filter, minimum_filter
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError, PortTypeError
-from nodegraph.scene import load_scene
+from nodegraph.scene.scene import load_scene
 from tests.helpers import assert_one_line_located, assert_outputs_as_planned, run_minimal
 
 W, H = 72, 56

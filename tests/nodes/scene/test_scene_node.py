@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodegraph import framing
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
+from nodegraph.scene import framing
 from tests.helpers import RASTER, assert_outputs_as_planned, render_normal_depth, run_minimal
 
 
@@ -39,7 +39,7 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 
 def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
     """Against the file written here: one object, its faces as written, its vertices stood up (a pyramid on
-    a flat base at z = 0 reads as Z-up: +Z turned to +Y, nodegraph/framing.py), identity transform, and
+    a flat base at z = 0 reads as Z-up: +Z turned to +Y, nodegraph/scene/framing.py), identity transform, and
     every vertex inside the camera's view (projected with the camera matrices in float64)."""
     verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
     faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from nodegraph_nodes.sketch import Sketch
 
-from nodegraph import footprint
+from nodegraph.gpu import footprint
 from nodegraph.values import Footprint
 from tests.helpers import run_node
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 from .measure import NodeRunner, gbuffer, log, node_class, node_module, particle_depth, release, scene_for
 
 
@@ -107,7 +107,7 @@ def with_camera(scene: Any, **changes: Any) -> Any:
 
 
 def single_object_scene(mesh: Any, direction: Any = (0.55, 0.45, 1.0), name: str = "sweep") -> Any:
-    from ..scene import Scene, SceneObject, frame_camera
+    from ...scene.scene import Scene, SceneObject, frame_camera
 
     lo, hi = mesh.bounds()
     return Scene(name=name, objects=(SceneObject(mesh, np.eye(4), (0.8, 0.7, 0.5), True, name),),
@@ -130,7 +130,7 @@ def linearize_window_depth(z: np.ndarray, near: float, far: float, bits: int | N
 
 
 def sweep_depth_precision(meshes_dir: Path, quick: bool, size: int = 800) -> dict[str, Any]:
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
 
     gl = glmod.get()
     dims = (size, size)
@@ -170,8 +170,8 @@ def sweep_depth_precision(meshes_dir: Path, quick: bool, size: int = 800) -> dic
 
 # -- scale -----------------------------------------------------------------------------------------
 def sweep_scale(meshes_dir: Path, quick: bool, size: int = 400) -> dict[str, Any]:
-    from .. import gl as glmod
-    from ..meshes import Mesh, load_mesh
+    from ...gpu import gl as glmod
+    from ...scene.meshes import Mesh, load_mesh
 
     compute_curvature = node_module("curvature", "principal").compute_curvature
     curv = node_module("curvature", "accuracy")
@@ -183,7 +183,7 @@ def sweep_scale(meshes_dir: Path, quick: bool, size: int = 400) -> dict[str, Any
         warnings.simplefilter("ignore")
         mesh = load_mesh(path) if path.exists() else None
     if mesh is None:
-        from ..primitives import torus
+        from ...scene.primitives import torus
 
         mesh = torus(1.0, 0.35, 64, 32)
     exps = list(range(-6, 7, 3)) if quick else list(range(-42, 43, 3))
@@ -228,9 +228,9 @@ def sweep_scale(meshes_dir: Path, quick: bool, size: int = 400) -> dict[str, Any
 
 # -- grazing angles and thin features --------------------------------------------------------------
 def sweep_grazing(quick: bool, size: int = 800) -> dict[str, Any]:
-    from .. import gl as glmod
-    from ..primitives import box, plane
-    from ..scene import Camera, Scene, SceneObject, rotation, translation
+    from ...gpu import gl as glmod
+    from ...scene.primitives import box, plane
+    from ...scene.scene import Camera, Scene, SceneObject, rotation, translation
 
     gl = glmod.get()
     dims = (size, size)
@@ -275,7 +275,7 @@ def sweep_grazing(quick: bool, size: int = 800) -> dict[str, Any]:
 
 
 def sweep_thin_features(meshes_dir: Path, quick: bool) -> dict[str, Any]:
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
 
     gl = glmod.get()
     spec = str(meshes_dir / "cow.obj") if (meshes_dir / "cow.obj").exists() else "builtin:torus"
@@ -300,8 +300,8 @@ def sweep_thin_features(meshes_dir: Path, quick: bool) -> dict[str, Any]:
 
 def rod_scene(diameter_px: float, size: int) -> Any:
     """A horizontal cylinder (rod) `diameter_px` pixels thick across the middle of a size^2 view."""
-    from ..primitives import cylinder
-    from ..scene import Camera, Scene, SceneObject, rotation
+    from ...scene.primitives import cylinder
+    from ...scene.scene import Camera, Scene, SceneObject, rotation
 
     dist, fov = 10.0, 30.0
     px_world = 2.0 * dist * math.tan(math.radians(fov) / 2.0) / size
@@ -324,7 +324,7 @@ def outlines_resolved(edges: np.ndarray, diameter_px: float) -> float:
 
 
 def sweep_thin_rod(quick: bool, size: int = 400) -> dict[str, Any]:
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
     from .groundtruth import precision_recall
 
     EdgeDetect = node_class("edge_detect")
@@ -394,9 +394,9 @@ def broken_mesh_cases(tmp: Path, meshes_dir: Path) -> dict[str, Path]:
 
 def broken_mesh_report(path: Path, size: int = 400) -> dict[str, Any]:
     """Load, draw, detect edges and measure curvature on one mesh file; record every warning and error."""
-    from .. import gl as glmod
-    from ..errors import MeshError
-    from ..meshes import clear_mesh_cache, load_mesh
+    from ...errors import MeshError
+    from ...gpu import gl as glmod
+    from ...scene.meshes import clear_mesh_cache, load_mesh
 
     compute_curvature = node_module("curvature", "principal").compute_curvature
 

@@ -24,27 +24,27 @@ from typing import Any
 
 import click
 
-from ..errors import SketchgraphError
-from ..fsio import atomic_write_text
+from ...errors import SketchgraphError
+from ...fsio import atomic_write_text
 
 # named benchmarks: name -> "module:click_command"
 NAMED: dict[str, str] = {
-    "shower-door": "nodegraph.tools.showerdoor:command",
-    "accuracy": "nodegraph.tools.accuracy:command",
-    "hatching": "nodegraph.tools.bench_pencil:hatching_command",
-    "curvature": "nodegraph.tools.bench_pencil:curvature_command",
-    "pencil-shade": "nodegraph.tools.bench_pencil:shade_command",
-    "particles": "nodegraph.tools.bench_particles:command",
-    "distributed": "nodegraph.tools.bench_distributed:command",
-    "film": "nodegraph.tools.bench_film:command",
-    "startup": "nodegraph.tools.bench_runs:startup_command",
-    "cold-cache": "nodegraph.tools.bench_runs:cold_cache_command",
-    "uncertainty-cost": "nodegraph.tools.bench_lines:uncertainty_command",
-    "feature-lines": "nodegraph.tools.bench_lines:feature_lines_command",
-    "sizes": "nodegraph.tools.sizes:command",
-    "sketch-depth": "nodegraph.tools.bench_sketch_depth:command",
-    "footprint": "nodegraph.tools.bench_sketch_depth:footprint_command",
-    "targets": "nodegraph.tools.bench_targets:command",
+    "shower-door": "nodegraph.tools.bench.showerdoor:command",
+    "accuracy": "nodegraph.tools.bench.accuracy:command",
+    "hatching": "nodegraph.tools.bench.pencil:hatching_command",
+    "curvature": "nodegraph.tools.bench.pencil:curvature_command",
+    "pencil-shade": "nodegraph.tools.bench.pencil:shade_command",
+    "particles": "nodegraph.tools.bench.particles:command",
+    "distributed": "nodegraph.tools.bench.distributed:command",
+    "film": "nodegraph.tools.bench.film:command",
+    "startup": "nodegraph.tools.bench.runs:startup_command",
+    "cold-cache": "nodegraph.tools.bench.runs:cold_cache_command",
+    "uncertainty-cost": "nodegraph.tools.bench.lines:uncertainty_command",
+    "feature-lines": "nodegraph.tools.bench.lines:feature_lines_command",
+    "sizes": "nodegraph.tools.bench.sizes:command",
+    "sketch-depth": "nodegraph.tools.bench.sketch_depth:command",
+    "footprint": "nodegraph.tools.bench.sketch_depth:footprint_command",
+    "targets": "nodegraph.tools.bench.targets:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
@@ -56,7 +56,7 @@ def command_for(target: str) -> click.Command:
         return getattr(importlib.import_module(module), attr)
     if target.endswith((".yaml", ".yml")) or Path(target).exists():
         return _pipeline_command(target)
-    from .. import shipped
+    from ... import shipped
 
     if target in shipped.paths():  # a shipped pipeline by name, as `sketchgraph run NAME` takes it
         return _pipeline_command(target)
@@ -66,7 +66,7 @@ def command_for(target: str) -> click.Command:
 
 
 def _pipeline_command(path: str) -> click.Command:
-    from ..views import click_options as framing_options
+    from ...scene.views import click_options as framing_options
 
     @click.command()
     @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
@@ -109,9 +109,9 @@ def _fmt(v: Any) -> str:
 def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, size: str | None = None,
                    overrides: tuple[str, ...] = (), warmup: int = 3, view: str | None = None,
                    up: str | None = None) -> dict[str, Any]:
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
 
     pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
                    view=view, up=up)
@@ -210,7 +210,7 @@ class CopyPass:
     def __init__(self, gl: Any, size: tuple[int, int]) -> None:
         import numpy as np
 
-        from ..glsl import ENGINE_GLSL
+        from ...gpu.glsl import ENGINE_GLSL
 
         self.gl = gl
         self.prog = gl.program(ENGINE_GLSL / "copy.glsl", node="bench")
@@ -244,7 +244,7 @@ def copy_pass_ms(gl: Any, size: tuple[int, int], passes: int = 30) -> float:
 
 def _numpy_reference(pipe: Any, nodes_ms: dict[str, float]) -> tuple[float | None, float | None]:
     """float64 NumPy time of the image-space stages on the same G-buffer, and their GPU time."""
-    from ..executor import Executor
+    from ...executor import Executor
 
     stages = [nid for nid, node in pipe.nodes.items() if node.type_name in IMAGE_SPACE_TYPES and nid in nodes_ms]
     if not stages:

@@ -12,7 +12,7 @@ Families (each a key of the JSON):
 - `hatching`: tonal art maps by texture size and stroke width; strokes drawn, tone error, time.
 - `noise`: perlin_noise on the GPU against its float64 reference: max error, ms per frame.
 - `pipelines`: ms per frame of the pipelines in `pipelines/` at several sizes.
-- `stability`: the failure-mode sweeps of `nodegraph.tools.stability`.
+- `stability`: the failure-mode sweeps of `nodegraph.tools.bench.stability`.
 
 Timings are medians of a few runs on a shared machine: compare ratios within one run, never across runs.
 """
@@ -28,7 +28,7 @@ from typing import Any
 import click
 import numpy as np
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 from .measure import (
     NodeRunner,
     gbuffer,
@@ -89,9 +89,9 @@ def edge_scenes(meshes_dir: Path, quick: bool) -> list[tuple[str, str]]:
 
 def bench_edges(meshes_dir: Path, quick: bool, sizes: list[int] | None = None,
                 repeats: int | None = None) -> dict[str, Any]:
-    from .. import gl as glmod
-    from .bench import copy_pass_ms
+    from ...gpu import gl as glmod
     from .groundtruth import line_drawing, precision_recall
+    from .pipeline import copy_pass_ms
 
     EdgeDetect = node_class("edge_detect")
     gl = glmod.get()
@@ -177,8 +177,8 @@ def bench_hatching(quick: bool) -> dict[str, Any]:
 
 # -- noise ---------------------------------------------------------------------------------------
 def bench_noise(quick: bool) -> dict[str, Any]:
-    from .. import gl as glmod
-    from ..node import derive_seed
+    from ...gpu import gl as glmod
+    from ...node import derive_seed
 
     PerlinNoise = node_class("perlin_noise")
     gl = glmod.get()
@@ -205,12 +205,12 @@ def bench_noise(quick: bool) -> dict[str, Any]:
 
 # -- pipelines -----------------------------------------------------------------------------------
 def bench_pipelines(quick: bool) -> dict[str, Any]:
-    from .bench import bench_pipeline
+    from .pipeline import bench_pipeline
 
     sizes = [400, 800] if quick else [400, 800, 1600]
     frames = 5 if quick else 12
     entries = []
-    from ..shipped import paths
+    from ...shipped import paths
 
     files = list(paths().values())  # the shipped pipelines, in a checkout and installed alike
     for f in files:
@@ -232,7 +232,7 @@ def bench_pipelines(quick: bool) -> dict[str, Any]:
 
 # -- the command -----------------------------------------------------------------------------------
 def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, Any]:
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
 
     result: dict[str, Any] = {"quick": quick, "meshes": str(meshes_dir)}
     try:
@@ -286,7 +286,7 @@ def run(families: tuple[str, ...], quick: bool, meshes_dir: Path) -> dict[str, A
 def command(json_path: Path | None, charts_dir: Path | None, quick: bool, families: str,
             meshes_dir: Path | None) -> None:
     """Accuracy against independent references and cost, per method family; JSON and charts."""
-    from ..errors import SketchgraphError
+    from ...errors import SketchgraphError
 
     fams = tuple(f.strip() for f in families.split(",") if f.strip())
     unknown = [f for f in fams if f not in FAMILIES]

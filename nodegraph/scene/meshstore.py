@@ -82,7 +82,7 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
          category: type[Warning], code: tuple[str, ...]) -> Any:
     """The mesh `parse(path)` gives (anything with `vertices`, float64, and `faces`, int32), or `build(vertices,
     faces)` from the store when this file's bytes were parsed before by the code in the files `code`; the
-    warnings of `category` the parse gave are given either way (`nodegraph.meshes` passes its Mesh and
+    warnings of `category` the parse gave are given either way (`nodegraph.scene.meshes` passes its Mesh and
     MeshWarning)."""
     store = _root
     if store is None:
@@ -173,7 +173,7 @@ def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], d
                 return None
             arrays = {n: z[n] for n in names}
     except Exception as exc:  # noqa: BLE001 - anything that does not read is computed again and replaced
-        from .cache import CacheWarning, _reason
+        from ..cache import CacheWarning, _reason
 
         warnings.warn(f"mesh store entry {entry} is unusable ({_reason(exc)}); computing it again", CacheWarning,
                       stacklevel=2)
@@ -186,7 +186,7 @@ def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], d
 
 
 def _write(entry: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
-    from .cache import write_npz
+    from ..cache import write_npz
 
     try:
         entry.parent.mkdir(parents=True, exist_ok=True)

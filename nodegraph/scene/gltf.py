@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import MeshError, PipelineError
 from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_matrices, skin_weights, trs_matrix
-from .errors import MeshError, PipelineError
 from .meshes import GLTF_EXTENSIONS, Mesh, MeshWarning
 
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..fsio import atomic_output
+from ...fsio import atomic_output
 
 MODE_COLORS = {"normal_depth": "#1b6ca8", "normal": "#d1495b", "depth": "#edae49"}
 OP_MARKERS = {"four_neighbour": "o", "sobel": "s"}
@@ -21,7 +21,7 @@ def _plt() -> Any:
     try:
         import matplotlib
     except ImportError as exc:  # optional dependency: pip install sketchgraph[charts]
-        from ..errors import SketchgraphError
+        from ...errors import SketchgraphError
 
         raise SketchgraphError(f"charts need matplotlib ({exc}); pip install 'sketchgraph[charts]'") from None
     matplotlib.use("Agg")
@@ -418,7 +418,7 @@ def draw_all(result: dict[str, Any], out: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """python -m nodegraph.tools.accuracy_charts field FIGURES.json OUTDIR: draws one chart family from a
+    """python -m nodegraph.tools.bench.accuracy_charts field FIGURES.json OUTDIR: draws one chart family from a
     JSON of figures (field: nodes/curvature/field_figures.py's --json)."""
     import argparse
     import json

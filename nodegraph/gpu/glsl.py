@@ -2,7 +2,7 @@
 
 A node's `.glsl` file starts with `#version`. Stages are selected by guards
 (`#if defined VERTEX_SHADER` / `FRAGMENT_SHADER` / `COMPUTE_SHADER`); a file with a fragment stage
-but no vertex stage gets the engine's full-screen triangle (`glsl/fullscreen.glsl`). After the
+but no vertex stage gets the engine's full-screen triangle (`shaders/fullscreen.glsl`). After the
 injected defines a `#line` directive restores the file's own numbering, and every included file gets
 its own source-string number, so a compiler message maps back to `file:line`.
 """
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .errors import ShaderError
+from ..errors import ShaderError
 
-ENGINE_GLSL = Path(__file__).parent / "glsl"
+ENGINE_GLSL = Path(__file__).parent / "shaders"
 MAX_INCLUDE_DEPTH = 16
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 _VERSION = re.compile(r"^\s*#\s*version\b")

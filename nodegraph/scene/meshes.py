@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from .errors import MeshError
-from .fsio import check_input, clean, show_path
+from ..errors import MeshError
+from ..fsio import check_input, clean, show_path
 
 SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
-GLTF_EXTENSIONS = (".gltf", ".glb")  # read by nodegraph.gltf
+GLTF_EXTENSIONS = (".gltf", ".glb")  # read by nodegraph.scene.gltf
 
 # Normal given to vertices that have no well-defined one (unreferenced, only degenerate faces).
 FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
@@ -289,7 +289,7 @@ class Mesh:
 
         from . import meshstore
 
-        # kept on disk (nodegraph/meshstore.py): importing scipy.sparse alone is 0.28 s
+        # kept on disk (nodegraph/scene/meshstore.py): importing scipy.sparse alone is 0.28 s
         return self._cached("hole_share", lambda: float(meshstore.memo(self, "holes", make, (__file__,), always=True)))
 
     def topology(self) -> MeshTopology:
@@ -345,7 +345,7 @@ class Mesh:
             ra = self._render_arrays(crease_angle_deg)
             return {n: getattr(ra, n) for n in names}
 
-        def make() -> RenderArrays:  # kept on disk for a large mesh (nodegraph/meshstore.py)
+        def make() -> RenderArrays:  # kept on disk for a large mesh (nodegraph/scene/meshstore.py)
             return RenderArrays(**meshstore.memo_arrays(self, f"render{float(crease_angle_deg)!r}", compute,
                                                         (__file__,), names))
 
@@ -529,7 +529,7 @@ def load_mesh(path: str | Path) -> Mesh:
         raise MeshError(f"{p}: empty file (no faces)")
     from . import meshstore
 
-    # parsed in an earlier run: from the disk (nodegraph/meshstore.py)
+    # parsed in an earlier run: from the disk (nodegraph/scene/meshstore.py)
     mesh = meshstore.load(p, _load_uncached, lambda v, f: Mesh(p.stem, v, f, str(p)), MeshWarning, (__file__,))
     with _LOAD_LOCK:
         for old in [k for k in _LOAD_CACHE if k[0] == key[0]]:

@@ -5,7 +5,7 @@ Encoding and file writing run beside rendering: the render loop reads each frame
 worker thread through a bounded queue, so a film costs little more than its frames. A film is encoded to
 a hidden temporary file in the output's folder and renamed when the container is finalised; if the run
 fails or is interrupted the temporary file is removed, so the output is either a complete, playable film
-or absent. With `resume`, image sequences keep the frames manifest of `nodegraph.frames_manifest` (beside the
+or absent. With `resume`, image sequences keep the frames manifest of `nodegraph.output.frames_manifest` (beside the
 pattern: frame -> the digest of what it was rendered from and the file's SHA-256, shared with distributed
 runs) and skip frames already written from the same keys whose files are intact.
 """
@@ -23,11 +23,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .errors import SketchgraphError
-from .render import Bytes8, PngRows
+from ..errors import SketchgraphError
+from .write import Bytes8, PngRows
 
 if TYPE_CHECKING:
-    from .gl import Yuv420Planes
+    from ..gpu.gl import Yuv420Planes
 
 # extension -> (container format, codec, pixel format, default quality as CRF; None: not applicable)
 FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
@@ -136,7 +136,7 @@ class FilmWriter:
     def _encode(self, rgb: Any) -> None:
         import av
 
-        from .gl import Yuv420Planes
+        from ..gpu.gl import Yuv420Planes
 
         h, w = self.stream.height, self.stream.width
         if isinstance(rgb, Yuv420Planes):  # converted on the GPU: the planes go to the encoder as they are
@@ -181,7 +181,7 @@ two threads keep up with the render loop where one falls behind on a slow frame.
 
 class SequenceWriter:
     """One image file per frame (PNG, EXR, ...), written on worker threads; with `resume`, the frames
-    manifest (`nodegraph.frames_manifest`, shared with distributed runs) records each frame's digest and
+    manifest (`nodegraph.output.frames_manifest`, shared with distributed runs) records each frame's digest and
     file hash as it is written, so a later `--resume` skips what is done. PNG frames read back as PNG rows
     (`PngRows`, laid out on the GPU) are compressed at `png_level`."""
 
@@ -198,13 +198,13 @@ class SequenceWriter:
 
     def _write(self, item: tuple[Path, Any, int, str]) -> None:
         from .frames_manifest import file_sha256
-        from .render import write_value
+        from .write import write_value
 
         path, value, frame, digest = item
         if isinstance(value, PngRows):
             buffer = getattr(self._rows, "buffer", None)
             if buffer is None:
-                from .gl import PngRowsBuffer
+                from ..gpu.gl import PngRowsBuffer
 
                 buffer = self._rows.buffer = PngRowsBuffer()
             written = value.write(path, self.png_level, sync=False, rows_buffer=buffer)
@@ -240,7 +240,7 @@ class SequenceWriter:
                 self.manifest.save()
 
     def _sync(self) -> None:
-        from .fsio import sync_written
+        from ..fsio import sync_written
 
         with self._lock:
             unsynced, self._unsynced = self._unsynced, []
@@ -260,8 +260,8 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     while the next is set up; a PNG or yuv420p frame's pass is issued then and read back a run later still
     (`GL.pack_png`, `GL.pack_yuv420`: the read then does not wait for the GPU). The last frames, and those
     before a failing one, are read back at the end."""
-    from .render import frame_path
-    from .values import Tex
+    from ..values import Tex
+    from .write import frame_path
 
     frame_list = list(frames)
     loop = bar(frame_list) if bar is not None else frame_list
@@ -347,10 +347,10 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
 
 def _host(value: Any) -> Any:
     """A value the writer thread can write without the GL context: textures are read back here."""
-    from .values import Tex, TexArray
+    from ..values import Tex, TexArray
 
     if isinstance(value, (Tex, TexArray)):
-        from .render import to_image
+        from .write import to_image
 
         return to_image(value)
     return value
@@ -359,8 +359,8 @@ def _host(value: Any) -> Any:
 def _film_frame(ex: Any, value: Any) -> Any:
     """A texture as `Bytes8` (converted on the GPU) for a film that is not yuv420p (GIF); anything else read
     back as `_host` does. (yuv420p films take `GL.pack_yuv420`'s planes.)"""
-    from . import types
-    from .values import Tex
+    from .. import types
+    from ..values import Tex
 
     if isinstance(value, Tex):
         return Bytes8(ex.gl.read_uint8(value), types.components(value.fmt))
@@ -394,9 +394,9 @@ def prepare(pipe: Any, out: str | None, frames: str | None, fps: float | None, c
     """The command line's animation options applied to a loaded pipeline: `--camera` (a glTF camera), `--fps`;
     returns (frames, fps). Without `--frames`, a film or a `####` pattern of an animated scene covers the
     whole animation; anything else renders frame 0."""
-    from .animation import DEFAULT_FPS, default_frames, with_fps
-    from .render import parse_frames
-    from .scene import select_camera
+    from ..scene.animation import DEFAULT_FPS, default_frames, with_fps
+    from ..scene.scene import select_camera
+    from .write import parse_frames
 
     if pipe.scene is not None:
         pipe.scene = with_fps(select_camera(pipe.scene, camera), fps)

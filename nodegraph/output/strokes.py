@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .values import Strokes
+from ..values import Strokes
 
 
 def to_svg(strokes: Strokes) -> str:

@@ -7,7 +7,7 @@ depth is neither read nor made).
 
     sketchgraph bench sketch-depth --scene ../shared/meshes/ogre.obj [--frames 60] [--json F] [PIPELINE]
 
-`bench footprint`: A = every full-screen pass over the whole image (`nodegraph.footprint.ENABLED` off), B = as
+`bench footprint`: A = every full-screen pass over the whole image (`nodegraph.gpu.footprint.ENABLED` off), B = as
 shipped (passes whose output is blank outside the objects' projected boxes draw only inside them; the same
 pixels). Also reports the share of the image the last node's output footprint covered, over the frames.
 
@@ -23,7 +23,7 @@ from typing import Any
 
 import click
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 
 
 def _ab_command(run_ab: Any) -> click.Command:
@@ -44,10 +44,10 @@ def _ab_command(run_ab: Any) -> click.Command:
 
 
 def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: int = 60) -> dict[str, Any]:
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
-    from .bench import alternate, copy_pass_ms
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from .pipeline import alternate, copy_pass_ms
 
     pipe = pl.load(pipeline, scene=scene)
     sketches = {type(n) for n in pipe.nodes.values() if n.type_name == "sketch"}
@@ -79,11 +79,11 @@ def run(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: in
 
 
 def run_footprint(pipeline: str = "nienhaus_sketchy", scene: str | None = None, frames: int = 60) -> dict[str, Any]:
-    from .. import footprint
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
-    from .bench import alternate, copy_pass_ms
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import footprint
+    from ...gpu import gl as glmod
+    from .pipeline import alternate, copy_pass_ms
 
     pipe = pl.load(pipeline, scene=scene)
     ref = pipe.outputs[next(iter(pipe.outputs))]

@@ -30,8 +30,8 @@ from typing import Any
 import click
 import numpy as np
 
-from ..errors import SketchgraphError
-from ..fsio import atomic_write_text
+from ...errors import SketchgraphError
+from ...fsio import atomic_write_text
 
 # shipped pipelines, by name (nodegraph.shipped): found in a checkout and in an installed package alike
 SCREEN_PIPELINE = "nienhaus_sketchy"
@@ -106,10 +106,10 @@ def measure(pipeline: str | Path, scene: str, frames: int, size: tuple[int, int]
             overrides: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
     """The shower-door metric of one pipeline along the scene's orbit (see the module doc); `overrides` are
     NODE.PARAM=VALUE settings as `--set` takes them."""
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
-    from ..scene import Orbit
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from ...scene.scene import Orbit
 
     if frames < 2:
         raise SketchgraphError(f"--frames: the metric compares consecutive frames, so at least 2 (got {frames})")
@@ -151,7 +151,7 @@ def compare(scene: str, frames: int = 60, size: tuple[int, int] = (400, 400), de
             screen: str | Path = SCREEN_PIPELINE, object_: str | Path = OBJECT_PIPELINE,
             depth_tol: float = 0.01) -> dict[str, Any]:
     """Screen-space and object-space uncertainty on the same scene, orbit and size."""
-    from ..shipped import resolve
+    from ...shipped import resolve
 
     t0 = time.perf_counter()
     s = measure(screen, scene, frames, size, degrees_per_frame, depth_tol)
@@ -213,8 +213,8 @@ def _rest_run(pipeline: str | Path, scene: str, frames: range, size: tuple[int, 
               gl: Any) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """(rest positions, sketch offsets in pixels) per frame of an animated scene, with the rest pose carried
     by posed meshes (`rest_pose`) or dropped (object-space noise then reads posed positions)."""
-    from .. import pipeline as pl
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...executor import Executor
 
     pipe = pl.load(pipeline, size=size, scene=scene)
     if pipe.scene.animation is None:
@@ -240,9 +240,9 @@ def compare_rest_pose(scene: str, frames: int | None = None, size: tuple[int, in
     posed positions ("posed", before) and at rest-pose positions ("rest", after), over the scene's
     animation (or at most its first `frames` frames). The same surface point in consecutive frames is matched by
     its rest position from the rest-pose run (`surface_pair_metric`); both runs draw the same geometry."""
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..animation import default_frames
+    from ... import pipeline as pl
+    from ...gpu import gl as glmod
+    from ...scene.animation import default_frames
 
     gl = gl or glmod.get()
     t0 = time.perf_counter()
@@ -283,7 +283,7 @@ def command(scene: str, frames: int, size: str, degrees_per_frame: float | None,
             deforming: bool, json_path: Path | None) -> None:
     """Shower-door effect: frame-to-frame change of the uncertainty on the same surface point, relative to
     its size, for screen-space vs object-space uncertainty along the scene's orbit (lower is better)."""
-    from ..pipeline import parse_size
+    from ...pipeline import parse_size
 
     if deforming:
         r = compare_rest_pose(scene, frames, parse_size(size), object_)

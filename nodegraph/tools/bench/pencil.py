@@ -20,7 +20,7 @@ from typing import Any
 
 import click
 
-from .bench import emit
+from .pipeline import emit
 
 HATCHING = """\
 pipeline: bench-hatching
@@ -44,10 +44,10 @@ outputs:
 
 
 def _timed_runs(text: str, node: str, scene: str | None) -> dict[str, Any]:
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..cache import Cache
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...cache import Cache
+    from ...executor import Executor
+    from ...gpu import gl as glmod
 
     gl = glmod.get()
     with tempfile.TemporaryDirectory(prefix="sketchgraph-bench-") as tmp:
@@ -114,7 +114,7 @@ def curvature_command(scene: str, radius: int, repeat: int, json_path: Path | No
     import igl
     import numpy as np
 
-    from .. import pipeline as pl
+    from ... import pipeline as pl
 
     text = CURVATURE.format(radius=radius)
     result: dict[str, Any] = {"benchmark": "curvature", "scene": scene, "radius": radius}
@@ -144,12 +144,12 @@ def shade_command(scene: str, frames: int, size: str | None, json_path: Path | N
     the median times, the median of the per-frame ratios old / new, and each over the copy pass."""
     import statistics
 
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
-    from ..node import RunContext
-    from .bench import copy_pass_ms
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from ...node import RunContext
     from .measure import node_module
+    from .pipeline import copy_pass_ms
 
     legacy = node_module("pencil_shade", "geometry_shader")
     pipe = pl.load("pencil", scene=scene, size=pl.parse_size(size) if size else None)

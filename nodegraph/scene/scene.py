@@ -31,10 +31,11 @@ from pydantic import (
     model_validator,
 )
 
-from . import framing, keyframes, primitives, yamlio
+from .. import yamlio
+from ..errors import Location, MeshError, PipelineError
+from ..fsio import show_path
+from . import framing, keyframes, primitives
 from .animation import DEFAULT_FPS, Animator, CameraAnim, ObjectAnim
-from .errors import Location, MeshError, PipelineError
-from .fsio import show_path
 from .meshes import GLTF_EXTENSIONS, SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
 
 if TYPE_CHECKING:
@@ -636,7 +637,7 @@ PRIMITIVE_SPECS: dict[str, type[_PrimSpec]] = {
 
 def json_schema() -> dict[str, Any]:
     """JSON Schema of scene files: SceneSpec, with `primitive` spelled out per type (PRIMITIVE_SPECS)."""
-    from .schemas import DIALECT, hoist_defs
+    from ..schemas import DIALECT, hoist_defs
 
     schema = SceneSpec.model_json_schema()
     defs = schema.setdefault("$defs", {})
@@ -832,7 +833,7 @@ def stand_up(mesh: Mesh, up: str | None, source: str | None = None) -> tuple[Mes
 
 
 def _detect_up(mesh: Mesh, suffix: str) -> str:
-    """framing.detect_up, kept on disk for a large mesh (nodegraph/meshstore.py); the suffix counts only as
+    """framing.detect_up, kept on disk for a large mesh (nodegraph/scene/meshstore.py); the suffix counts only as
     a Z-up format or not."""
     from . import meshstore
 
@@ -860,7 +861,7 @@ def mesh_camera(mesh: Mesh, view: str | None = None) -> Camera:
 
 def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = None, up: str | None = None) -> Scene:
     """One sketchy object, stood up (`stand_up`), seen from `view` (default: three-quarter front; see
-    nodegraph/framing.py), framed, with a 6 degrees/frame orbit about +Y."""
+    nodegraph/scene/framing.py), framed, with a 6 degrees/frame orbit about +Y."""
     mesh, _ = stand_up(mesh, up, source)
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
                  camera=mesh_camera(mesh, view), orbit=Orbit(), source=source or mesh.source)
@@ -1065,7 +1066,7 @@ def builtin_scene(name: str) -> Scene:
 def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None) -> Scene:
     """`builtin:NAME`, a scene YAML (.yaml/.yml) or a mesh file (.obj/.ply/.off/.stl); relative paths
     start at `base_dir` (default: the current directory). `view` and `up` (`--view`, `--up`; see
-    nodegraph/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera."""
+    nodegraph/scene/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera."""
     spec = str(spec).strip()
     try:
         view, up = framing.check_view(view), framing.check_up(up)

@@ -1,6 +1,6 @@
 """The framing choices (`--up`, `--view`, scene `up:`/`view:`), without NumPy: the command line
 builds its options from them before anything heavy is imported (`sketchgraph --help`). The geometry that
-uses them is `nodegraph.framing`."""
+uses them is `nodegraph.scene.framing`."""
 
 from __future__ import annotations
 

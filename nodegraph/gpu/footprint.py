@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .values import Footprint
+from ..values import Footprint
 
 Rect = tuple[int, int, int, int]
 
@@ -119,7 +119,7 @@ def blank_results(gl: Any, key: Any, inputs: Sequence[tuple[str, tuple[float, ..
     cache_key = ("blank-results", key, tuple((fmt, np.asarray(blank, np.float32).tobytes()) for fmt, blank in inputs))
     if cache_key in gl.resources:
         return gl.resources[cache_key]
-    from . import types
+    from .. import types
 
     # each source holds its blank as a clear stores it, which is how the passes' targets got it outside their
     # footprints (`GL.fullscreen(rect=, blanks=)`): the same conversion to the format, whatever its rounding

@@ -26,9 +26,9 @@ from typing import Any
 
 import click
 
-from ..errors import SketchgraphError
-from .bench import emit
-from .bench_film import DEFAULT_PIPELINE
+from ...errors import SketchgraphError
+from .film import DEFAULT_PIPELINE
+from .pipeline import emit
 
 STARTUP_TARGETS = {"help_cpu_s": 0.3, "first_image_cpu_s": 1.0}
 COLD_TARGET = 1.25

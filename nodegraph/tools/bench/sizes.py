@@ -2,7 +2,7 @@
 small render, compared by SSIM on luminance (scikit-image's windowed `structural_similarity`).
 
     sketchgraph bench sizes [--small 400] [--large 1600] [--json F] [PIPELINE ...]
-    python -m nodegraph.tools.sizes ...
+    python -m nodegraph.tools.bench.sizes ...
 
 A pipeline whose image-space parameters follow its `reference_size` (docs/sizes.md) gives nearly the same
 picture at both sizes; one whose parameters are per pixel does not (lines twice as thick, noise twice as
@@ -20,7 +20,7 @@ from typing import Any
 import click
 import numpy as np
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 
 # Rec. 709 luma weights, on the display values the PNG would hold
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -62,7 +62,7 @@ def compare(pipeline: str, small: int = 400, large: int = 1600, overrides: tuple
             session: Any = None, keep: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
     """SSIM of `pipeline` rendered at large x large, area-averaged to small x small, against a direct
     small x small render; `keep`, if given, receives both luminance images."""
-    from ..api import Session
+    from ...api import Session
 
     if large % small:
         raise click.BadParameter(f"--large {large} must be a whole multiple of --small {small}")
@@ -86,7 +86,7 @@ def compare(pipeline: str, small: int = 400, large: int = 1600, overrides: tuple
 
 
 def compare_all(pipelines: list[str], small: int, large: int) -> list[dict[str, Any]]:
-    from ..api import Session
+    from ...api import Session
 
     rows = []
     with Session(cache=False) as session:
@@ -103,8 +103,8 @@ def sheet(pipelines: list[str], path: Path, sides: tuple[int, ...] = (400, 800, 
     """A PNG: for each pipeline two rows, per-pixel params (every size its own reference: how pipelines drew
     before reference_size) and the pipeline's reference size; one column per side, each area-averaged to
     `cell` px so sizes compare at one scale."""
-    from ..api import Session
-    from ..imageio import write
+    from ...api import Session
+    from ...output.imageio import write
 
     rows = []
     gap = 6
@@ -138,7 +138,7 @@ def command(pipelines: tuple[str, ...], small: int, large: int, json_path: Path 
             sheet_path: Path | None) -> None:
     """SSIM (luminance) of each pipeline at --large area-averaged to --small against a direct --small render
     (default: every shipped pipeline)."""
-    from ..shipped import names
+    from ...shipped import names
 
     if sheet_path is not None:
         click.echo(f"wrote {sheet(list(pipelines) or ['nienhaus_sketchy', 'pencil'], sheet_path)}")

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .fsio import atomic_write_text
+from ..fsio import atomic_write_text
 
 FORMAT = 1
 

@@ -29,11 +29,11 @@ from typing import Any
 
 import click
 
-from ..errors import SketchgraphError
-from ..fsio import atomic_write_text
-from .bench_film import DEFAULT_PIPELINE
-from .bench_film import TARGETS as FILM_TARGETS
-from .bench_runs import COLD_TARGET, STARTUP_TARGETS, timed
+from ...errors import SketchgraphError
+from ...fsio import atomic_write_text
+from .film import DEFAULT_PIPELINE
+from .film import TARGETS as FILM_TARGETS
+from .runs import COLD_TARGET, STARTUP_TARGETS, timed
 
 
 @dataclass(frozen=True)

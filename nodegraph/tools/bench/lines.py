@@ -26,8 +26,8 @@ from typing import Any
 
 import click
 
-from ..errors import SketchgraphError
-from ..fsio import atomic_write_text
+from ...errors import SketchgraphError
+from ...fsio import atomic_write_text
 
 SCREEN = "nienhaus_sketchy"
 OBJECT = "object_space_uncertainty"
@@ -77,9 +77,9 @@ def time_pipeline(pipeline: str, scene: str, size: tuple[int, int], frames: int,
                   warmup: int = 2, node_frames: int = 0) -> dict[str, Any]:
     """Median ms per frame along the orbit, no disk cache (as `sketchgraph bench PIPELINE` renders); with
     `node_frames`, the per-node medians of a second pass that waits for the GPU after every node."""
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
 
     pipe = pl.load(pipeline, overrides=list(overrides), size=size, scene=scene)
     gl = glmod.get()
@@ -102,9 +102,9 @@ def time_pipeline(pipeline: str, scene: str, size: tuple[int, int], frames: int,
 def first_frame(pipeline: str, scene: str, size: tuple[int, int], later: int = 3) -> dict[str, Any]:
     """The first frame of a fresh run (nothing in memory, no disk cache, the feature_lines node's per-mesh
     data dropped) against the median of the `later` frames after it; per node too."""
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
 
     pipe = pl.load(pipeline, size=size, scene=scene)
     gl = glmod.get()
@@ -130,7 +130,7 @@ def _summary(runs: list[float]) -> dict[str, float]:
 
 
 def _renderer() -> str:
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
 
     return glmod.get().renderer
 
@@ -214,7 +214,7 @@ def chart_uncertainty(result: dict[str, Any], out: Path) -> list[Path]:
 # -- feature-line cost -------------------------------------------------------------------------------------
 def feature_line_cost(meshes: tuple[str, ...], size: tuple[int, int], frames: int, repeats: int,
                       meshes_dir: Path | None = None, progress: bool = True) -> dict[str, Any]:
-    from .. import pipeline as pl
+    from ... import pipeline as pl
 
     t0 = time.perf_counter()
     entries: dict[str, dict[str, Any]] = {}
@@ -314,7 +314,7 @@ def _common(f: Any) -> Any:
 def uncertainty_command(meshes: tuple[str, ...], size: str, shower_door_frames: int, frames: int, repeats: int,
                         meshes_dir: Path | None, json_path: Path | None, charts_dir: Path | None) -> None:
     """Time against shower-door motion: screen-space vs object-space uncertainty, several noise settings."""
-    from ..pipeline import parse_size
+    from ...pipeline import parse_size
 
     r = uncertainty_cost(tuple(meshes), parse_size(size), shower_door_frames, frames, repeats, meshes_dir)
     for e in r["entries"]:
@@ -334,7 +334,7 @@ def feature_lines_command(meshes: tuple[str, ...], size: str, frames: int, repea
                           json_path: Path | None, charts_dir: Path | None) -> None:
     """What feature lines cost: nienhaus_sketchy vs sketchy_lines per frame, the feature_lines node alone, and
     the first frame (curvature and the per-mesh line data) against later ones."""
-    from ..pipeline import parse_size
+    from ...pipeline import parse_size
 
     r = feature_line_cost(tuple(meshes), parse_size(size), frames, repeats, meshes_dir)
     for e in r["entries"]:

@@ -37,7 +37,7 @@ def median_ms(fn: Callable[[], Any], repeats: int, finish: Callable[[], None] | 
 
 def node_class(type_name: str) -> Any:
     """The registered class of node type `type_name`."""
-    from ..registry import default
+    from ...registry import default
 
     cls = default().get(type_name)
     if cls is None:
@@ -47,7 +47,7 @@ def node_class(type_name: str) -> Any:
 
 def node_module(type_name: str, sub: str) -> ModuleType:
     """The module `sub` beside node type `type_name` (its package found through the registry)."""
-    from ..registry import node_module as _node_module
+    from ...registry import node_module as _node_module
 
     return _node_module(type_name, sub)
 
@@ -61,7 +61,7 @@ class NodeRunner:
         self.formats = formats or {}  # (node id, port) -> format
 
     def run(self, node: Any, inputs: dict[str, Any], needed: frozenset[str] | None = None, frame: int = 0) -> dict:
-        from ..node import RunContext
+        from ...node import RunContext
 
         ctx = RunContext(node, gl=self.gl, size=self.size, frame=frame, pipeline_seed=self.seed, scene=self.scene,
                          formats={p: f for (n, p), f in self.formats.items() if n == node.id})
@@ -84,7 +84,7 @@ def release(gl: Any, values: dict[str, Any]) -> None:
 
 
 def scene_for(spec: str) -> Any:
-    from ..scene import load_scene
+    from ...scene.scene import load_scene
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -94,7 +94,7 @@ def scene_for(spec: str) -> Any:
 def particle_depth(meshes_dir: Any, size: int) -> tuple[np.ndarray, Any, np.ndarray]:
     """Window depth (1 = background) of cow.obj (or the built-in torus) at size^2, the scene, and its
     ground-truth line drawing."""
-    from .. import gl as glmod
+    from ...gpu import gl as glmod
     from .groundtruth import line_drawing
 
     gl = glmod.get()

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SketchgraphError
-from .fsio import IncompleteWrite, atomic_output, clean
+from ..errors import SketchgraphError
+from ..fsio import IncompleteWrite, atomic_output, clean
+from ..values import to_uint8
 
 WRITABLE = (".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg")
 
@@ -122,7 +123,7 @@ def write_png_rows(path: str | Path, rows: np.ndarray, w: int, h: int, c: int, l
     colour = {1: 0, 3: 2, 4: 6}[c]
     out = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
            + chunk(b"IDAT", _deflate(data, level)) + chunk(b"IEND", b""))
-    from .fsio import atomic_write_bytes
+    from ..fsio import atomic_write_bytes
 
     return atomic_write_bytes(p, out, sync)
 
@@ -173,11 +174,6 @@ def _png_complete(data: bytes) -> bool:
             return end == len(data)
         pos = end
     return False
-
-
-def to_uint8(arr: np.ndarray) -> np.ndarray:
-    """Float values as 8-bit file values: clipped to [0, 1], times 255, rounded to nearest."""
-    return np.clip(np.rint(np.asarray(arr, dtype=np.float32) * 255.0), 0, 255).astype(np.uint8)
 
 
 def read(path: str | Path) -> np.ndarray:

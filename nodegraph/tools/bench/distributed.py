@@ -15,7 +15,7 @@ from typing import Any
 
 import click
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 
 WARMUP_SIZE = "24x24"
 """Every process renders one frame at this size before the clock starts (imports, numba JIT, shader compiles),
@@ -23,10 +23,10 @@ so serial and cluster runs are compared in the same state; no node key is shared
 
 
 def _serial(spec: Any, frames: list[int], out: Path, cache_root: Path) -> float:
-    from .. import gl as glmod
-    from .. import render
-    from ..cache import Cache
-    from ..executor import Executor
+    from ...cache import Cache
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from ...output import write
 
     glmod.get()  # the context exists before the clock starts, as on a warmed worker
     warm = type(spec)(spec.source, spec.overrides, WARMUP_SIZE, spec.scene, spec.output).open()
@@ -40,7 +40,7 @@ def _serial(spec: Any, frames: list[int], out: Path, cache_root: Path) -> float:
     ex = Executor(pipe, Cache(cache_root), mode="loop", requested=[ref])
     try:
         for f in frames:
-            render.write_value(ex.run(f).values[ref], render.frame_path(str(out / "f_####.png"), f, True))
+            write.write_value(ex.run(f).values[ref], write.frame_path(str(out / "f_####.png"), f, True))
     finally:
         ex.close()
         ex.clear_memory()
@@ -48,7 +48,7 @@ def _serial(spec: Any, frames: list[int], out: Path, cache_root: Path) -> float:
 
 
 def _overhead(client: Any, n: int = 200) -> dict[str, float]:
-    from .. import distributed as dist
+    from ... import distributed as dist
 
     client.submit(dist.noop_task, 0, pure=False).result()
     lat = []
@@ -64,7 +64,7 @@ def _overhead(client: Any, n: int = 200) -> dict[str, float]:
 
 def _cluster_runs(scheduler: str, spec: Any, frames: list[int], tmp: Path, chunks: list[int | None],
                   echo: Any) -> dict[str, Any]:
-    from .. import distributed as dist
+    from ... import distributed as dist
 
     t0 = time.perf_counter()
     out: dict[str, Any] = {}
@@ -116,7 +116,7 @@ def _cluster_runs(scheduler: str, spec: Any, frames: list[int], tmp: Path, chunk
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(pipeline: str, size: str, n_frames: int, chunks: str, json_path: Path | None) -> None:
     """Serial vs local:1 vs local:2 frames/s, per-task overhead, chunk size against throughput."""
-    from .. import distributed as dist
+    from ... import distributed as dist
 
     spec = dist.PipeSpec.make(pipeline, size=size)
     frames = list(range(n_frames))

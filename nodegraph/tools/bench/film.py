@@ -36,10 +36,10 @@ TARGETS = {"png": 0.85, "mp4": 0.8}
 
 def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, frames: int = 60,
                size: str | None = None, png_level: int | None = None, repeat: int = 5) -> dict[str, Any]:
-    from .. import film
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from ...output import film
 
     pipe = pl.load(pipeline, size=pl.parse_size(size) if size else None, scene=scene)
     ref = pipe.outputs[next(iter(pipe.outputs))]
@@ -130,6 +130,6 @@ def bench_film(pipeline: str = DEFAULT_PIPELINE, *, scene: str | None = None, fr
 def command(pipeline: str, scene: str | None, frames: int, size: str | None, png_level: int | None, repeat: int,
             json_path: Path | None) -> None:
     """Frames only, a PNG sequence and an MP4 of the same frames, in one run."""
-    from .bench import emit
+    from .pipeline import emit
 
     emit(bench_film(pipeline, scene=scene, frames=frames, size=size, png_level=png_level, repeat=repeat), json_path)

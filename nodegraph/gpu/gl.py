@@ -13,10 +13,11 @@ from typing import Any
 
 import numpy as np
 
-from . import footprint, types
-from .errors import GLUnavailableError, SketchgraphError
+from .. import types
+from ..errors import GLUnavailableError, SketchgraphError
+from ..values import Footprint, Tex, TexArray
+from . import footprint
 from .glsl import ProgramCache
-from .values import Footprint, Tex, TexArray
 
 _INSTALL_HINT = ("install Mesa's EGL and OpenGL drivers (Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri; "
                  "Fedora: dnf install mesa-libEGL mesa-dri-drivers)")
@@ -187,7 +188,7 @@ class GL:
         """Draw the full-screen triangle with `program` into `targets` (MRT in the listed order). `rect` and
         `blanks` (one value for each target): the caller knows the pass gives `blanks[i]` in target i everywhere
         outside `rect` ((x, y, w, h)); then each target is cleared to its blank value, the pass draws inside
-        `rect` only, and the targets get that footprint (`nodegraph.footprint`). A `rect` holding the whole
+        `rect` only, and the targets get that footprint (`nodegraph.gpu.footprint`). A `rect` holding the whole
         image, or footprints switched off, draws the whole image as without one."""
         fbo = fbo or self.framebuffer(targets)
         w, h = targets[0].size if targets else fbo.size
@@ -311,7 +312,7 @@ class GL:
             texel = np.empty(comps, np.float32)  # the value the pack pass fetches, as a float
             self.framebuffer([tex]).read_into(texel, viewport=(*corner, 1, 1), components=comps, alignment=1,
                                               dtype="f4")
-            from .imageio import to_uint8
+            from ..values import to_uint8
 
             px = to_uint8(np.concatenate([texel, np.zeros(3, np.float32)]))
             hit = self.resources[key] = px[:1] if channels == 1 else px[:3]

@@ -34,7 +34,7 @@ from typing import Any
 import click
 import numpy as np
 
-from ..fsio import atomic_write_text
+from ...fsio import atomic_write_text
 
 CHAIN = """\
 pipeline: bench-particles
@@ -69,10 +69,10 @@ def _same(a: Any, b: Any) -> bool:
 def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int = 5, repeat: int = 3,
         overrides: tuple[str, ...] = (), python: bool = True, lockstep: int = 256,
         out: Path | None = None, python_repeat: int = 2) -> dict[str, Any]:
-    from .. import gl as glmod
-    from .. import pipeline as pl
-    from ..executor import Executor
-    from ..node import RunContext
+    from ... import pipeline as pl
+    from ...executor import Executor
+    from ...gpu import gl as glmod
+    from ...node import RunContext
     from .measure import node_module
 
     core = node_module("particle_sketch", "core")
@@ -159,9 +159,9 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
         **({"speedup_>=_20": result["speedup_vs_python"] >= 20} if ref is not None else {}),
     }
     if out is not None:
-        from ..imageio import write
-        from ..strokes import to_svg
-        from ..values import Strokes
+        from ...output.imageio import write
+        from ...output.strokes import to_svg
+        from ...values import Strokes
 
         out.mkdir(parents=True, exist_ok=True)
         write(out / "particles.png", res.values[("particles", "image")].read()[..., :3], None, half=False)
@@ -188,8 +188,8 @@ def run(scene: str, strokes: int, size: tuple[int, int] = (800, 800), seed: int 
 def command(scene: str, strokes: int, size: str, seed: int, repeat: int, overrides: tuple[str, ...], python: bool,
             python_repeat: int, lockstep: int, out_dir: Path | None, json_path: Path | None) -> None:
     """Curtis' particle strokes on a scene: time, strokes, coverage, precision, speedup over pure Python."""
-    from ..pipeline import parse_size
-    from .bench import emit
+    from ...pipeline import parse_size
+    from .pipeline import emit
 
     result = run(scene, strokes, parse_size(size), seed, max(1, repeat), overrides, python, lockstep, out_dir,
                  max(1, python_repeat))
