@@ -11,8 +11,9 @@ import pytest
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
+from nodegraph.scene import framing, primitives
 from nodegraph.scene.meshes import Mesh, merge_meshes
-from nodegraph.scene.scene import framing, load_scene, primitives, translation
+from nodegraph.scene.scene import load_scene, translation
 
 PIPE = """pipeline: t
 size: [96, 96]

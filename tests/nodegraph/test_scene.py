@@ -639,7 +639,8 @@ def test_cloister() -> None:
 
 def test_mesh_files_are_seen_from_their_most_revealing_side():
     """A long box along X is seen from the side (largest projected area), not end-on."""
-    from nodegraph.scene.scene import best_view_direction, primitives
+    from nodegraph.scene import primitives
+    from nodegraph.scene.scene import best_view_direction
 
     long_x = primitives.box((4.0, 1.0, 1.0))
     d = best_view_direction(long_x)

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 from nodegraph_nodes.rasterize import Rasterize
 
-from nodegraph.scene.scene import Camera, Scene, SceneObject, frame_camera, origin, primitives, translation
+from nodegraph.scene import origin, primitives
+from nodegraph.scene.scene import Camera, Scene, SceneObject, frame_camera, translation
 from tests.helpers import run_node
 
 SIZE = (128, 128)
