@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
 import time
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -176,7 +178,8 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     frame = frame_list[0]  # one frame: sequences and films went through film.render_frames above
     target = frame_path(pattern, frame, False)
     try:
-        result = ex.run(frame)
+        with _node_progress(quiet):
+            result = ex.run(frame)
         path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
         if not quiet:
             click.echo(f"wrote {path}  ({summary(result)})")
@@ -197,16 +200,38 @@ def summary(result: Any) -> str:
             f"{ms:.0f} ms in nodes")
 
 
+@contextlib.contextmanager
+def _node_progress(quiet: bool) -> Iterator[None]:
+    """One updating line on stderr naming the node being computed, for renders that take a while (shown after
+    half a second); nothing with -q or when stderr is not a terminal."""
+    from .executor import on_compute
+
+    if quiet or not sys.stderr.isatty():
+        yield
+        return
+    from tqdm import tqdm
+
+    with tqdm(unit="node", file=sys.stderr, leave=False, delay=0.5) as bar:
+
+        def step(nid: str, type_name: str) -> None:
+            bar.set_postfix_str(f"{nid} ({type_name})", refresh=False)
+            bar.update()
+
+        with on_compute(step):
+            yield
+
+
 def _progress(items: list[int], disable: bool, unit: str) -> Any:
     from tqdm import tqdm
 
-    return tqdm(items, disable=disable, unit=unit, file=sys.stderr, leave=False)
+    return tqdm(items, disable=disable or not sys.stderr.isatty(), unit=unit, file=sys.stderr, leave=False)
 
 
 def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
     from tqdm import tqdm
 
-    return tqdm(items, total=total, disable=disable, unit=unit, file=sys.stderr, leave=False)
+    return tqdm(items, total=total, disable=disable or not sys.stderr.isatty(), unit=unit, file=sys.stderr,
+                leave=False)
 
 
 # -- inspect --------------------------------------------------------------------------------
@@ -217,12 +242,13 @@ def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
 @click.option("--frame", default=0, show_default=True, help="Frame to render.")
 @click.option("--all", "all_", is_flag=True, help="Every planned node output into the folder -o DIR: EXR + PNG "
               "each, a contact sheet and an HTML page (default DIR: out/<pipeline>.inspect).")
+@click.option("--quiet", "-q", is_flag=True, help="No progress line.")
 @pipeline_options
 @cache_options
 @out_dir_options
-def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, overrides: tuple[str, ...],
-            size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None, out_dir: Path | None,
-            allow_outside: bool, view: str | None = None, up: str | None = None) -> None:
+def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, quiet: bool,
+            overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None,
+            out_dir: Path | None, allow_outside: bool, view: str | None = None, up: str | None = None) -> None:
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
@@ -234,7 +260,8 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
         from .tools.inspect_all import inspect_all
 
-        insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame, cache)
+        with _node_progress(quiet):
+            insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame, cache)
         click.echo(f"wrote {len(insp.ports())} outputs of {len(insp.nodes)} nodes to {page.parent}  "
                    f"(page {page}; {insp.total_ms:.0f} ms in nodes)")
         return
@@ -244,7 +271,8 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
     ref = pipe.parse_ref(port)
     ex = Executor(pipe, cache, requested=[ref])
     try:
-        result = ex.run(frame)
+        with _node_progress(quiet):
+            result = ex.run(frame)
         value = result.values[ref]
         path = Path(out or f"out/{ref[0]}.{ref[1]}.exr")
         write_value(value, path, {"sketchgraph:port": f"{ref[0]}.{ref[1]}"})
@@ -304,8 +332,35 @@ def nodes(name: str | None, as_json: bool) -> None:
         if info["params"]:
             click.echo("  params:")
             for p, d in info["params"].items():
-                click.echo(f"    {p} = {json.dumps(d['default'])}  {d['description']}")
+                values = f"  [{' | '.join(json.dumps(v) for v in d['values'])}]" if d.get("values") else ""
+                click.echo(f"    {p} = {json.dumps(d['default'])}{values}  {d['description']}")
         click.echo("")
+
+
+def _choices(annotation: Any) -> list[Any]:
+    """The values an enumerated parameter takes (Literal members, Enum members, None where optional); [] when
+    the annotation also admits open-ended values (a number, a string, a list)."""
+    import enum
+    import types as pytypes
+    import typing
+
+    origin = typing.get_origin(annotation)
+    if origin is typing.Literal:
+        return list(typing.get_args(annotation))
+    if origin in (typing.Union, pytypes.UnionType):
+        out: list[Any] = []
+        for arg in typing.get_args(annotation):
+            if arg is type(None):
+                out.append(None)
+                continue
+            sub = _choices(arg)
+            if not sub:
+                return []
+            out += sub
+        return out
+    if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
+        return [m.value for m in annotation]
+    return []
 
 
 def _node_info(cls: Any) -> dict[str, Any]:
@@ -319,6 +374,9 @@ def _node_info(cls: Any) -> dict[str, Any]:
             default = to_jsonable_python(f.get_default(call_default_factory=True))
         params[fname] = {"default": default, "description": f.description or "",
                          "type": str(f.annotation).replace("typing.", "")}
+        values = _choices(f.annotation)
+        if values:
+            params[fname]["values"] = values
     doc = " ".join((cls.doc or cls.__doc__ or "").split())
     return {
         "version": cls.version,
@@ -428,9 +486,27 @@ def bench(ctx: click.Context, target: str | None) -> None:
 
     if target in (None, "-h", "--help"):  # --help after a name goes to that benchmark
         click.echo(ctx.get_help())
+        click.echo(_bench_catalogue(benchmod))
         return
     command = benchmod.command_for(target)
     command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
+
+
+def _bench_catalogue(benchmod: Any) -> str:
+    """Every benchmark with its first help line and its options (`bench --help`)."""
+    entries = [("PIPELINE", benchmod.command_for("nienhaus_sketchy"))]
+    entries += [(name, benchmod.command_for(name)) for name in sorted(benchmod.NAMED)]
+    lines = ["", "Benchmarks (`sketchgraph bench NAME --help` for one):"]
+    for name, command in entries:
+        ctx = click.Context(command, info_name=name)
+        lines.append(f"  {name}: {command.get_short_help_str(limit=110)}".rstrip())
+        for param in command.get_params(ctx):
+            if not isinstance(param, click.Option) or "--help" in param.opts:
+                continue
+            record = param.get_help_record(ctx)
+            if record:
+                lines.append(f"      {record[0]}" + (f"  {' '.join(record[1].split())}" if record[1] else ""))
+    return "\n".join(lines)
 
 
 # -- diff -----------------------------------------------------------------------------------
@@ -443,11 +519,12 @@ def bench(ctx: click.Context, target: str | None) -> None:
               help="Folder for difference images, diff_sheet.png (A | B | |A-B|) and diff.json.")
 @click.option("--frame", default=0, show_default=True, help="Frame to compare.")
 @click.option("--keys-only", is_flag=True, help="Compare keys only; render nothing.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress line.")
 @pipeline_options
 @cache_options
 def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], out: str, frame: int,
-         keys_only: bool, overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
-         cache_dir: Path | None, view: str | None = None, up: str | None = None) -> None:
+         keys_only: bool, quiet: bool, overrides: tuple[str, ...], size: str | None, scene: str | None,
+         no_cache: bool, cache_dir: Path | None, view: str | None = None, up: str | None = None) -> None:
     """Which nodes differ between two pipelines (or one pipeline with --set-a/--set-b) and why; max and
     mean absolute difference and a difference image per differing output. Exit 1 if anything differs."""
     from .tools.diff import diff as diff_pipelines
@@ -456,8 +533,8 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe_a = open_pipeline(a, overrides + set_a, size, scene, view=view, up=up)
     pipe_b = open_pipeline(b or a, overrides + set_b, size, scene, view=view, up=up)
-    report = diff_pipelines(pipe_a, pipe_b, frame, cache,
-                            None if keys_only else Path(out), pixels=not keys_only)
+    with _node_progress(quiet):
+        report = diff_pipelines(pipe_a, pipe_b, frame, cache, None if keys_only else Path(out), pixels=not keys_only)
     click.echo(f"A: {a}" + "".join(f" --set {s}" for s in overrides + set_a))
     click.echo(f"B: {b or a}" + "".join(f" --set {s}" for s in overrides + set_b))
     click.echo(format_report(report))

@@ -11,7 +11,9 @@ from __future__ import annotations
 import time
 import warnings
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,6 +45,19 @@ class RunResult:
     def computed(self) -> list[str]:
         return [s.node for s in self.stats.values() if s.status == "computed"]
 
+
+ON_COMPUTE: ContextVar[Callable[[str, str], None] | None] = ContextVar("on_compute", default=None)
+"""Told `(node id, node type)` before any executor in this context computes a node (progress lines)."""
+
+
+@contextmanager
+def on_compute(callback: Callable[[str, str], None] | None) -> Iterator[None]:
+    """Within the block, every node any executor computes is first reported to `callback` (None: nothing)."""
+    token = ON_COMPUTE.set(callback)
+    try:
+        yield
+    finally:
+        ON_COMPUTE.reset(token)
 
 class Executor:
     """Runs a pipeline. `mode='single'` persists outputs for later runs; `mode='loop'` (frame
@@ -193,6 +208,9 @@ class Executor:
         if self._before_wait is not None and self.plan.read_connections(nid):
             hook, self._before_wait = self._before_wait, None
             hook()
+        report = ON_COMPUTE.get()
+        if report is not None:
+            report(nid, node.type_name)
         t0 = time.perf_counter()
         try:
             outs = node.compute(ctx, inputs, needed)

@@ -1,21 +1,21 @@
-"""Float64 references of the separable filters of Curtis' loose and sketchy method (seed 004): the tent
+"""Float64 references of the separable filters of the method of Curtis, "Loose and Sketchy Animation", 1998: the tent
 blurs and the Sobel pair that `depth_edges`, `force_field` and `particle_sketch` compute on the GPU or
 the CPU. Images are [row, col] arrays with row 0 = the bottom row (GL textures), x = col, y = row (up).
 
-* `tent3` is the seed's [1 2 1; 2 4 2; 1 2 1], divided by 16 so a blur keeps the depth scale (the seed
+* `tent3` is Curtis' [1 2 1; 2 4 2; 1 2 1], divided by 16 so a blur keeps the depth scale (Curtis
   gives no divisor); `tent9` is the outer product of [1 2 3 4 5 4 3 2 1], / 625. Borders clamp to the
   edge pixel (GL CLAMP_TO_EDGE, scipy mode='nearest').
-* `sobel` uses the seed's kernels unnormalised and, as the seed says, as *convolutions*. They only make
+* `sobel` uses Curtis' kernels unnormalised and, as Curtis says, as *convolutions*. They only make
   sense - ff1 = (-gy, gx) must be tangent to edges, so gx and gy must be derivatives along x and y with
   the same sign - when read as C arrays k[x][y] (first index the x offset -1, 0, 1, second the y offset
-  with y pointing *down* the seed's 8-bit images, row 0 on top). On our [row (y up), col (x)] arrays
+  with y pointing *down* Curtis' 8-bit images, row 0 on top). On our [row (y up), col (x)] arrays
   that is the weight array W = flipud(K.T) for scipy.ndimage.convolve (W's row 0 = the y-1 neighbour):
 
       seed gx kernel K = [-1 -2 -1; 0 0 0; 1 2 1]  ->  W_gx = [-1 0 1; -2 0 2; -1 0 1]
       seed gy kernel K = [ 1 0 -1; 2 0 -2; 1 0 -1]  ->  W_gy = [-1 -2 -1; 0 0 0; 1 2 1]
 
   Convolution flips W, so gx = -8 dI/dx and gy = -8 dI/dy (central differences smoothed by [1 2 1]):
-  the seed's (gx, gy) is -8 x the gradient. Magnitudes do not care; the sign picks the direction of
+  Curtis' (gx, gy) is -8 x the gradient. Magnitudes do not care; the sign picks the direction of
   circulation: ff1 = (-gy, gx) = 8 (dI/dy, -dI/dx) is the gradient turned clockwise, so particles run
   clockwise along the rim of a near object on a far background.
 """
@@ -51,7 +51,7 @@ def _as_image(img: np.ndarray) -> np.ndarray:
 
 
 def tent3(img: np.ndarray) -> np.ndarray:
-    """The seed's 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, edge-clamped, float64."""
+    """Curtis' 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, edge-clamped, float64."""
     a = _as_image(img)
     return _correlate1d(_correlate1d(a, _TENT3, 0), _TENT3, 1)
 
@@ -63,9 +63,9 @@ def tent9(img: np.ndarray) -> np.ndarray:
 
 
 def sobel(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The seed's Sobel pair, as convolutions: (gx, gy) = -8 x the gradient in our x-right, y-up frame.
+    """Curtis' Sobel pair, as convolutions: (gx, gy) = -8 x the gradient in our x-right, y-up frame.
 
-    See the module docstring for how the seed's kernels map onto [row, col]; borders edge-clamped.
+    See the module docstring for how Curtis' kernels map onto [row, col]; borders edge-clamped.
     """
     a = _as_image(img)
     gx = -_correlate1d(_correlate1d(a, _SMOOTH, 0), _DIFF, 1)

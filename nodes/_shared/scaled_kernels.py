@@ -1,13 +1,13 @@
-"""The tent blurs and the Sobel pair of Curtis' method (seed 004) with a footprint in pixels at the
-pipeline's reference size (docs/sizes.md): the 1-D weights at px_scale s, for the GPU passes of
-depth_edges and force_field (uniform arrays) and for their float64 NumPy references.
+"""The tent blurs and the Sobel pair of Curtis' method (Curtis, "Loose and Sketchy Animation", 1998) with
+a footprint in pixels at the pipeline's reference size (docs/sizes.md): the 1-D weights at px_scale s, for
+the GPU passes of depth_edges and force_field (uniform arrays) and for their float64 NumPy references.
 
 Each kernel is a continuous function of the offset in *reference* pixels, x / s, sampled at the integer
 pixel offsets x of this image:
 
 * tent of half-width a (3x3: a = 2, 9x9: a = 5): w(x) = a s - |x| where positive, divided by its sum, so
-  at s = 1 the weights are the seed's [1 2 1] / 4 and [1 2 3 4 5 4 3 2 1] / 25 exactly;
-* Sobel smoothing: the tent of half-width 2, scaled to sum 4 (the seed's unnormalised [1 2 1]);
+  at s = 1 the weights are Curtis' [1 2 1] / 4 and [1 2 3 4 5 4 3 2 1] / 25 exactly;
+* Sobel smoothing: the tent of half-width 2, scaled to sum 4 (Curtis' unnormalised [1 2 1]);
 * Sobel difference: I(x + s) - I(x - s), the image linearly interpolated between its pixels, i.e. the
   weights hat(x - s) - hat(x + s), hat(t) = max(0, 1 - |t|): [-1 0 1] at s = 1.
 
@@ -15,7 +15,7 @@ So a slope of the same steepness per reference pixel gives the same gradient at 
 of a linear interpolant of a linear function is exact), and a depth step gives the same peak at s >= 1
 (3 x the step, as at the reference size); below the reference size a step spans a pixel of the coarser
 image and peaks at 2 x the step at s = 0.5 (the per-pixel filters times s gave 1.5 x). The weights at s = 1
-are small integers (and their sums), so the GPU computes the seed's filters bit for bit as before.
+are small integers (and their sums), so the GPU computes Curtis' filters bit for bit as before.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def tent_weights(half_width: float, s: float) -> np.ndarray:
 
 
 def kernels(tent_half_width: float, s: float = 1.0) -> Kernels:
-    """The weights of a tent of `tent_half_width` reference pixels followed by the seed's Sobel pair, at px_scale s."""
+    """The weights of a tent of `tent_half_width` reference pixels followed by Curtis' Sobel pair, at px_scale s."""
     if not s > 0:
         raise ValueError(f"px_scale must be positive, got {s}")
     tent = tent_weights(tent_half_width, s)
@@ -85,7 +85,7 @@ def correlate1d(img: np.ndarray, weights: np.ndarray, axis: int) -> np.ndarray:
 
 
 def tent_sobel(img: np.ndarray, k: Kernels) -> tuple[np.ndarray, np.ndarray]:
-    """float64 reference: the seed's (gx, gy) (= -8 x the gradient per reference pixel) of `img` blurred by the
+    """float64 reference: Curtis' (gx, gy) (= -8 x the gradient per reference pixel) of `img` blurred by the
     tent, both stages edge-clamped ([row (y up), col (x)] arrays, as nodes/_shared/filters.py)."""
     t = correlate1d(correlate1d(img, k.tent, 0), k.tent, 1) / (k.tent_sum * k.tent_sum)
     gx = -correlate1d(correlate1d(t, k.smooth, 0), k.diff, 1)

@@ -15,15 +15,14 @@ from .._shared.pencil import GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, 
 
 
 class Contour(Node):
-    """Draws the edge map several times, once through each distortion layer (a shaken attempt), with
-    pencil tone: attempt k darkens by tone x pressure_k x edge x (1 - light_weight x l), where l =
-    sqrt((N.L) x 0.5 + 0.5) is the light contribution of the surface under the pixel (the report's; off
-    the surface, under the first attempt's edge sample), so lines in shadow are darker. With a paper
-    texture the darkness is modulated by the dot product of the grain normal and the stroke direction
-    (across the projected normal). Attempts combine as value = prod_k (1 - darkness_k): where they
-    overlap the line darkens. Per-attempt pressures are drawn from the node seed in
-    [1 - pressure_jitter, 1], the same for the whole sequence by default (`hold: N`: new ones every N
-    frames)."""
+    """Draws the edge map several times, once through each distortion layer (a shaken attempt), with pencil tone:
+    attempt k darkens by tone x pressure_k x edge x (1 - light_weight x l), where l = sqrt((N.L) x 0.5 + 0.5) is the
+    light contribution of the surface under the pixel (as the report implementing Lee et al. computes it; off the
+    surface, under the first attempt's edge sample), so lines in shadow are darker. With a paper texture the
+    darkness is modulated by the dot product of the grain normal and the stroke direction (across the projected
+    normal). Attempts combine as value = prod_k (1 - darkness_k): where they overlap the line darkens. Per-attempt
+    pressures are drawn from the node seed in [1 - pressure_jitter, 1], the same for the whole sequence by default
+    (`hold: N`: new ones every N frames)."""
 
     version = "1"
     shaders = ("contour.glsl",)

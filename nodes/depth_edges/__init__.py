@@ -1,4 +1,5 @@
-"""depth_edges: Curtis' edge map from a depth map (seed 004): tent blur, Sobel, magnitude, threshold."""
+"""depth_edges: Curtis' edge map from a depth map (Curtis, "Loose and Sketchy Animation", 1998): tent blur,
+Sobel, magnitude, threshold."""
 
 from __future__ import annotations
 
@@ -17,24 +18,24 @@ _PORTS = {"edges": "LOC_EDGES", "gradient": "LOC_GRADIENT", "magnitude": "LOC_MA
 
 
 class DepthEdges(Node):
-    """The template of where ink is needed, exactly as the seed's pseudocode computes it: the depth map
-    blurred by the 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, the seed's Sobel pair (gx, gy) of the blurred depth
+    """The template of where ink is needed, exactly as Curtis' pseudocode computes it: the depth map
+    blurred by the 3x3 tent [1 2 1; 2 4 2; 1 2 1] / 16, Curtis' Sobel pair (gx, gy) of the blurred depth
     (= -8 x its gradient, x right, y up; see nodes/_shared/filters.py), mag = sqrt(gx^2 + gy^2), and
     edge = mag >= threshold. Borders clamp to the edge pixel. A depth step s gives a ridge of magnitude
     s * [1, 3, 3, 1] across it, so `threshold` 0.03 finds steps of 0.01 and more.
 
-    The seed's filters work per pixel, so a sloped surface (a floor at a grazing angle) that stays under
+    Curtis' filters work per pixel, so a sloped surface (a floor at a grazing angle) that stays under
     the threshold at 800 px crosses it at 400 px, where each pixel spans twice the depth, and a depth step
     peaks at 3 s whatever the size. So with `reference_height: pipeline` (default) the tent and the Sobel
     pair have their footprint in pixels at the pipeline's `reference_size` (docs/sizes.md; default 800 on
-    the shorter side): at px_scale = shorter side / reference_size the kernels are the seed's, a function
+    the shorter side): at px_scale = shorter side / reference_size the kernels are Curtis', a function
     of the offset in reference pixels, sampled at this image's pixels (scaled_kernels.py: the tent's half-width
     2 px_scale, the difference I(x + px_scale) - I(x - px_scale) of the linearly interpolated image). At the
-    reference size this is the seed's computation exactly; at other sizes a slope gives the same gradient,
+    reference size this is Curtis' computation exactly; at other sizes a slope gives the same gradient,
     a step of s the same 3 s peak above the reference size and 2 s at half of it (the per-pixel filters
     times px_scale gave 6 s at 1600 px and 1.5 s at 400), and the edge band is as wide in the picture.
-    `reference_height` H instead keeps the seed's per-pixel filters and scales the gradient by height / H
-    (slopes match, steps do not); None: the seed's per-pixel gradient.
+    `reference_height` H instead keeps Curtis' per-pixel filters and scales the gradient by height / H
+    (slopes match, steps do not); None: Curtis' per-pixel gradient.
 
     The method wants depth in [0, 1] with 1 = background. `mode: linear` (default) takes
     rasterize.linear_depth (view distance, 0 = background) and maps [near, far] to [0, 1]: the same depth
@@ -56,7 +57,7 @@ class DepthEdges(Node):
     }
     outputs = {
         "edges": Output(Texture("R8"), "Binary edge map: 1 where mag >= threshold, else 0."),
-        "gradient": Output(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth (times height / "
+        "gradient": Output(Texture("RG32F"), "Curtis' Sobel pair (gx, gy) of the blurred depth (times height / "
                            "reference_height; per reference pixel with `pipeline`); feeds force_field."),
         "magnitude": Output(Texture("R32F"), "mag = sqrt(gx^2 + gy^2)."),
     }
@@ -72,7 +73,7 @@ class DepthEdges(Node):
             "pipeline", description="Express the gradient per pixel of an image this tall (times height / "
             "reference_height), so `threshold` means the same slope at every size; pipeline (default): the "
             "tent and Sobel with their footprint in pixels at the pipeline's reference_size (slopes and steps "
-            "alike); None: per pixel of this image, the seed's.")
+            "alike); None: per pixel of this image, Curtis'.")
         range: tuple[float, float] | None = Field(
             None, description="mode: linear only: the view distances mapped to 0 and 1 (clamped); default: the "
             "camera's near and far planes.")
@@ -105,7 +106,7 @@ class DepthEdges(Node):
         return 1.0 if ref is None or ref == "pipeline" else height / ref
 
     def kernels(self, px_scale: float = 1.0) -> kernels.Kernels:
-        """The tent (half-width 2 px) and Sobel weights: at px_scale with `pipeline`, else the seed's."""
+        """The tent (half-width 2 px) and Sobel weights: at px_scale with `pipeline`, else Curtis'."""
         return kernels.kernels(2.0, px_scale if self.params.reference_height == "pipeline" else 1.0)
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:

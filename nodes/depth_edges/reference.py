@@ -18,7 +18,7 @@ def normalised_depth(depth: np.ndarray, mode: str = "window", near: float = 0.0,
 
 def depth_edges(depth: np.ndarray, threshold: float = 0.03, mode: str = "window", near: float = 0.0,
                 far: float = 1.0, reference_height: int | None = None) -> dict[str, np.ndarray]:
-    """edges (bool), gradient (H, W, 2: the seed's gx, gy, times H / reference_height if given) and magnitude
+    """edges (bool), gradient (H, W, 2: Curtis' gx, gy, times H / reference_height if given) and magnitude
     of a (H, W) depth map."""
     scale = 1.0 if reference_height is None else np.shape(depth)[0] / reference_height
     gx, gy = (scale * g for g in filters.sobel(filters.tent3(normalised_depth(depth, mode, near, far))))

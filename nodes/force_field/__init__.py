@@ -1,4 +1,5 @@
-"""force_field: Curtis' force field ff = ff1 - ff2 from the depth gradient (seed 004)."""
+"""force_field: Curtis' force field ff = ff1 - ff2 from the depth gradient (Curtis, "Loose and Sketchy
+Animation", 1998)."""
 
 from __future__ import annotations
 
@@ -14,13 +15,13 @@ from .._shared import scaled_kernels as kernels
 
 
 class ForceField(Node):
-    """The field that steers the particles of `particle_sketch`, from depth_edges.gradient, the seed's Sobel
+    """The field that steers the particles of `particle_sketch`, from depth_edges.gradient, Curtis' Sobel
     pair g = (gx, gy) of the blurred depth: ff1 = g rotated by 90 degrees, (-gy, gx); ff2 = the Sobel pair
     of the magnitude image min(|g|, clamp) blurred by a 9x9 tent ([1 2 3 4 5 4 3 2 1] outer itself, / 625),
     rotated by 90 degrees; ff = ff1 - ff2. Borders clamp to the edge pixel.
 
     Both parts are rotated gradients, so ff runs along the edges (clockwise around a near object on a far
-    background) and nothing in it points towards an edge: the seed's prose says ff2 "forces the particle
+    background) and nothing in it points towards an edge: Curtis' prose says ff2 "forces the particle
     back onto the edge", its pseudocode computes a shear. `restoring: gradient` is the prose's reading
     (ff2 unrotated: a pull up the blurred magnitude, onto the edge); docs/particles.md measures both and
     explains why the default stays the pseudocode's.
@@ -28,19 +29,19 @@ class ForceField(Node):
     `saturate` s > 0 divides ff by max(|ff|, s): the streamlines stay, the speed is capped at 1, so a faint
     inner edge and a strong silhouette are drawn at the same pace (with the raw field a silhouette runs
     ten times faster than an inner edge and no single time step suits both). Set it to the edge threshold
-    of depth_edges; 0 gives the seed's raw field.
+    of depth_edges; 0 gives Curtis' raw field.
 
     The 9x9 tent and the Sobel pair have their footprint in pixels at the pipeline's reference size
     (docs/sizes.md): at px_scale s the tent's half-width is 5 s px and the difference reads the blur at
     +-s px, linearly interpolated (../_shared/scaled_kernels.py), so ff2 has the same shape in the picture at
     every size and is, like depth_edges' scaled gradient, per reference pixel (particle_sketch multiplies
-    the field by s). At the reference size (and for a node run on its own image) it is the seed's."""
+    the field by s). At the reference size (and for a node run on its own image) it is Curtis'."""
 
     version = "2"
     shaders = ("force_field.glsl",)
     context_keys = frozenset({"size", "px_scale"})
     inputs = {
-        "gradient": Input(Texture("RG32F"), "The seed's Sobel pair (gx, gy) of the blurred depth: "
+        "gradient": Input(Texture("RG32F"), "Curtis' Sobel pair (gx, gy) of the blurred depth: "
                           "depth_edges.gradient."),
     }
     outputs = {
@@ -48,12 +49,12 @@ class ForceField(Node):
     }
 
     class Params(NodeParams):
-        clamp: float = Field(1.0, gt=0, description="Magnitude clamp before the 9x9 blur: the seed's 255 for "
+        clamp: float = Field(1.0, gt=0, description="Magnitude clamp before the 9x9 blur: Curtis' 255 for "
                              "8-bit depth, on depth in [0, 1].")
         saturate: float = Field(0.03, ge=0, description="Divide ff by max(|ff|, saturate): same directions, speed "
-                                "at most 1 (use depth_edges.threshold); 0 = the seed's raw field.")
+                                "at most 1 (use depth_edges.threshold); 0 = Curtis' raw field.")
         restoring: Literal["rotated", "gradient"] = Field(
-            "rotated", description="ff2 as the seed's pseudocode computes it (rotated by 90 degrees: a shear "
+            "rotated", description="ff2 as Curtis' pseudocode computes it (rotated by 90 degrees: a shear "
             "along the edge) or as its prose describes it (gradient: unrotated, pulls particles onto the edge; "
             "furry lines, see docs/particles.md).")
 

@@ -10,7 +10,7 @@ from .._shared import scaled_kernels as kernels
 
 def force_field(gradient: np.ndarray, clamp: float = 1.0, saturate: float = 0.03,
                 restoring: str = "rotated", px_scale: float | None = None) -> np.ndarray:
-    """(H, W, 2) field from the seed's Sobel pair (H, W, 2) of the blurred depth (depth_edges.gradient);
+    """(H, W, 2) field from Curtis' Sobel pair (H, W, 2) of the blurred depth (depth_edges.gradient);
     with px_scale, the tent and Sobel pair with their footprint in reference pixels
     (nodes/_shared/scaled_kernels.py)."""
     g = np.asarray(gradient, np.float64)

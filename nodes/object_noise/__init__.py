@@ -17,7 +17,7 @@ from .._shared import noise
 class ObjectNoise(Node):
     """Geometry-controlled uncertainty: (off_s, off_t) = F(g(s,t) * k + o), F(g(s,t) * k + o + c1), where
     g(s,t) is the object-space position that `rasterize` wrote for the (enlarged) geometry, F is Perlin
-    turbulence (or fbm) in 3D, o the seed's domain offset and c1 a fixed offset that decorrelates the
+    turbulence (or fbm) in 3D, o the paper's domain offset and c1 a fixed offset that decorrelates the
     second channel (`nodes/_shared/noise.py`, `noise3_at`). The values stick to the surface, so
     a moving camera sees the same uncertainty on the same surface point: the shower-door effect of
     screen-space noise goes away (paper §4.3).

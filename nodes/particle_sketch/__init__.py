@@ -1,4 +1,5 @@
-"""particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (seed 004).
+"""particle_sketch: Curtis' loose and sketchy particle drawing from an edge map and a force field (Curtis,
+"Loose and Sketchy Animation", 1998).
 
 The float64 CPU core (force field, particle system, measures) is in `core`, the compiled sequential
 sketcher in `jit`; both use `common` (parameters, result) and `rng` (counter-based random numbers), and the
@@ -31,14 +32,13 @@ _CORE_FIELDS = ("strokes", "n", "m", "mass", "drag", "randomness", "step", "max_
 
 
 class ParticleSketch(Node):
-    """Draws a fixed number of strokes, one particle each (seed 004). A particle starts at a random
-    position that is within `n` px of an edge pixel and not within `m` px of a drawn line (at most
-    `retries` tries; when none is found the drawing is complete and the run ends early). From rest it
-    moves with acceleration (ff - drag v + r) / mass, r a random force of amplitude `randomness` per
-    component, integrated by RK4 (or Euler) with time step `step`; each step draws an antialiased segment
-    `line_width` wide and erases the same segment from the edge map, so an edge is not traced twice. It
-    dies when it leaves the image, when it is no longer within `n` px of a remaining edge pixel, or after
-    `max_steps` steps.
+    """Draws a fixed number of strokes, one particle each (Curtis, "Loose and Sketchy Animation", 1998). A particle
+    starts at a random position that is within `n` px of an edge pixel and not within `m` px of a drawn line (at
+    most `retries` tries; when none is found the drawing is complete and the run ends early). From rest it moves
+    with acceleration (ff - drag v + r) / mass, r a random force of amplitude `randomness` per component, integrated
+    by RK4 (or Euler) with time step `step`; each step draws an antialiased segment `line_width` wide and erases the
+    same segment from the edge map, so an edge is not traced twice. It dies when it leaves the image, when it is no
+    longer within `n` px of a remaining edge pixel, or after `max_steps` steps.
 
     The method is sequential: each particle erases what the next would trace. With `batch` 1 (default) it
     runs so, one particle at a time, compiled with Numba; the output equals the pure-Python reference's
@@ -100,7 +100,7 @@ class ParticleSketch(Node):
                           "new strokes every frame; 0: never new ones).")
         seed: int = Field(0, ge=0, le=2**32 - 1, description="Mixed into the seed from the pipeline seed and the "
                           "node id: another drawing with the same pipeline.")
-        batch: int = Field(1, ge=1, le=65_536, description="1: one particle at a time, as the seed describes "
+        batch: int = Field(1, ge=1, le=65_536, description="1: one particle at a time, as Curtis describes "
                            "(compiled); B > 1: B particles in lock-step (NumPy), which adds parallel strokes.")
         retries: int = Field(5000, ge=1, le=10_000_000, description="Random start positions tried per stroke "
                              "before the drawing counts as complete.")

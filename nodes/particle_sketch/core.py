@@ -1,4 +1,5 @@
-"""Float64 CPU core of the `particle_sketch` node: Curtis' "loose and sketchy" drawing (seed 004).
+"""Float64 CPU core of the `particle_sketch` node: Curtis' "loose and sketchy" drawing (Curtis, "Loose and
+Sketchy Animation", 1998).
 
 Conventions. Images are [row, col] arrays with row 0 = the bottom row (GL textures); x = col, y = row,
 so y points up. Positions are continuous: pixel (col i, row j) covers [i, i+1) x [j, j+1), its centre
@@ -8,18 +9,18 @@ is (i + 0.5, j + 0.5). Depth is float in [0, 1], 1.0 = background. Only NumPy is
 Filters
 -------
 The tent blurs and the Sobel pair are float64 references shared with `depth_edges` and `force_field`
-(`nodes/_shared/filters.py`, which says how the seed's kernels map onto our arrays).
+(`nodes/_shared/filters.py`, which says how Curtis' kernels map onto our arrays).
 
 * `depth_edges`: tent3, Sobel, mag = sqrt(gx^2 + gy^2), edge where mag >= threshold. A depth step s
   gives a 4-pixel ridge s * [1, 3, 3, 1]: `threshold` is in depth units (0.03 finds steps >= 0.01).
 * `force_field`: ff1 = rot90(sobel(tent3(depth))), ff2 = rot90(sobel(tent9(min(mag, clamp)))),
-  ff = ff1 - ff2 with rot90(gx, gy) = (-gy, gx). Scaling: the seed works on 8-bit depth d8 = 255 d and
+  ff = ff1 - ff2 with rot90(gx, gy) = (-gy, gx). Scaling: Curtis works on 8-bit depth d8 = 255 d and
   clamps the magnitude at 255; the same clamp on d is `clamp = 1.0` (default), and the field is then
-  the seed's / 255 (same shape, same ff1 : ff2 balance).
+  Curtis' / 255 (same shape, same ff1 : ff2 balance).
 
 What the field does (measured on a disc, see the tests): both parts are rotated gradients, so
 ff = rot90(grad psi), psi = -8 (tent3(depth) - tent9(min(mag, clamp))): divergence free, tangent to the
-level lines of psi, which run along the edges. Nothing in it points *towards* an edge - the seed's
+level lines of psi, which run along the edges. Nothing in it points *towards* an edge - Curtis'
 "the second component forces the particle back onto the edge" is not what its pseudocode computes:
 ff2 is a shear, with ff1 on the background side of a silhouette and against it on the object side
 (the flow reverses about 1.5 px inside the rim). Particles stay on an edge only because, with drag,
@@ -45,7 +46,7 @@ at the four stage positions) or explicit Euler, time step `step`. A step that le
 overflows ends the stroke undrawn. Otherwise its segment is drawn - ink = max(ink, clip(line_width / 2
 + 0.5 - d, 0, 1)), d the exact distance from a pixel centre to the segment - and erased from the edge
 map (pixel centres within erase_width / 2 of it), and the stroke ends if the new position was not
-within n px of a remaining edge pixel, or after `max_steps` steps. As in the seed the particle draws,
+within n px of a remaining edge pixel, or after `max_steps` steps. As in Curtis' method the particle draws,
 erases, then tests - but the test looks at the edge map from before this segment's erasure, else it
 could never see past its own brush. So the last, off-edge segment is drawn, and erase_width must stay
 below 2 n. The default erase_width is the line width; wider erasing ends strokes early.
@@ -80,7 +81,7 @@ the ink drawn so far. `simulate` runs it one of two ways, chosen by `batch`:
   (`engine="numpy"`) this code is the sequential algorithm too, equal to the reference (tested).
 
 Before Numba the lock-step lanes were the speed (about 25x the reference with 256 lanes); the
-compiled sequential run is faster still and draws exactly what the seed describes, so it became the
+compiled sequential run is faster still and draws exactly what Curtis describes, so it became the
 default, and batching stays as a measured variant (a heavier, more doubled outline at large B).
 """
 
@@ -106,9 +107,9 @@ def depth_edges(depth: np.ndarray, threshold: float) -> tuple[np.ndarray, np.nda
 
 
 def force_field(depth: np.ndarray, clamp: float = 1.0, saturate: float | None = None) -> np.ndarray:
-    """The seed's force field ff = ff1 - ff2, (H, W, 2) float64, [..., 0] = x, [..., 1] = y.
+    """Curtis' force field ff = ff1 - ff2, (H, W, 2) float64, [..., 0] = x, [..., 1] = y.
 
-    `clamp` is the seed's 255 for 8-bit depth, rescaled to depth in [0, 1]. With `saturate` the field
+    `clamp` is Curtis' 255 for 8-bit depth, rescaled to depth in [0, 1]. With `saturate` the field
     is divided by max(|ff|, saturate) (same streamlines, speed capped at 1; see the module docstring).
     """
     return _force(*filters.sobel(filters.tent3(depth)), clamp, saturate)

@@ -1,4 +1,4 @@
-"""The strictly sequential particle sketcher, compiled with Numba: one particle at a time, as the seed
+"""The strictly sequential particle sketcher, compiled with Numba: one particle at a time, as Curtis
 describes it, each seeing every line drawn before it.
 
 It is the algorithm of `core.simulate_python` (the pure-Python reference) statement for statement: the

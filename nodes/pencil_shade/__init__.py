@@ -59,7 +59,8 @@ class PencilShade(Node):
         light_intensity: float = Field(1.0, gt=0, le=8, description="Light intensity; brightness is "
                                        "sqrt(clamp(N.L x intensity, 0, 1)).")
         max_darkness: float = Field(0.6, gt=0, le=1, description="Darkest tone a layer uses, as a fraction of "
-                                    "the tonal art map's range (the report's maxDarkness / 32).")
+                                    "the tonal art map's range (maxDarkness / 32 in the report implementing Lee "
+                                    "et al., \"Real-Time Pencil Rendering\", 2006).")
         layers: int = Field(2, ge=1, le=3, description="Hatching layers, lighter first (2: cross-hatching in "
                             "the shadows).")
         layer_offset: float = Field(0.45, ge=0, lt=1, description="Layer k starts where the darkness (0..1) "

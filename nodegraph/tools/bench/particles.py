@@ -1,5 +1,6 @@
 """`sketchgraph bench particles --scene MESH --strokes N --json FILE`: Curtis' loose and sketchy strokes
-(seed 004) on a real depth buffer, against the pure-Python reference, side by side in one run.
+(Curtis, "Loose and Sketchy Animation", 1998) on a real depth buffer, against the pure-Python
+reference, side by side in one run.
 
 The chain rasterize -> depth_edges -> force_field -> particle_sketch runs through the executor as a
 pipeline does. Reported (times are the best of `--repeat` unless said otherwise, seconds):

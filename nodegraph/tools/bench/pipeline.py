@@ -68,7 +68,8 @@ def command_for(target: str) -> click.Command:
 def _pipeline_command(path: str) -> click.Command:
     from ...scene.views import click_options as framing_options
 
-    @click.command()
+    @click.command(help="Frames back to back along the scene's orbit, no readback: fps, ms a frame, each node's "
+                        "median, the copy-pass floor and the float64 NumPy references of the image-space stages.")
     @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
     @framing_options
     @click.option("--frames", default=60, show_default=True, help="Frames to render along the orbit.")

@@ -26,10 +26,10 @@ import click
 from ...fsio import atomic_write_text
 
 
-def _ab_command(run_ab: Any) -> click.Command:
+def _ab_command(run_ab: Any, help_text: str) -> click.Command:
     """The command of an A/B benchmark `run_ab(pipeline, scene, frames)`: prints its JSON, writes it with --json."""
 
-    @click.command()
+    @click.command(help=help_text)
     @click.argument("pipeline", default="nienhaus_sketchy")
     @click.option("--scene", help="builtin:NAME, a scene YAML or a mesh file.")
     @click.option("--frames", default=60, show_default=True, help="Frames of each way, alternating.")
@@ -119,5 +119,7 @@ def run_footprint(pipeline: str = "nienhaus_sketchy", scene: str | None = None, 
             "output_footprint_share": statistics.fmean(shares) if shares else 1.0}
 
 
-command = _ab_command(run)
-footprint_command = _ab_command(run_footprint)
+command = _ab_command(run, "Whole frames with the sketch pass reading the depth map against without it, "
+                              "alternating in one process (ms a frame, ratio).")
+footprint_command = _ab_command(run_footprint, "Whole frames with footprints on against off (passes drawn only near "
+                                               "the objects), alternating in one process (ms a frame, ratio).")

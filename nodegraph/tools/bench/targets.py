@@ -1,5 +1,5 @@
 """`sketchgraph bench targets`: the targets of "Speed where users wait" (frame output, pencil, rebuilds, big
-renders, start-up, the default pipeline's floor and fps), all measured in one sitting.
+renders, start-up, the default pipeline's floor and fps), all measured in one run.
 
 Every benchmark a target names is run as a user runs it, in a new process, one after the other: `bench film`
 on spot (the PNG sequence against frames only, `--repeat 5`), `bench pencil` and `bench pencil-shade` on ogre,
@@ -10,7 +10,7 @@ spot and on ogre. `--runs` sets how many times each runs (film and the default p
 project's 2-core VM.
 
 Each target is met by a run when that run's figure is within the limit (`met_runs` of `runs`); the sitting
-meets it when every run does. The figures of one sitting belong together: on a shared VM whose speed drifts
+meets it when every run does. The figures of one run belong together: on a shared VM whose speed drifts
 over the day, the targets move in opposite directions (docs/performance.md, "Where the targets stand"), so
 compare sittings, not single figures. Meshes come from `--meshes` (`../shared/meshes` by default; the
 benchmarks that need spot or ogre say so and stop where they are missing).
@@ -243,7 +243,7 @@ def _span(s: dict[str, float] | None) -> str:
                                             "figures mean little.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(meshes: Path, gallery: Path, runs: int, quick: bool, json_path: Path | None) -> None:
-    """Every target of "Speed where users wait" in one sitting (4.5 to 6 minutes at the defaults)."""
+    """Every target of "Speed where users wait" in one run (4.5 to 6 minutes at the defaults)."""
     result = sitting(meshes, gallery, runs, quick, progress=lambda s: click.echo(s, err=True))
     for line in table(result):
         click.echo(line)
