@@ -44,7 +44,7 @@ from .measure import (
 
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has no such
 # folder, so there the command asks for --meshes DIR
-SHARED_MESHES = Path(__file__).resolve().parents[3] / "shared" / "meshes"
+SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
 TARGET_MESHES = ("fandisk.obj", "spot.obj", "stanford-bunny.obj")
 TARGET_F1 = 0.85
 FAMILIES = ("edges", "curvature", "particles", "hatching", "noise", "pipelines", "stability")

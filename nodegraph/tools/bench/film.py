@@ -30,7 +30,7 @@ from typing import Any
 
 import click
 
-DEFAULT_PIPELINE = str(Path(__file__).resolve().parents[2] / "pipelines" / "nienhaus_sketchy.yaml")
+DEFAULT_PIPELINE = str(Path(__file__).resolve().parents[3] / "pipelines" / "nienhaus_sketchy.yaml")
 TARGETS = {"png": 0.85, "mp4": 0.8}
 
 
