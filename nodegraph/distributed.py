@@ -1,8 +1,16 @@
 """Frame sequences (and, through the tools, wedges and gallery entries) on a Dask cluster.
 
-- `connect("local:N" | "tcp://host:port" | Client)`: a `distributed.LocalCluster` of N spawned worker
-  processes (one thread each, llvmpipe limited to cores // N threads), a running scheduler, or a client
-  the caller made.
+- `connect("local:N" | "tcp://host:port" | "tls://host:port" | Client)`: a `distributed.LocalCluster` of N
+  spawned worker processes (one thread each, llvmpipe limited to cores // N threads), a running scheduler, or
+  a client the caller made. The address is checked before anything connects (`parse_scheduler`); a running
+  scheduler must accept a TCP connection at once (refused: one line, no retries) and answer within
+  `CONNECT_TIMEOUT`.
+- One thread per worker: a worker process holds one GL context, which one thread may use. A cluster with a
+  worker of more threads is refused before anything renders (`check_workers`, from the scheduler's
+  `Client.nthreads()`), and a task on such a worker (one that joined later) fails before it touches GL
+  (`worker_threads`: `Worker.state.nthreads`).
+- A cluster with no live worker for `NO_WORKERS_TIMEOUT` seconds fails the run with one line (`completed`,
+  `result`: the scheduler itself would keep the tasks waiting forever).
 - Each worker process keeps one headless GL context (texture pool, compiled programs) and its last executor
   (in-memory values) across tasks: `SketchgraphPlugin` / `WorkerState`.
 - The disk cache is shared (`SKETCHGRAPH_CACHE_DIR` on a filesystem every worker sees) and namespaced by the
@@ -22,9 +30,11 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import ipaddress
 import logging
 import math
 import os
+import re
 import shutil
 import sys
 import tempfile
@@ -264,6 +274,23 @@ class SketchgraphPlugin(WorkerPlugin):
 _LOCAL_STATE: WorkerState | None = None
 
 
+def worker_threads(worker: Any) -> int:
+    """How many threads run tasks on `worker` (a `distributed.Worker`): `worker.state.nthreads` (the worker state
+    machine, distributed >= 2022.11; `Worker.nthreads` is gone there), else the older `worker.nthreads`, else the
+    size of its default executor's pool."""
+    n = getattr(getattr(worker, "state", None), "nthreads", None)
+    if n is None:
+        n = getattr(worker, "nthreads", None)
+    if n is None:
+        n = getattr(getattr(worker, "executors", {}).get("default"), "_max_workers", 1)
+    return int(n)
+
+
+def threads_message(scheduler: str, worker: str, threads: int) -> str:
+    return (f"{scheduler}: worker {worker} has {threads} threads; sketchgraph needs --nthreads 1 per worker "
+            "(one GL context each)")
+
+
 def worker_state() -> WorkerState:
     """This worker's state (the plugin's); outside a worker, one for the process. A worker must run one
     thread: its GL context is current in one thread only."""
@@ -275,10 +302,10 @@ def worker_state() -> WorkerState:
     except ValueError:
         worker = None
     if worker is not None:
-        if int(getattr(worker, "nthreads", 1) or 1) > 1:
-            raise SketchgraphError(f"worker {worker.address} runs {worker.nthreads} threads; start sketchgraph "
-                                   "workers with --nthreads 1 (one GL context each), e.g. dask worker ADDRESS "
-                                   "--nthreads 1 --nworkers N")
+        threads = worker_threads(worker)
+        if threads != 1:  # refused before this task touches GL: nothing is rendered by a worker of 2+ threads
+            scheduler = getattr(getattr(worker, "scheduler", None), "address", None) or "the scheduler"
+            raise SketchgraphError(threads_message(scheduler, worker.address, threads))
         plugin = worker.plugins.get(PLUGIN_NAME)
         if plugin is not None and getattr(plugin, "state", None) is not None:
             return plugin.state
@@ -431,10 +458,142 @@ def lp_threads_for(n_workers: int, cores: int | None = None) -> int:
     return max(1, (cores or os.cpu_count() or 1) // max(1, n_workers))
 
 
+LOCAL_MAX_WORKERS = 256
+"""`local:N` accepts N from 1 to this."""
+ADDRESS_MAX_CHARS = 300
+"""The longest `--scheduler` address accepted (a host name is at most 253 characters)."""
+SCHEMES = ("tcp", "tls")
+"""The schemes of a running scheduler's address (`tcp://HOST:PORT`, `tls://HOST:PORT`)."""
+CONNECT_TIMEOUT = 10.0
+"""Seconds to reach a running scheduler: the TCP connection (a refused one fails at once, without waiting),
+then the Dask handshake (`Client(timeout=)`)."""
+NO_WORKERS_TIMEOUT = 60.0
+"""A run fails with one line once the cluster has had no live worker for this many seconds (a tcp cluster that
+lost its workers, or never had any, would otherwise wait forever). Tests lower it."""
+WATCH_INTERVAL = 1.0
+"""While no task finishes, the client asks the scheduler for its workers this often (one small request)."""
+
+_LABEL = r"[A-Za-z0-9_]([A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?"
+_HOST = re.compile(rf"{_LABEL}(\.{_LABEL})*\.?")  # a host name (labels of up to 63 characters) or an IPv4 address
+_EXPECTED = f"expected local:N (N from 1 to {LOCAL_MAX_WORKERS}), tcp://HOST:PORT or tls://HOST:PORT"
+
+
+@dataclass(frozen=True)
+class SchedulerAddress:
+    """A parsed `--scheduler`: `local:N` (scheme 'local', workers N) or SCHEME://HOST:PORT."""
+
+    scheme: str
+    host: str = ""
+    port: int = 0
+    workers: int = 0
+
+    @property
+    def address(self) -> str:
+        if self.scheme == "local":
+            return f"local:{self.workers}"
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"{self.scheme}://{host}:{self.port}"
+
+
+def _show(text: str, limit: int = 60) -> str:
+    """`text` for an error line: at most `limit` characters, control characters and whitespace other than a
+    space escaped."""
+    cut = text[:limit]
+    shown = "".join(c if c.isprintable() else repr(c)[1:-1] for c in cut)
+    return shown + ("…" if len(text) > limit else "")
+
+
+def parse_scheduler(text: str) -> SchedulerAddress:
+    """`--scheduler` checked before anything connects: `local:N`, `tcp://HOST:PORT` or `tls://HOST:PORT` (HOST a
+    name, an IPv4 address or a bracketed IPv6 address; PORT 1 to 65535); else one line saying what is wrong."""
+
+    def bad(problem: str) -> SketchgraphError:
+        return SketchgraphError(f"--scheduler '{_show(text)}': {problem}; {_EXPECTED}")
+
+    if len(text) > ADDRESS_MAX_CHARS:
+        raise SketchgraphError(f"--scheduler '{_show(text)}': address too long ({len(text)} characters, at most "
+                               f"{ADDRESS_MAX_CHARS}); {_EXPECTED}")
+    stripped = text.strip()
+    if not stripped:
+        raise SketchgraphError(f"--scheduler: empty address; {_EXPECTED}")
+    if any(c.isspace() or not c.isprintable() for c in stripped):
+        raise bad("whitespace or control characters inside the address")
+    if stripped.lower().startswith("local:"):
+        n = stripped[6:]
+        if not n.isascii() or not n.isdigit() or not 1 <= int(n) <= LOCAL_MAX_WORKERS:
+            raise bad(f"N must be a whole number from 1 to {LOCAL_MAX_WORKERS}")
+        return SchedulerAddress("local", workers=int(n))
+    scheme, sep, rest = stripped.partition("://")
+    if not sep:
+        hint = f" (did you mean tcp://{stripped}?)" if re.fullmatch(r"[^:/]+:\d+", stripped) else ""
+        raise bad(f"no scheme{hint}")
+    scheme = scheme.lower()
+    if scheme not in SCHEMES:
+        raise bad(f"unsupported scheme '{_show(scheme, 20)}'")
+    if not rest:
+        raise bad("no host and port")
+    for c in "/?#@":
+        if c in rest:
+            raise bad(f"unexpected '{c}' after the scheme (give HOST:PORT only)")
+    if rest.startswith("["):
+        host, close, port = rest[1:].partition("]")
+        if not close:
+            raise bad("an IPv6 host needs its closing ']'")
+        try:
+            ipaddress.IPv6Address(host)
+        except ValueError:
+            raise bad(f"'{_show(host, 40)}' is not an IPv6 address") from None
+        if not port.startswith(":"):
+            raise bad("no port (give [HOST]:PORT)")
+        port = port[1:]
+    else:
+        host, colon, port = rest.rpartition(":")
+        if not colon:
+            raise bad("no port (give HOST:PORT)")
+        if not host:
+            raise bad("no host")
+        if ":" in host:
+            raise bad("an IPv6 host goes in brackets: [HOST]:PORT")
+        if len(host) > 253 or not _HOST.fullmatch(host):
+            raise bad(f"'{_show(host, 40)}' is not a host name or address")
+    if not port:
+        raise bad("no port")
+    if not port.isascii() or not port.isdigit() or len(port) > 5 or not 1 <= int(port) <= 65535:
+        raise bad(f"port '{_show(port, 20)}' is not a number from 1 to 65535")
+    return SchedulerAddress(scheme, host, int(port))
+
+
+def probe(addr: SchedulerAddress, timeout: float | None = None) -> None:
+    """Open (and close) a TCP connection to a scheduler's address: a refused connection, a host that does not
+    resolve or one that does not answer within `timeout` (`CONNECT_TIMEOUT`) fail here with one line instead
+    of inside `distributed.Client`, which retries a refused connection until its own timeout."""
+    import socket
+
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    hint = f"start one with `dask scheduler --host {addr.host} --port {addr.port}` (docs/distributed.md)"
+    try:
+        with socket.create_connection((addr.host, addr.port), timeout=timeout):
+            pass
+    except socket.gaierror as exc:
+        raise SketchgraphError(f"--scheduler {addr.address}: cannot resolve host '{_show(addr.host, 60)}' "
+                               f"({exc.strerror})") from None
+    except ConnectionRefusedError:
+        raise SketchgraphError(f"--scheduler {addr.address}: connection refused (no scheduler listens there); "
+                               f"{hint}") from None
+    except TimeoutError:
+        raise SketchgraphError(f"--scheduler {addr.address}: no answer within {timeout:g} s (connect timeout)") \
+            from None
+    except OSError as exc:
+        raise SketchgraphError(f"--scheduler {addr.address}: cannot connect ({exc.strerror or one_line(exc)})") \
+            from None
+
+
 @contextlib.contextmanager
 def connect(scheduler: Any, *, cache_root: str | Path | None | bool = None) -> Iterator[Any]:
-    """A `distributed.Client` for `local:N`, `tcp://host:port` or a Client (used as it is, not closed), with
-    the sketchgraph plugin registered on every worker."""
+    """A `distributed.Client` for `local:N`, `tcp://host:port`, `tls://host:port` or a Client (used as it is, not
+    closed), with the sketchgraph plugin registered on every worker. The address is checked before anything
+    connects (`parse_scheduler`); a running scheduler must accept the connection within `CONNECT_TIMEOUT`; a
+    worker of more than one thread is refused (`check_workers`)."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -443,17 +602,12 @@ def connect(scheduler: Any, *, cache_root: str | Path | None | bool = None) -> I
         ensure_plugin(scheduler, root)
         yield scheduler
         return
-    text = scheduler.strip()
+    addr = parse_scheduler(scheduler)
     config = {"distributed.worker.multiprocessing-method": "spawn",  # never fork a process holding GL
               "distributed.scheduler.allowed-failures": 3,
               "distributed.worker.daemon": True}
-    if text.startswith("local:"):
-        try:
-            n = int(text[6:])
-        except ValueError:
-            n = 0
-        if n < 1 or n > 256:
-            raise SketchgraphError(f"--scheduler: expected local:N with N from 1 to 256, found '{text[:40]}'")
+    if addr.scheme == "local":
+        n = addr.workers
         lp = lp_threads_for(n)
         env = {"LP_NUM_THREADS": str(lp)}
         if isinstance(root, str):
@@ -472,14 +626,13 @@ def connect(scheduler: Any, *, cache_root: str | Path | None | bool = None) -> I
             finally:
                 cluster.close()
         return
-    if not text.startswith(("tcp://", "tls://", "ucx://", "inproc://")):
-        raise SketchgraphError(f"--scheduler: expected local:N or tcp://HOST:PORT, found '{text[:60]}'")
+    probe(addr)
     with dask.config.set(config):
         try:
-            client = Client(text, timeout="15s")
-        except OSError as exc:
-            raise SketchgraphError(f"--scheduler {text}: cannot connect ({one_line(exc)}); start one with "
-                                   "`dask scheduler` (docs/distributed.md)") from None
+            client = Client(addr.address, timeout=f"{CONNECT_TIMEOUT}s")
+        except Exception as exc:  # noqa: BLE001 - refused, timed out, a TLS or handshake failure: one line
+            raise SketchgraphError(f"--scheduler {addr.address}: no Dask scheduler answered within "
+                                   f"{CONNECT_TIMEOUT:g} s ({one_line(exc)})") from None
         try:
             ensure_plugin(client, root)
             yield client
@@ -487,8 +640,87 @@ def connect(scheduler: Any, *, cache_root: str | Path | None | bool = None) -> I
             client.close()
 
 
+def scheduler_address(client: Any) -> str:
+    return str(getattr(getattr(client, "scheduler", None), "address", None) or "the scheduler")
+
+
+def worker_threads_of(client: Any) -> dict[str, int]:
+    """Each live worker's thread count, as the scheduler knows it (`Client.nthreads`)."""
+    try:
+        return {str(w): int(n) for w, n in client.nthreads().items()}
+    except Exception as exc:  # noqa: BLE001 - the scheduler went away: one line
+        raise SketchgraphError(f"{scheduler_address(client)}: lost the scheduler ({one_line(exc)})") from None
+
+
+def check_workers(client: Any, threads: dict[str, int] | None = None) -> None:
+    """Refuse a cluster with a worker of more than one thread, before anything renders there: a worker process
+    holds one GL context, which one thread may use (two threads render garbage or crash the process)."""
+    threads = worker_threads_of(client) if threads is None else threads
+    bad = sorted((w, n) for w, n in threads.items() if n != 1)
+    if bad:
+        more = f" (and {len(bad) - 1} more such workers)" if len(bad) > 1 else ""
+        raise SketchgraphError(threads_message(scheduler_address(client), bad[0][0], bad[0][1]) + more)
+
+
+class WorkerWatch:
+    """Called while no task finishes: fails with one line once the cluster has had no live worker for
+    `timeout` seconds (`NO_WORKERS_TIMEOUT`), or as soon as a worker of more than one thread joined."""
+
+    def __init__(self, client: Any, timeout: float | None = None, left: Callable[[], str] | None = None) -> None:
+        self.client = client
+        self.timeout = NO_WORKERS_TIMEOUT if timeout is None else timeout
+        self.left = left
+        self.since: float | None = None
+
+    def check(self) -> None:
+        threads = worker_threads_of(self.client)
+        check_workers(self.client, threads)
+        now = time.monotonic()
+        if threads:
+            self.since = None
+            return
+        if self.since is None:
+            self.since = now
+        if now - self.since >= self.timeout:
+            addr = scheduler_address(self.client)
+            left = f"; {self.left()}" if self.left is not None else ""
+            raise SketchgraphError(f"{addr}: no live workers for {self.timeout:g} s (all lost, or none joined)"
+                                   f"{left}; start workers with `dask worker {addr} --nthreads 1`")
+
+
+def completed(client: Any, futures: Sequence[Any], timeout: float | None = None,
+              left: Callable[[], str] | None = None) -> Iterator[Any]:
+    """`futures` as they finish (like `distributed.as_completed`), failing with one line once the cluster has
+    had no live worker for `timeout` seconds (`NO_WORKERS_TIMEOUT`): a scheduler keeps tasks that no worker can
+    run waiting forever."""
+    import queue
+
+    done: queue.SimpleQueue[Any] = queue.SimpleQueue()
+    for fut in futures:
+        fut.add_done_callback(done.put)
+    watch = WorkerWatch(client, timeout, left)
+    for _ in range(len(futures)):
+        while True:
+            try:
+                fut = done.get(timeout=WATCH_INTERVAL)
+                break
+            except queue.Empty:
+                watch.check()
+        watch.since = None
+        yield fut
+
+
+def result(client: Any, future: Any, timeout: float | None = None) -> Any:
+    """`future.result()`, failing with one line once the cluster has had no live worker for `timeout` s."""
+    for fut in completed(client, [future], timeout):
+        return fut.result()
+    raise AssertionError("unreachable")
+
+
 def ensure_plugin(client: Any, cache_root: str | None | bool = None, lp_threads: int | None = None) -> None:
-    """Register the plugin once per client (workers that join later get it too)."""
+    """Check the workers' threads (`check_workers`), and register the plugin once per client (workers that
+    join later get it too)."""
+    check_workers(client)
     done = getattr(client, "_sketchgraph_plugin", None)
     if done == (cache_root, lp_threads):
         return
@@ -629,8 +861,6 @@ class FrameRun:
         return write.frame_path(self.pattern, frame, self.many)
 
     def __iter__(self) -> Iterator[tuple[int, Path]]:
-        from distributed import as_completed
-
         from .executor import Executor
 
         t0 = time.perf_counter()
@@ -656,6 +886,7 @@ class FrameRun:
         order = iter(self.frames)
         next_frame = next(order, None)
         futures: list[Any] = []
+        others: list[Any] = []  # the prepare task's
         try:
             while next_frame is not None and next_frame in done:  # what a resumed run finished already
                 yield next_frame, done[next_frame]
@@ -667,9 +898,15 @@ class FrameRun:
             refs = shared_frontier(self.pipe, self.ref, [keysets[f] for f in todo]) if workers > 1 else []
             if refs and len(todo) > 1:
                 t1 = time.perf_counter()
-                res = self.client.submit(prepare_task, self.spec, refs, todo[0], root, retries=self.retries, pure=False,
-                                         key=f"sketchgraph-prepare-{uuid.uuid4().hex[:12]}",
-                                         resources=self.resources).result()
+                fut = self.client.submit(prepare_task, self.spec, refs, todo[0], root, retries=self.retries, pure=False,
+                                         key=f"sketchgraph-prepare-{uuid.uuid4().hex[:12]}", resources=self.resources)
+                others.append(fut)
+                try:
+                    res = result(self.client, fut)
+                except SketchgraphError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - one line, as a local run prints
+                    raise remote_error(exc) from None
                 _raise_failure(res)
                 rep.prepared = [f"{n}.{p}" for n, p in refs]
                 rep.prepare_s = time.perf_counter() - t1
@@ -681,7 +918,11 @@ class FrameRun:
                                                   key=f"sketchgraph-frames-{token}-{i:05d}", retries=self.retries,
                                                   pure=False, resources=self.resources))
             rep.tasks = len(futures)
-            for fut in as_completed(futures):
+
+            def left() -> str:
+                return f"{len(self.frames) - len(done)} of {len(self.frames)} frames not rendered (--resume goes on)"
+
+            for fut in completed(self.client, futures, left=left):
                 try:
                     res = fut.result()
                 except SketchgraphError:
@@ -708,7 +949,7 @@ class FrameRun:
                     next_frame = next(order, None)
             rep.retries = task_attempts(self.client, [f.key for f in futures], self.retries)
         finally:
-            for fut in futures:
+            for fut in futures + others:
                 if not fut.done():
                     fut.cancel()
             if manifest is not None:
@@ -743,7 +984,7 @@ def worker_renderers(client: Any) -> dict[str, str]:
     out = {}
     for a, f in futs.items():
         try:
-            out[a] = f.result()
+            out[a] = result(client, f)
         except SketchgraphError:
             raise
         except Exception as exc:  # noqa: BLE001
