@@ -184,8 +184,6 @@ def run_distributed(client: Any, spec: Any, axes: list[Axis], frame: int = 0, ca
     import shutil
     from dataclasses import replace
 
-    from distributed import as_completed
-
     from .. import distributed as dist
 
     combos = combinations(axes)
@@ -202,8 +200,8 @@ def run_distributed(client: Any, spec: Any, axes: list[Axis], frame: int = 0, ca
     refs = dist.shared_frontier(pipes[0], ref, keysets)
     if refs:
         first = replace(spec, overrides=spec.overrides + tuple(combos[0][2]))
-        res = client.submit(dist.prepare_task, first, refs, frame, cache_root, pure=False,
-                            retries=dist.RETRIES).result()
+        res = dist.result(client, client.submit(dist.prepare_task, first, refs, frame, cache_root, pure=False,
+                                                retries=dist.RETRIES))
         dist._raise_failure(res)
         renderers.add(res["renderer"])
     scratch = dist.scratch_dir(cache_root, "wedge-")
@@ -213,7 +211,8 @@ def run_distributed(client: Any, spec: Any, axes: list[Axis], frame: int = 0, ca
         futures = [client.submit(cell_task, spec, items[i:i + size], frame, cache_root, pure=False,
                                  retries=dist.RETRIES) for i in range(0, len(items), size)]
         by_path: dict[str, dict[str, Any]] = {}
-        done = progress(as_completed(futures)) if progress else as_completed(futures)
+        finished = dist.completed(client, futures)  # fails with one line when the cluster has no live worker
+        done = progress(finished) if progress else finished
         for fut in done:
             try:
                 res = fut.result()

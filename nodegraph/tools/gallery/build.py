@@ -407,11 +407,11 @@ def _submit_entry(client: Any, entry: Entry, renderer: str, gallery: Gallery, ca
                          str(cache.root) if cache is not None else False, pure=False, retries=dist.RETRIES)
 
 
-def _entry_result(fut: Any) -> EntryResult:
+def _entry_result(client: Any, fut: Any) -> EntryResult:
     from ... import distributed as dist
 
     try:
-        res = fut.result()
+        res = dist.result(client, fut)  # one line when the cluster has no live worker
     except SketchgraphError:
         raise
     except Exception as exc:  # noqa: BLE001
@@ -483,7 +483,7 @@ def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force:
         fut, ep = remote[res.name]
         t1 = time.perf_counter()
         try:
-            res = _entry_result(fut)
+            res = _entry_result(scheduler, fut)
             records[res.name] = {**ep.record, "build_key": ep.build_key, "files": res.files}
         except Exception as exc:  # noqa: BLE001 - one broken entry must not stop the others
             res = _failed(res.name, exc, old, records, failed)
