@@ -16,12 +16,23 @@ recently used first (a hit refreshes an entry).
 Keys: a parsed file by the digest of its bytes and its absolute path (the `MeshWarning`s a file's reading
 gave name the path; they are stored with the arrays and given again on every hit); a value derived from a
 mesh (`memo`, `memo_arrays`) by the mesh's content hash. Every key also holds the digest of the source files
-of the code that computes the value, so an edit to that code is a new key, never a stale entry. An entry
-that does not read is computed again and replaced, with a `CacheWarning` (as a node entry is); one of an
-older layout is replaced without one; a store that cannot be written is skipped without a word: the store
-only saves time. Derived arrays are stored for meshes of at least `MIN_FACES` faces (below that computing
-them is about as cheap as reading them), and never for a posed mesh (skinned or morphed: a new mesh every
-frame of a film)."""
+of the code that computes the value, so an edit to that code is a new key, never a stale entry.
+
+Entries are checked before anything in them is used (tests/nodegraph/test_meshstore_faults.py): the path with
+`lstat` first (a FIFO, directory, device or a link out of the store is never opened: `cache.check_regular`),
+then the CRC-32 of the arrays against the `checksum` in `__meta__` (`cache.payload_checksum`; written with
+every entry), then the arrays against the profile written beside them (`arrays`: dtype, shape, finite or not,
+the range of integers), and last against what no metadata can vouch for: a parsed mesh has (n, 3) finite
+float64 vertices and (m, 3) int32 faces in [0, n); render streams (`indices` beside `positions`) index inside
+their vertices, have one row a vertex, finite positions, and `source_vertex` inside the mesh, so a forged entry
+with a matching checksum still never sends an index past a buffer's end to GL. An entry that fails any of
+these is taken away (`cache.discard_entry`: removed; a directory that holds other files renamed aside) and
+computed again, with one `CacheWarning` naming it (as a node entry is); one of an older layout (another version,
+or written before the checksum) is replaced without one; a store that cannot be written is skipped without a
+word: the store only saves time.
+
+Derived arrays are stored for meshes of at least `MIN_FACES` faces (below that computing them is about as cheap
+as reading them), and never for a posed mesh (skinned or morphed: a new mesh every frame of a film)."""
 
 from __future__ import annotations
 
@@ -97,16 +108,12 @@ def load(path: Path, parse: Callable[[Path], Any], build: Callable[[np.ndarray, 
         return parse(path)
     h.update(f"\0{code_digest(*code)}\0{path}".encode("utf-8", "surrogateescape"))
     entry = store / f"{h.hexdigest()}.mesh.npz"
-    hit = _read(entry, ("vertices", "faces"))
+    hit = _read(entry, ("vertices", "faces"), _check_mesh)
     if hit is not None:
         arrays, meta = hit
-        v, f = arrays["vertices"], arrays["faces"]
-        notes = meta.get("warnings")
-        if (v.ndim == 2 and v.shape[1] == 3 and v.dtype == np.float64 and f.ndim == 2 and f.shape[1] == 3
-                and f.dtype == np.int32 and isinstance(notes, list)):
-            for note in notes:
-                warnings.warn(str(note), category, stacklevel=3)  # at load_mesh's caller
-            return build(v, f)
+        for note in meta["warnings"]:
+            warnings.warn(str(note), category, stacklevel=3)  # at load_mesh's caller
+        return build(arrays["vertices"], arrays["faces"])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         mesh = parse(path)
@@ -137,7 +144,7 @@ def memo_arrays(mesh: Any, what: str, make: Callable[[], dict[str, np.ndarray]],
     if store is None or _skip(mesh, always):
         return make()
     entry = store / f"{mesh.content_hash()[:32]}.{code_digest(*code)[:12]}.{what.replace('.', '_')}.npz"
-    hit = _read(entry, names)
+    hit = _read(entry, names, lambda arrays, meta: _check_derived(arrays, meta, mesh))
     if hit is not None and hit[1].get("what") == what:
         return hit[0]
     arrays = make()
@@ -158,38 +165,142 @@ def _skip(mesh: Any, always: bool) -> bool:
     return not always and int(len(mesh.faces)) < MIN_FACES
 
 
-def _read(entry: Path, names: tuple[str, ...]) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
+Check = Callable[[dict[str, np.ndarray], dict[str, Any]], None]
+
+
+def _read(entry: Path, names: tuple[str, ...], check: Check) -> tuple[dict[str, np.ndarray], dict[str, Any]] | None:
     """The entry's arrays `names` and its metadata; None for a miss. A store that cannot be opened (no entry,
-    a file where its folder should be, no permission) is a plain miss; an entry that opens but does not read
-    is a damaged one: it is removed, with a CacheWarning."""
+    a file where its folder should be, no permission) is a plain miss, and so is an entry of an older layout
+    (another version, or no checksum), removed without a word. Anything else that is not a good entry is
+    taken away (`cache.discard_entry`) with one CacheWarning naming it: a path that is not a regular file (seen
+    with lstat, never opened: a FIFO, a directory, a link to /dev/zero), an entry that does not read, one
+    whose arrays do not match its checksum, and one whose arrays fail `check` (ValueError: the shapes, dtypes,
+    finite values and index ranges that are all that stands between an entry and a GL draw)."""
+    from .. import cache as c
+
+    store = entry.parent
+    st = None
     try:
-        fh = open(entry, "rb")  # noqa: SIM115 - closed below, after np.load has read what it needs
+        st = c.check_regular(entry, store)
+        fh = c.open_regular(entry, store)
+    except c.NotRegular as exc:
+        done = c.discard_entry(entry, exc.st)
+        warnings.warn(f"mesh store entry {entry} is unusable ({exc}; {done}); computing it again", c.CacheWarning,
+                      stacklevel=2)
+        return None
     except OSError:
         return None
     try:
         with fh, np.load(fh, allow_pickle=False) as z:
             meta = json.loads(str(z["__meta__"]))
             if not isinstance(meta, dict) or meta.get("version") != VERSION:
-                return None
-            arrays = {n: z[n] for n in names}
+                raise c.StaleEntry(f"version {meta.get('version') if isinstance(meta, dict) else None}")
+            stored = {n: z[n] for n in z.files if n != "__meta__"}
+        c.verify_checksum(meta.get("checksum"), sorted(stored.items()))
+        missing = [n for n in names if n not in stored]
+        if missing:
+            raise ValueError(f"no array {missing[0]!r}")
+        arrays = {n: stored[n] for n in names}
+        _check_profile(arrays, meta)
+        check(arrays, meta)
+    except c.StaleEntry:  # an older layout: replaced without a word (the next write puts the new one there)
+        c.discard_entry(entry, st)
+        return None
     except Exception as exc:  # noqa: BLE001 - anything that does not read is computed again and replaced
-        from ..cache import CacheWarning, _reason
-
-        warnings.warn(f"mesh store entry {entry} is unusable ({_reason(exc)}); computing it again", CacheWarning,
-                      stacklevel=2)
-        with contextlib.suppress(OSError):
-            entry.unlink()
+        done = c.discard_entry(entry, st)
+        tail = "" if done == "removed" else f"; {done}"
+        warnings.warn(f"mesh store entry {entry} is unusable ({c._reason(exc)}{tail}); computing it again",
+                      c.CacheWarning, stacklevel=2)
         return None
     with contextlib.suppress(OSError):
         os.utime(entry)  # least recently used goes first when the cache is pruned
     return arrays, meta
 
 
+def _profile(arrays: dict[str, np.ndarray]) -> dict[str, dict[str, Any]]:
+    """What each array of an entry is, stored beside it: dtype, shape, whether all its values are finite
+    (floats), the range of its values (integers)."""
+    out: dict[str, dict[str, Any]] = {}
+    for name, a in arrays.items():
+        a = np.asarray(a)
+        p: dict[str, Any] = {"dtype": a.dtype.str, "shape": list(a.shape)}
+        if a.dtype.kind == "f":
+            p["finite"] = bool(np.isfinite(a).all())
+        elif a.dtype.kind in "iub" and a.size:
+            p["range"] = [int(a.min()), int(a.max())]
+        out[name] = p
+    return out
+
+
+def _check_profile(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
+    """The arrays are numbers of the dtype and shape their entry says, finite where they were finite when
+    written, integers in the range they had (ValueError otherwise)."""
+    profile = meta.get("arrays")
+    if not isinstance(profile, dict):
+        raise ValueError("no array profile")
+    for name, a in arrays.items():
+        p = profile.get(name)
+        if not isinstance(p, dict):
+            raise ValueError(f"no profile for array {name!r}")
+        if a.dtype.kind not in "biuf":
+            raise ValueError(f"array {name!r} is {a.dtype}, not numbers")
+        if a.dtype.str != p.get("dtype") or list(a.shape) != p.get("shape"):
+            raise ValueError(f"array {name!r} is {a.dtype.str} {list(a.shape)}, its entry says "
+                             f"{p.get('dtype')} {p.get('shape')}")
+        if a.dtype.kind == "f" and p.get("finite") is not False and not np.isfinite(a).all():
+            raise ValueError(f"array {name!r} holds NaN or Inf")
+        if a.dtype.kind in "iub" and a.size:
+            lo, hi = (p.get("range") or [None, None])[:2]
+            if lo is None or int(a.min()) < lo or int(a.max()) > hi:
+                raise ValueError(f"array {name!r} has values in [{a.min()}, {a.max()}], its entry says {lo, hi}")
+
+
+def _check_mesh(arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
+    """A parsed mesh, whatever its metadata says: (n, 3) finite float64 vertices, (m, 3) int32 faces that index
+    them, and a list of warnings."""
+    v, f = arrays["vertices"], arrays["faces"]
+    if not (v.ndim == 2 and v.shape[1] == 3 and v.dtype == np.float64):
+        raise ValueError(f"vertices are {v.dtype} {v.shape}, expected float64 (n, 3)")
+    if not (f.ndim == 2 and f.shape[1] == 3 and f.dtype == np.int32):
+        raise ValueError(f"faces are {f.dtype} {f.shape}, expected int32 (m, 3)")
+    if not np.isfinite(v).all():
+        raise ValueError("vertices hold NaN or Inf")
+    if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
+        raise ValueError(f"face indices in [{f.min()}, {f.max()}], outside the {len(v)} vertices")
+    if not isinstance(meta.get("warnings"), list):
+        raise ValueError("no list of warnings")
+
+
+def _check_derived(arrays: dict[str, np.ndarray], meta: dict[str, Any], mesh: Any) -> None:
+    """A value derived from `mesh`, whatever its metadata says: render streams (`indices` beside `positions`,
+    the index buffer a draw reads) index inside their vertices, every per-vertex stream has one row a vertex,
+    positions are finite, and `source_vertex` names vertices of the mesh."""
+    if "indices" in arrays and "positions" in arrays:
+        pos, idx = arrays["positions"], arrays["indices"]
+        k = len(pos) if pos.ndim else 0
+        if idx.dtype.kind not in "iu":
+            raise ValueError(f"indices are {idx.dtype}, not integers")
+        if idx.size and (int(idx.min()) < 0 or int(idx.max()) >= k):
+            raise ValueError(f"indices in [{idx.min()}, {idx.max()}], outside the {k} vertices")
+        if not np.isfinite(pos).all():
+            raise ValueError("positions hold NaN or Inf")
+        for name, a in arrays.items():
+            if name != "indices" and (a.ndim == 0 or len(a) != k):
+                raise ValueError(f"{name} has {len(a) if a.ndim else 0} rows for {k} vertices")
+    src = arrays.get("source_vertex")
+    if src is not None and src.size and (src.dtype.kind not in "iu" or int(src.min()) < 0
+                                         or int(src.max()) >= int(mesh.n_vertices)):
+        raise ValueError(f"source_vertex in [{src.min()}, {src.max()}], outside the mesh's {mesh.n_vertices} vertices")
+
+
 def _write(entry: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> None:
-    from ..cache import write_npz
+    from ..cache import payload_checksum, write_npz
 
     try:
         entry.parent.mkdir(parents=True, exist_ok=True)
-        write_npz(entry, {"__meta__": np.array(json.dumps({**meta, "version": VERSION})), **arrays})
+        arrays = {n: np.asarray(a) for n, a in arrays.items()}
+        full = {**meta, "version": VERSION, "checksum": payload_checksum(sorted(arrays.items())),
+                "arrays": _profile(arrays)}
+        write_npz(entry, {"__meta__": np.array(json.dumps(full)), **arrays})
     except Exception:  # noqa: BLE001 - a full or read-only disk costs the next run its parse, nothing else
         return

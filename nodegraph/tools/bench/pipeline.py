@@ -45,6 +45,8 @@ NAMED: dict[str, str] = {
     "sketch-depth": "nodegraph.tools.bench.sketch_depth:command",
     "footprint": "nodegraph.tools.bench.sketch_depth:footprint_command",
     "targets": "nodegraph.tools.bench.targets:command",
+    "peer": "nodegraph.tools.bench.peer:command",
+    "checksum": "nodegraph.tools.bench.checksum:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
