@@ -59,8 +59,9 @@ import numpy as np
 from ...errors import SketchgraphError
 from ...fsio import atomic_write_text
 
-SKIP_LINE = ("bench peer: bpy (Blender 5 as a Python module) is not installed: "
-             "pip install 'sketchgraph[peer]' (Python 3.11)")
+SKIP_LINE = ("bench peer: bpy (Blender 5 as a Python module) is not installed: make a venv for it "
+             "(python3.11 -m venv V && V/bin/pip install bpy==5.0.1, the [peer] extra's pin) and give "
+             "SKETCHGRAPH_PEER_VENV=V or --blender-python V/bin/python")
 VENV_ENV = "SKETCHGRAPH_PEER_VENV"
 WORKER = Path(__file__).with_name("peer_blender.py")
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has none: --meshes-dir
