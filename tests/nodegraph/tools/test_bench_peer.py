@@ -41,7 +41,7 @@ def test_without_bpy_the_command_prints_one_line_and_exits_0(monkeypatch: pytest
     res = CliRunner().invoke(main, ["bench", "peer", "--rounds", "1"])
     assert res.exit_code == 0, res.output
     assert res.output == peer.SKIP_LINE + "\n"
-    assert "pip install 'sketchgraph[peer]'" in peer.SKIP_LINE
+    assert "bpy==5.0.1" in peer.SKIP_LINE and "SKETCHGRAPH_PEER_VENV" in peer.SKIP_LINE
 
 
 def test_a_venv_without_bpy_is_no_blender(monkeypatch: pytest.MonkeyPatch, tmp_path: Path):
