@@ -168,13 +168,39 @@ def safe_load(text: str) -> Any:
     return yaml.safe_load(text)
 
 
+def plain(value: Any) -> Any:
+    """A parsed value with its marked mappings and lists turned into plain dicts and lists (for YAML or JSON
+    writers, which do not know the subclasses)."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [plain(v) for v in value]
+    return value
+
+
+class YamlLimitError(PipelineError):
+    """YAML refused for its shape, not its syntax: a NUL byte, nesting deeper than `MAX_DEPTH`, aliases
+    expanding past `MAX_VALUES`."""
+
+
+def value(text: str, where: Location) -> Any:
+    """A YAML value given on the command line (`--set NODE.PARAM=VALUE`): parsed with the limits of `loads`
+    (one located line when refused), while text that is not valid YAML stays the plain string it is."""
+    try:
+        return loads(text, where.file)
+    except YamlLimitError as exc:
+        raise YamlLimitError(exc.message, where) from None
+    except PipelineError:
+        return text
+
+
 def loads(text: str, file: str = "<string>") -> Any:
     """Parse YAML text; syntax errors and refused input (NUL bytes, nesting deeper than `MAX_DEPTH`,
     aliases expanding past `MAX_VALUES`) become a one-line PipelineError with the position."""
     nul = text.find("\0")
     if nul >= 0:
         line, col = _line_col(text, nul)
-        raise PipelineError("expected YAML text, found a NUL byte (a binary file?)", Location(file, line, col))
+        raise YamlLimitError("expected YAML text, found a NUL byte (a binary file?)", Location(file, line, col))
     if _FastMarkedLoader is not None:
         # anything libyaml or the limits refuse falls through to the pure-Python loader, whose messages are kept
         with contextlib.suppress(yaml.YAMLError):
@@ -185,8 +211,9 @@ def loads(text: str, file: str = "<string>") -> Any:
         mark = exc.problem_mark or exc.context_mark
         loc = Location(file, mark.line + 1, mark.column + 1) if mark else Location(file)
         what = clean((exc.problem or exc.context or "invalid YAML").strip(), 200)
-        prefix = "YAML " if isinstance(exc, _LimitError) else "invalid YAML: "
-        raise PipelineError(f"{prefix}{what}", loc) from None
+        if isinstance(exc, _LimitError):
+            raise YamlLimitError(f"YAML {what}", loc) from None
+        raise PipelineError(f"invalid YAML: {what}", loc) from None
     except yaml.reader.ReaderError as exc:
         line, col = _line_col(text, exc.position)
         raise PipelineError(f"invalid YAML: unacceptable character #x{exc.character:04x} (control characters "
@@ -194,8 +221,8 @@ def loads(text: str, file: str = "<string>") -> Any:
                             Location(file, line, col)) from None
     except yaml.YAMLError as exc:  # pragma: no cover - non-marked yaml errors are rare
         raise PipelineError(f"invalid YAML: {clean(str(exc))}", Location(file)) from None
-    except RecursionError:  # pragma: no cover - the depth limit comes first
-        raise PipelineError(f"YAML nested too deeply; expected at most {MAX_DEPTH} levels", Location(file)) from None
+    except RecursionError:  # PyYAML's parser recurses once per flow bracket, before the composer counts depth
+        raise YamlLimitError(f"YAML nested too deeply; expected at most {MAX_DEPTH} levels", Location(file)) from None
 
 
 def _line_col(text: str, offset: int) -> tuple[int, int]:

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import yaml
 
-from ..errors import SketchgraphError
+from .. import yamlio
+from ..errors import PipelineError, SketchgraphError
 from ..executor import Executor
 from ..pipeline import Pipeline
 from . import viz
@@ -39,10 +39,11 @@ def parse_axis(text: str) -> Axis:
     if not eq or not dot or not node or not name:
         raise SketchgraphError(f"wedge '{text}': expected NODE.PARAM=V1,V2,... such as edges.normal_threshold=0.2,0.4")
     body = values.strip()
+    shown = text if len(text) <= 80 else text[:77] + "..."
     try:
-        parsed = yaml.safe_load(body if body.startswith("[") else f"[{body}]")
-    except yaml.YAMLError as exc:
-        raise SketchgraphError(f"wedge '{text}': values are not YAML ({str(exc).splitlines()[0]})") from None
+        parsed = yamlio.loads(body if body.startswith("[") else f"[{body}]", f"wedge '{shown}'")
+    except PipelineError as exc:
+        raise SketchgraphError(f"wedge '{shown}': values are not YAML ({exc.message})") from None
     if not isinstance(parsed, list) or not parsed:
         raise SketchgraphError(f"wedge '{text}': expected a non-empty list of values")
     return Axis(param.strip(), tuple(parsed))

@@ -12,8 +12,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ... import yamlio
 from ...errors import SketchgraphError
 from .. import wedge as wedgemod
@@ -58,8 +56,8 @@ class Entry:
             files = scene_files(self.scene, Path.cwd())
         else:
             try:
-                data = yamlio.safe_load(self.pipeline.read_text())
-            except (OSError, yaml.YAMLError):
+                data = yamlio.load(self.pipeline)
+            except SketchgraphError:
                 return []
             spec = data.get("scene", "builtin:cloister") if isinstance(data, dict) else "builtin:cloister"
             files = scene_files(str(spec), self.pipeline.parent)
@@ -153,10 +151,7 @@ def load(path: str | Path) -> Gallery:
     if not file.exists():
         raise SketchgraphError(f"gallery file not found: {file}; the gallery lives in the repository "
                                "(gallery/gallery.yaml): run from the repository's root or pass --gallery FILE")
-    try:
-        data = yamlio.safe_load(file.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise SketchgraphError(f"{file}: not valid YAML: {str(exc).splitlines()[0]}") from None
+    data = yamlio.plain(yamlio.load(file)) or {}  # a regular file of bounded size (not /dev/zero), nesting limited
     if not isinstance(data, dict):
         raise SketchgraphError(f"{file}: expected a mapping with 'entries'")
     unknown = set(data) - {"pipelines", "entries", "tolerance", "cell", "doc"}
