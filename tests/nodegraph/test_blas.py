@@ -55,12 +55,14 @@ def test_nodegraph_first_runs_the_pinned_kernel():
     assert _core("import nodegraph") == blas.PINNED_CORE
 
 
+@pytest.mark.slow  # a Python process, 0.7 s
 @needs_avx2
 def test_the_users_choice_is_kept():
     # Sandybridge (AVX) runs on every CPU that runs the pinned one
     assert _core("import nodegraph", env_value="Sandybridge") == "Sandybridge"
 
 
+@pytest.mark.slow  # a Python process, 0.7 s
 def test_numpy_loaded_first_is_left_alone():
     code = "import numpy, os, nodegraph\nassert 'OPENBLAS_CORETYPE' not in os.environ"
     _core(code)  # raises CalledProcessError if the pin was set after NumPy had loaded OpenBLAS
@@ -69,16 +71,19 @@ def test_numpy_loaded_first_is_left_alone():
 several_cores = pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="OpenBLAS runs one thread on one core anyway")
 
 
+@pytest.mark.slow  # a Python process, 0.7 s
 @several_cores
 def test_nodegraph_first_runs_one_blas_thread():
     assert _threads("import nodegraph") == 1
 
 
+@pytest.mark.slow  # a Python process, 0.7 s
 @several_cores
 def test_the_users_thread_count_is_kept():
     assert _threads("import nodegraph", env_value="2") == 2
 
 
+@pytest.mark.slow  # a Python process, 0.7 s
 def test_numpy_loaded_first_keeps_its_threads():
     code = "import numpy, os, nodegraph\nassert 'OPENBLAS_NUM_THREADS' not in os.environ"
     _threads(code)  # raises CalledProcessError if the limit was set after NumPy had loaded OpenBLAS

@@ -29,7 +29,8 @@ from nodegraph.cache import Cache
 from nodegraph.executor import Executor
 from tests.helpers import ROOT
 
-pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="faults are made with Linux mounts and rlimits")
+pytestmark = [pytest.mark.skipif(sys.platform != "linux", reason="faults are made with Linux mounts and rlimits"),
+              pytest.mark.slow]  # about a minute: every test runs the CLI as processes
 
 PENCIL = ROOT / "pipelines" / "pencil.yaml"  # EXR textures, an R8 texture array and curvature arrays (npz)
 CONTOURS = ROOT / "pipelines" / "pencil_contours.yaml"  # EXR textures only: the quickest shipped pipeline

@@ -54,6 +54,7 @@ def same_files(a: Path, b: Path, frames: list[int] = FRAMES) -> None:
         assert (a / name).read_bytes() == (b / name).read_bytes(), f"frame {f} differs"
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_sequence_is_byte_identical_to_serial(cluster, serial: Path, tmp_path: Path) -> None:
     client, root = cluster
     seen: list[int] = []
@@ -82,6 +83,7 @@ def test_sequence_is_byte_identical_to_serial(cluster, serial: Path, tmp_path: P
     same_files(serial, tmp_path)
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_a_killed_worker_costs_only_its_chunk(cluster, serial: Path, tmp_path: Path) -> None:
     client, root = cluster
     pids = client.run(os.getpid)
@@ -99,6 +101,7 @@ def test_a_killed_worker_costs_only_its_chunk(cluster, serial: Path, tmp_path: P
     client.wait_for_workers(2, timeout=60)  # the nanny starts a new one (the plugin is registered on it too)
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_task_errors_arrive_as_the_same_one_line(cluster, tmp_path: Path) -> None:
     client, _root = cluster
     bad = dist.PipeSpec.make("pencil", overrides=("nope.x=1",), size=SIZE)
@@ -158,6 +161,7 @@ class ListSink:
         self.closed = True
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_video_outputs_feed_a_sink_in_frame_order(cluster, serial: Path, tmp_path: Path) -> None:
     from nodegraph.output.imageio import read, to_uint8
 
@@ -173,6 +177,7 @@ def test_video_outputs_feed_a_sink_in_frame_order(cluster, serial: Path, tmp_pat
     assert not dist.video_frames_dir(out).exists()  # the temporary frames are gone once the sink closed
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_api_frames_on_a_client(cluster, tmp_path: Path) -> None:
     import nodegraph as ng
 
@@ -184,6 +189,7 @@ def test_api_frames_on_a_client(cluster, tmp_path: Path) -> None:
     assert all(np.array_equal(want[f], a) and a.dtype == np.uint8 for f, a in got)
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_wedge_is_byte_identical_to_serial(cluster, tmp_path: Path) -> None:
     from nodegraph import render
     from nodegraph.tools import viz
@@ -213,6 +219,7 @@ entries:
 """
 
 
+@pytest.mark.slow  # a Dask cluster
 def test_gallery_build_is_byte_identical_to_serial(cluster, tmp_path: Path) -> None:
     from nodegraph.tools import gallery as gal
 

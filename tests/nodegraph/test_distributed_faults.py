@@ -294,6 +294,7 @@ def test_malformed_scheduler_addresses_are_one_line(address: str, tmp_path: Path
     assert pngs(tmp_path / "x") == []
 
 
+@pytest.mark.slow  # 3.5 s: a CLI process
 def test_a_malformed_address_is_one_line_from_a_real_process(tmp_path: Path) -> None:
     out = cli_subprocess(*run_args("tcp://host:99999", tmp_path / "x"), timeout=120)
     assert_one_line_error(out, "--scheduler 'tcp://host:99999': port '99999' is not a number from 1 to 65535")

@@ -138,6 +138,7 @@ def _assert_covered_inside(values: dict) -> None:
     assert nd.footprint.blank == (0.0, 0.0, 0.0, 0.0) and d.footprint.blank == (1.0,)
 
 
+@pytest.mark.slow  # 8 cases, ogre 2.5 s
 @pytest.mark.parametrize("name", ["spot.obj", "ogre.obj", "teapot.obj", "fandisk.obj"])
 @pytest.mark.parametrize("params", ["{}", "{enlarge: 0.05}"])
 def test_the_gbuffer_footprint_holds_every_covered_pixel(gl, name, params):
@@ -173,6 +174,7 @@ SHIPPED = ("[[0.01, 0.0], [0.0, 0.01]]", "[[-0.016, 0.004], [-0.004, -0.016]]") 
 WIDE = ("[[0.06, 0.02], [0.0, 0.06]]", "[[-0.06, 0.0], [0.03, -0.06]]")  # shifts of 6-13 pixels at 160 x 120
 
 
+@pytest.mark.slow  # 20 cases, about 0.5 s each
 @pytest.mark.parametrize("name", ["builtin:cloister", "spot.obj", "teapot.obj", "cow.obj"])
 @pytest.mark.parametrize(("noise", "matrices"), [("{scale: 0.01, octaves: 4}", SHIPPED), ("{kind: white}", SHIPPED),
                                                  ("{hold: 1, octaves: 3}", SHIPPED), ("{kind: white}", WIDE),
@@ -323,6 +325,7 @@ CURTIS = ("pipeline: t\nsize: [{w}, {h}]\nreference_size: {ref}\nscene: {scene}\
           "outputs:\n  edges: e.edges\n  gradient: e.gradient\n  magnitude: e.magnitude\n  field: f.out\n")
 
 
+@pytest.mark.slow  # up to 2.6 s a case
 @pytest.mark.parametrize(("size", "ref", "depth", "params", "restoring"), [
     ((160, 120), 800, "linear_depth", "{}", "rotated"),  # px_scale 0.15: weights that are not small integers
     ((200, 200), 200, "linear_depth", "{threshold: 0.01}", "gradient"),  # px_scale 1: the seed's filters
@@ -350,6 +353,7 @@ def test_depth_edges_and_the_force_field_drawn_inside_their_footprints_give_the_
         assert edges.pixels.any() and edges.footprint.blank == (0.0,)
 
 
+@pytest.mark.slow  # 16 s
 def test_loose_and_sketchy_draws_its_filters_inside_their_footprints(gl):
     refs = [("edges", "edges"), ("field", "out"), ("particles", "image")]
 
@@ -376,6 +380,7 @@ def _tight(gl, rng, size, rect, fmt, blank, values):
     return tex
 
 
+@pytest.mark.slow  # 6 cases, 4.7 s the largest
 @pytest.mark.parametrize("reference", [None, 37, 200])  # px_scale 1 (the seed's), > 1, < 1
 @pytest.mark.parametrize("mode", ["window", "linear"])
 def test_curtis_filters_on_a_tight_footprint_give_the_whole_passes(gl, rng, reference, mode):
@@ -491,6 +496,7 @@ def test_textures_from_the_disk_cache_keep_their_footprints(gl, tmp_path):
         footprint.ENABLED = True
 
 
+@pytest.mark.slow  # 1.5 s a case
 @pytest.mark.parametrize("pipeline", ["pencil_contours", "pencil"])
 def test_contours_drawn_inside_the_edges_footprint_give_the_whole_pass(gl, pipeline):
     # pencil_contours asks for the colour (the paper everywhere, the attempts inside the edges' footprint grown
@@ -542,6 +548,7 @@ def test_contours_on_a_tight_footprint_give_the_whole_pass(gl, rng, ports):
     assert (got[False]["out"][:5, :5] == 1.0).all()  # the degenerate normals far from any edge: bare paper
 
 
+@pytest.mark.slow  # 3.1 s
 def test_particle_ink_and_its_composite_are_drawn_inside_their_footprints(gl):
     # the ink's footprint is its strokes' bounding rectangle; the drawing and the shaded pipeline's composite
     # (the sketch under the ink) are drawn inside the union of their inputs' footprints

@@ -14,15 +14,18 @@ import json
 import os
 import struct
 import time
+import tracemalloc
 from collections import Counter
 from pathlib import Path
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from tests.nodegraph.faultkit import ROOT, assert_one_line_error, cli, cli_subprocess, tiny_pipeline
+
+pytestmark = pytest.mark.slow  # about 20 s: Hypothesis runs the CLI and the mesh readers hundreds of times
 
 SHIPPED = sorted((ROOT / "pipelines").glob("*.yaml"))
 SETTINGS = dict(derandomize=True, deadline=None, database=None,
@@ -121,10 +124,17 @@ def test_mutated_pipelines(tmp_path_factory: pytest.TempPathFactory, text: str) 
     d = tmp_path_factory.mktemp("mut")
     p = d / "p.yaml"
     p.write_bytes(text.encode("latin-1", "replace") if any(ord(c) > 127 for c in text) else text.encode())
-    t0 = time.perf_counter()
     out = cli("run", p, "-o", d / "o.png", "--no-cache", "--size", "16x16")
-    assert time.perf_counter() - t0 < 30
-    _check(out, "mutated pipelines", d / "o.png")
+    if _check(out, "mutated pipelines", d / "o.png") == "ok":
+        # the work a run may do is bounded by --size, whatever the mutation did to the file (a dropped or
+        # mangled `size` included): what it drew is 16 x 16 pixels (the PNG's IHDR: width, height)
+        assert _png_size(d / "o.png") == (16, 16)
+
+
+def _png_size(path: Path) -> tuple[int, int]:
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR", head
+    return struct.unpack(">II", head[16:24])
 
 
 # -- params, sizes, frames ---------------------------------------------------------------------------------
@@ -170,20 +180,29 @@ FRAMES_TEXT = st.one_of(
 
 @settings(max_examples=60, **SETTINGS)
 @given(frames=FRAMES_TEXT)
+@example(frames="0:1000000")  # MAX_FRAMES frames: the most it builds
+@example(frames="0:5000000")  # a few times more: refused before anything is built
 def test_frames(tmp_path_factory: pytest.TempPathFactory, frames: str) -> None:
     from nodegraph.errors import SketchgraphError
     from nodegraph.output.write import MAX_FRAMES, parse_frames
 
-    t0 = time.perf_counter()
+    parse_frames("0")  # its pattern compiled before memory is measured
+    tracemalloc.start()
     try:
         got = parse_frames(frames)
     except SketchgraphError as exc:
         assert "\n" not in str(exc) and len(str(exc)) < 200
         _record("--frames (parse)", "error")
+        got = []
     else:
         assert 1 <= len(got) <= MAX_FRAMES
         _record("--frames (parse)", "ok")
-    assert time.perf_counter() - t0 < 2
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    # the work is bounded by what it returns, not by the range asked for (up to 2e15 frames): a refused
+    # range is never built, an accepted one is built once (a list of at most MAX_FRAMES ints, ~40 bytes each)
+    assert peak <= 64 * 1024 + 64 * len(got), (frames, peak)
     if len(frames) < 6 or ":" not in frames:  # a few small ones through the CLI, rendering every frame
         d = tmp_path_factory.mktemp("frames")
         out = cli("run", tiny_pipeline(d), "-o", d / "f_####.png", "--no-cache", "--size", "8x8", "--frames", frames)
@@ -219,6 +238,7 @@ def triangles(draw: st.DrawFn) -> list:
 
 
 TRIS = triangles()
+MESH_PEAK_BASE, MESH_PEAK_PER_BYTE = 4 * 1024**2, 1024  # bytes allocated loading one mesh: ~0.3 MiB here
 
 
 @st.composite
@@ -266,9 +286,40 @@ def mesh_file(draw: st.DrawFn) -> tuple[str, bytes]:
     return fmt, data
 
 
+@pytest.fixture(scope="module")
+def mesh_readers_imported(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """One valid file of each format loaded before any memory is measured: the readers' modules are imported
+    on first use (several MiB), which is no part of loading one mesh."""
+    from nodegraph.scene.meshes import clear_mesh_cache, load_mesh
+
+    d = tmp_path_factory.mktemp("mesh-warm")
+    verts = [v for t in TETRA for v in t]
+    files = {"obj": ("".join(f"v {x} {y} {z}\n" for x, y, z in verts)
+                     + "".join(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n" for i in range(4))).encode(),
+             "off": ("OFF\n12 4 0\n" + "".join(f"{x} {y} {z}\n" for x, y, z in verts)
+                     + "".join(f"3 {3 * i} {3 * i + 1} {3 * i + 2}\n" for i in range(4))).encode(),
+             "ply": ("ply\nformat ascii 1.0\nelement vertex 12\nproperty double x\nproperty double y\n"
+                     "property double z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n"
+                     + "".join(f"{x} {y} {z}\n" for x, y, z in verts)
+                     + "".join(f"3 {3 * i} {3 * i + 1} {3 * i + 2}\n" for i in range(4))).encode(),
+             "stl": _stl_binary(TETRA, b"binary", None)}
+    for fmt, data in files.items():
+        (d / f"m.{fmt}").write_bytes(data)
+        clear_mesh_cache()
+        load_mesh(d / f"m.{fmt}")
+
+
+PLY_CLAIMING_2_31_FACES = (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                           b"property double z\nelement face 2147483648\nproperty list uchar int vertex_indices\n"
+                           b"end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+
+
 @settings(max_examples=300, **SETTINGS)
 @given(mesh=mesh_file())
-def test_mesh_files_load_or_refuse(tmp_path_factory: pytest.TempPathFactory, mesh: tuple[str, bytes]) -> None:
+@example(mesh=("ply", PLY_CLAIMING_2_31_FACES))  # headers claiming more than the file holds, always tried
+@example(mesh=("stl", _stl_binary(TETRA, b"binary", 2**32 - 1)))
+def test_mesh_files_load_or_refuse(tmp_path_factory: pytest.TempPathFactory, mesh_readers_imported: None,
+                                   mesh: tuple[str, bytes]) -> None:
     import warnings
 
     from nodegraph.errors import MeshError
@@ -278,7 +329,7 @@ def test_mesh_files_load_or_refuse(tmp_path_factory: pytest.TempPathFactory, mes
     p = tmp_path_factory.mktemp("mesh") / f"m.{fmt}"
     p.write_bytes(data)
     clear_mesh_cache()
-    t0 = time.perf_counter()
+    tracemalloc.start()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -291,8 +342,16 @@ def test_mesh_files_load_or_refuse(tmp_path_factory: pytest.TempPathFactory, mes
             import numpy as np
 
             assert np.isfinite(m.vertices).all() and np.abs(m.vertices).max() < 3.4e38 and m.n_faces > 0
+            # what it built comes from the bytes in the file, never from a count a header claims (up to
+            # 10^13 here): every vertex and face takes at least a byte of the file
+            assert len(m.vertices) <= len(data) and m.n_faces <= len(data)
             _record(f"mesh files ({fmt})", "ok")
-    assert time.perf_counter() - t0 < 10
+        finally:
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+    # and so does its work: the memory it allocated on the way (NumPy arrays included) is bounded by the file's
+    # size, whatever the header claims (a claimed 2^31 faces would take 24 GiB)
+    assert peak <= MESH_PEAK_BASE + MESH_PEAK_PER_BYTE * len(data), (fmt, len(data), peak)
 
 
 @settings(max_examples=4, **SETTINGS)

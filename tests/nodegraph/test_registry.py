@@ -121,6 +121,7 @@ def test_lazy_types_are_imported_on_first_use_and_checked(tmp_path: Path, monkey
         sys.modules.pop("lazyplugin", None)
 
 
+@pytest.mark.slow  # CLI processes, about 2 s each
 def test_a_pipeline_imports_only_the_node_packages_it_uses():
     """In a fresh process: loading the default pipeline imports its five node packages and no other."""
     import subprocess
@@ -135,6 +136,7 @@ def test_a_pipeline_imports_only_the_node_packages_it_uses():
     assert out.stdout.strip() == str(sorted(["rasterize", "edge_detect", "perlin_noise", "sketch", "depth_sprite"]))
 
 
+@pytest.mark.slow  # CLI processes, about 2 s each
 @pytest.mark.parametrize("args", [["--help"], ["nodes"], ["nodes", "edge_detect"]])
 def test_help_and_nodes_import_no_gl_numba_scipy(args):
     """`sketchgraph --help` and `sketchgraph nodes` import none of moderngl, numba, scipy, libigl, OpenImageIO;

@@ -18,6 +18,7 @@ def _run(args: list[str]) -> None:
     assert res.exit_code == 0, res.output
 
 
+@pytest.mark.slow  # 4 pipelines, up to 2.8 s each
 @pytest.mark.parametrize("name", ["nienhaus_sketchy", "repeated_edges", "chalk", "object_space_uncertainty"])
 def test_frame_alone_equals_frame_in_sequence(gl, tmp_path, monkeypatch, name):
     monkeypatch.setattr(warnings, "showwarning", warnings.showwarning)  # the CLI installs its own

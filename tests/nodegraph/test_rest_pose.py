@@ -86,6 +86,7 @@ def test_surface_metric_is_zero_for_the_same_frame():
     assert surface_pair_metric(pos, off, pos, rng.random((8, 8, 4)))[0] > 0.3
 
 
+@pytest.mark.slow  # 3.4 s
 def test_rest_pose_noise_sticks_to_a_bending_tube(gl, tube):
     """The shower-door metric over the bend (24 frames): noise at rest-pose positions moves far less with
     the surface than noise at posed positions (docs/animation.md has the figures)."""

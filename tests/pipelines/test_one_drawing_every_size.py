@@ -24,6 +24,7 @@ def session(gl):
         yield s
 
 
+@pytest.mark.slow  # a large render per pipeline, up to 3.4 s
 @pytest.mark.parametrize("name", names())
 def test_large_render_downsampled_matches_the_small_one(session, name):
     keep: dict = {}
@@ -34,6 +35,7 @@ def test_large_render_downsampled_matches_the_small_one(session, name):
     assert abs(row["mean_luminance_small"] - row["mean_luminance_large"]) < 0.025
 
 
+@pytest.mark.slow  # 2.3 s
 def test_per_pixel_params_fail_the_check(session):
     """The check can fail: with every size its own reference (the old per-pixel params) the default
     pipeline's 400 px render is far from the 1600 px one."""

@@ -23,6 +23,7 @@ from nodegraph.tools.bench.measure import NodeRunner, gbuffer, release, scene_fo
 from tests.conftest import shared_mesh
 
 
+@pytest.mark.slow  # 800 px renders, up to 2.4 s a mesh
 @pytest.mark.parametrize("name", ["fandisk.obj", "spot.obj", "stanford-bunny.obj"])
 def test_edge_detection_reaches_the_target_f1_at_800(gl, name):
     """The issue's target: best setting F1 >= 0.85 at 800x800 with 1-px tolerance (the default setting)."""
@@ -70,6 +71,7 @@ def test_pareto_front():
     assert pareto(xs, [1 - y for y in ys], maximize_y=False) == [0, 4, 3]
 
 
+@pytest.mark.slow  # the quick accuracy sitting
 def test_bench_accuracy_quick_writes_json_and_charts(gl, tmp_path):
     pytest.importorskip("matplotlib")
     for name in ("fandisk.obj", "spot.obj", "stanford-bunny.obj"):

@@ -13,6 +13,7 @@ def _summary(x: float) -> dict[str, float]:
     return {"median": x, "min": 0.8 * x, "max": 1.3 * x}
 
 
+@pytest.mark.slow  # 3.1 s
 def test_charts_are_written(tmp_path) -> None:
     pytest.importorskip("matplotlib")
     u = {"size": [40, 40], "entries": [

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from nodegraph.cli import main
@@ -26,6 +27,7 @@ def test_pipeline_benchmark_reports_both_frame_rates_and_the_draws(gl, tmp_path:
     assert set(b["nodes"]) == {"gbuf", "edges", "sketch"}
 
 
+@pytest.mark.slow  # benchmark rounds, 2.6 s
 def test_footprint_benchmark_compares_both_ways(gl, tmp_path: Path):
     out = tmp_path / "f.json"
     res = CliRunner().invoke(main, ["bench", "footprint", "--scene", "builtin:torus", "--frames", "2",
@@ -37,6 +39,7 @@ def test_footprint_benchmark_compares_both_ways(gl, tmp_path: Path):
     assert 0.0 < b["output_footprint_share"] < 1.0  # the torus leaves part of the view to the paper
 
 
+@pytest.mark.slow  # benchmark rounds
 def test_film_benchmark_reports_best_and_paired_ratios_of_its_rounds(gl, tmp_path: Path):
     out = tmp_path / "film.json"
     res = CliRunner().invoke(main, ["bench", "film", "--scene", "builtin:torus", "--frames", "3", "--size", "96x80",

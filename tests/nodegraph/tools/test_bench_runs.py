@@ -7,11 +7,13 @@ import json
 import statistics
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from nodegraph.cli import main
 
 
+@pytest.mark.slow  # benchmark: runs the CLI as processes
 def test_cold_cache_benchmark_pairs_its_runs_and_reports_their_ratios(gl, tmp_path: Path):
     out = tmp_path / "cold.json"
     res = CliRunner().invoke(main, ["bench", "cold-cache", "--scene", "builtin:torus", "--size", "96x64",
@@ -28,6 +30,7 @@ def test_cold_cache_benchmark_pairs_its_runs_and_reports_their_ratios(gl, tmp_pa
     assert b["cache_written"]["entries"] >= 1 and b["cache_written"]["bytes"] > 0
 
 
+@pytest.mark.slow  # benchmark: runs the CLI as processes
 def test_startup_benchmark_counts_each_run_and_writes_bytecode_where_asked(gl, tmp_path: Path):
     out = tmp_path / "startup.json"
     res = CliRunner().invoke(main, ["bench", "startup", "--scene", "builtin:torus", "--size", "96x64", "--runs", "2",

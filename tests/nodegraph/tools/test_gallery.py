@@ -74,6 +74,7 @@ def test_every_pipeline_has_an_entry():
 
 
 # -- builds ----------------------------------------------------------------------------------------------
+@pytest.mark.slow  # a browser / gallery builds
 def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     with gal.TemporaryCache() as fresh:
         cold = build(tiny, fresh, cold=True)
@@ -242,6 +243,7 @@ def run_chromium(url: str, tmp: Path, *args: str) -> subprocess.CompletedProcess
     return subprocess.run(cmd, capture_output=True, text=True, timeout=90)
 
 
+@pytest.mark.slow  # a browser / gallery builds
 def test_page_in_headless_chromium(gl, tiny, tmp_path):
     if chromium() is None:
         pytest.skip("chromium is not installed (Debian: apt-get install chromium); the page is not checked "

@@ -3,7 +3,6 @@ stability`, see docs/stability.md): a warning, a fallback or a clear error; neve
 
 from __future__ import annotations
 
-import time
 import warnings
 from dataclasses import replace
 
@@ -233,6 +232,7 @@ def test_curvature_rejects_nan_coordinates_clearly():
     ("suzanne.obj", lambda t: t.n_components == 4),
     ("stanford-bunny.obj", lambda t: t.n_boundary_edges > 0 and t.n_unreferenced > 1000),
 ])
+@pytest.mark.slow  # up to 1.7 s a mesh
 def test_shared_broken_meshes_draw_and_measure(gl, name, check):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", MeshWarning)
@@ -250,14 +250,19 @@ def test_shared_broken_meshes_draw_and_measure(gl, name, check):
 # -- particles -------------------------------------------------------------------------------------
 @pytest.mark.parametrize("params", [dict(drag=0.0), dict(randomness=1e9), dict(mass=1e-12),
                                     dict(drag=0.0, mass=1e-9, randomness=1e9, step=100.0)])
-def test_particles_at_extremes_end_quickly_with_finite_ink(params):
+def test_particles_at_extremes_end_within_their_caps_with_finite_ink(params):
     core = pytest.importorskip("nodegraph_nodes.particle_sketch.core")
     yy, xx = np.mgrid[0:160, 0:160]
     depth = np.where((xx - 80.0) ** 2 + (yy - 80.0) ** 2 < 50.0**2, 0.4, 1.0)
     edges, ff = core.prepare(depth, 0.03)
-    t0 = time.perf_counter()
-    res = core.simulate(edges, ff, core.ParticleParams(strokes=500, **params), np.random.default_rng(0))
-    assert time.perf_counter() - t0 < 20.0
+    pp = core.ParticleParams(strokes=500, **params)
+    res = core.simulate(edges, ff, pp, np.random.default_rng(0))
+    # the run ends by its caps whatever the dynamics do (no drag, huge forces, no mass): at most `strokes`
+    # particles, each drawing at most `max_steps` segments, and every segment counted is in a returned stroke
+    assert res.launched <= pp.strokes
+    assert len(res.strokes) <= res.launched
+    assert all(2 <= len(s) <= pp.max_steps + 1 for s in res.strokes)
+    assert res.steps == sum(len(s) - 1 for s in res.strokes) <= res.launched * pp.max_steps
     assert np.isfinite(res.sketch).all() and ((res.sketch >= 0) & (res.sketch <= 1)).all()
     assert all(np.isfinite(s).all() for s in res.strokes)
     cov, prec = core.coverage_precision(res.sketch, edges)

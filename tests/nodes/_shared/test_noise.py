@@ -104,6 +104,7 @@ def test_seed_offset():
     assert len({tuple(ref.seed_offset(s)) for s in range(200)}) == 200
 
 
+@pytest.mark.slow  # 1.4 s
 def test_different_seeds_give_unrelated_patterns():
     a = ref.screen_offsets(256, 256, 0.2, 4, seed=1)
     b = ref.screen_offsets(256, 256, 0.2, 4, seed=2)
@@ -311,6 +312,7 @@ MODE_ID = {"turbulence": 0, "fbm": 1}
 GPU_TOL = 1e-5
 
 
+@pytest.mark.slow  # 4.9 s (turbulence)
 @pytest.mark.parametrize("mode", ["turbulence", "fbm"])
 def test_gpu_screen_offsets_match_reference(gpu, mode):
     w, h, scale, octaves, seed = 64, 48, 0.05, 4, 7
@@ -322,6 +324,7 @@ def test_gpu_screen_offsets_match_reference(gpu, mode):
     assert err <= GPU_TOL
 
 
+@pytest.mark.slow  # 3.4 s
 def test_gpu_screen_offsets_wide_image_large_coordinates(gpu):
     """4096 px wide at 0.37 cycles/px: noise coordinates up to ~1500 before the seed offset."""
     w, h, scale, octaves, seed = 4096, 8, 0.37, 4, 2024

@@ -118,6 +118,7 @@ def test_ellipsoid_directions_kept_away_from_the_umbilics():
     assert np.percentile(err, 95) < 6.0
 
 
+@pytest.mark.slow  # up to 3.1 s a mesh
 @pytest.mark.parametrize("name", ["fandisk.obj", "spot.obj", "cow.obj"])
 def test_shared_meshes_smooth_dominates_spread_at_equal_smoothness(name):
     """The claim of docs/pencil.md: at the smoothness spread reaches (at 0.05 and 0.1), the smooth field

@@ -150,6 +150,7 @@ def _ff2_in_the_picture(gl, size: int, reference: int) -> np.ndarray:
     return ff2.reshape(64, f, 64, f, 2).mean(axis=(1, 3))
 
 
+@pytest.mark.slow  # 1.9 s
 def test_ff2_keeps_its_shape_in_the_picture_at_every_size(gl):
     """A disc at the same place in the picture at 64, 128 and 256 px, reference 128: the restoring part of
     the field, area-averaged to 64 px, is close to the reference size's (per reference pixel); with the

@@ -136,6 +136,7 @@ SEQUENTIAL_CASES = [
 ]
 
 
+@pytest.mark.slow  # the pure-Python reference each case, up to 2.7 s
 @pytest.mark.parametrize("engine", ["jit", "numpy"])
 @pytest.mark.parametrize("case", SEQUENTIAL_CASES, ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()))
 def test_sequential_engines_equal_the_python_reference_bit_for_bit(cow160, engine, case):

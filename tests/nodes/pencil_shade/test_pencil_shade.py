@@ -289,6 +289,7 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
     assert assert_outputs_as_planned(ex, res, "s") == ["blend", "color", "shade"]
 
 
+@pytest.mark.slow  # ogre 8.8 s, the rest about 1 s
 @pytest.mark.parametrize("name", ["torus", "spot", "teapot", "ogre"])
 def test_same_pixels_as_the_geometry_shader(gl, name: str):
     """The deferred implementation (corner slots, G-buffer, depth-tested full-screen pass) against what the
@@ -350,6 +351,7 @@ def _both_implementations(gl, pipe, scene, frame, needed, only=None):
     return {k: v.read() for k, v in out.items()}
 
 
+@pytest.mark.slow  # 1-2 s a case
 @pytest.mark.parametrize("anchor, mirror, more", [("object", False, []), ("object", True, []), ("screen", False, []),
                                                  ("object", False, ["shade.layers=3", "shade.texel_scale=2.5"])])
 def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mirror: bool, more: list[str]):

@@ -38,9 +38,10 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 
 
 def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
-    """Against the file written here: one object, its faces as written, its vertices stood up (a pyramid on
-    a flat base at z = 0 reads as Z-up: +Z turned to +Y, nodegraph/scene/framing.py), identity transform, and
-    every vertex inside the camera's view (projected with the camera matrices in float64)."""
+    """Against the file written here: one object, its faces and vertices as written (an OBJ is Y-up, and a
+    pyramid that can rest on its side gives no strong evidence against it: nodegraph/scene/framing.py),
+    identity transform, and every vertex inside the camera's view (projected with the camera matrices in
+    float64)."""
     verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
     faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
     f = tmp_path / "m.obj"
@@ -50,7 +51,7 @@ def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
                           size=(48, 40), load_scene=False)
     scene = res.values[("s", "out")]
     (obj,) = scene.objects
-    stood = verts @ framing.up_rotation("z")[:3, :3].T
+    stood = verts @ framing.up_rotation("y")[:3, :3].T
     assert np.array_equal(obj.mesh.vertices, stood) and np.array_equal(obj.mesh.faces, faces)
     assert np.array_equal(np.asarray(obj.transform), np.eye(4))
     cam = scene.camera_at(0)
