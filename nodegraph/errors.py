@@ -33,8 +33,30 @@ class PipelineError(SketchgraphError):
         super().__init__(f"{location}: {message}" if location else message)
 
 
+class ArgumentError(SketchgraphError):
+    """A Python API call got an argument it cannot use (nodegraph/api.py). Never raised bare: each error is also
+    the builtin exception Python code expects for the fault (`ArgumentTypeError` is a `TypeError`,
+    `ArgumentValueError` a `ValueError`), so `except TypeError` and `except SketchgraphError` both catch it. The
+    message is one line naming the argument as the API spells it (`size=`, `frame=`), what was expected and
+    what was found."""
+
+
+class ArgumentTypeError(ArgumentError, TypeError):
+    """An API argument of the wrong type (`size=100`, `frame='a'`, `size=(True, True)`: bool is not a number)."""
+
+
+class ArgumentValueError(ArgumentError, ValueError):
+    """An API argument of the right type but out of range or unusable (`frame=2**40`, `dtype='float16'`)."""
+
+
 class PortTypeError(PipelineError):
     """A connection joins ports of incompatible types."""
+
+
+class PipelineArgumentError(PipelineError, ArgumentValueError):
+    """An API argument the pipeline cannot take: a `load` option (`scene=` not found, `size=` out of range, a `set=`
+    naming no parameter) or an output or NODE.PORT it does not have. A `PipelineError`, as the same fault is on
+    the command line, and an `ArgumentValueError` (so a `ValueError`)."""
 
 
 class CycleError(PipelineError):

@@ -9,6 +9,15 @@ only when the writer finished without error, so a failed write (a full disk, a s
 previous file as it was and no partial file behind. A frame sequence writes its frames with `sync=False`
 and makes them durable together at its end (`sync_written`): a killed process still leaves each frame
 whole or absent, and the command returns only once its frames are on disk.
+
+Before anything renders, `check_output(path)` (a file) and `check_output_folder(path)` (a folder the output
+goes into) refuse, with one line, what cannot be written: a part of the folder that is a file, a target that is
+a folder or a device, a folder that takes no new files (tried by creating and removing a temporary file).
+
+Temporary files are hidden and carry the writer's process id: `.NAME.tmp-PID-N.EXT` (`atomic_output`) and
+`.NAME.partial-PID-N.EXT` (films). A killed writer leaves its file; `clean_stale_temps` (called by the next
+run writing the same output) removes those whose process is gone, or which are older than `STALE_AGE` (the
+pid may be reused), and never another live process's or this process's own.
 """
 
 from __future__ import annotations
@@ -18,7 +27,9 @@ import errno
 import functools
 import itertools
 import os
+import re
 import stat
+import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -28,6 +39,11 @@ from .errors import SketchgraphError
 
 class OutputError(SketchgraphError):
     """An output file could not be written; the previous file (if any) is unchanged."""
+
+
+class OutputPathError(OutputError, ValueError):
+    """An output path that cannot be written, found before anything renders (`check_output`): a part of its
+    folder is a file, it is a folder or a device, or its folder takes no new files."""
 
 
 class IncompleteWrite(OutputError):
@@ -122,6 +138,156 @@ def make_folder(folder: Path, for_path: Path) -> None:
                           f"{_os_reason(exc)}") from None
     if not folder.is_dir():
         raise OutputError(f"{show_path(for_path)}: cannot write: {show_path(folder)} is not a folder")
+
+
+def _kind_of(mode: int) -> str:
+    return "a file" if stat.S_ISREG(mode) else _kind(mode)
+
+
+def _existing_folder(folder: Path, for_path: Path) -> Path:
+    """The deepest existing folder at or above `folder`; one line when one of them is a file (or a device)."""
+    cur = folder if str(folder) else Path(".")
+    while True:
+        try:
+            st = os.stat(cur)
+        except (FileNotFoundError, NotADirectoryError):
+            up = cur.parent
+            if up == cur:
+                raise OutputPathError(f"{show_path(for_path)}: cannot write: no part of its folder exists") from None
+            cur = up
+            continue
+        except OSError as exc:
+            raise OutputPathError(f"{show_path(for_path)}: cannot write: {show_path(cur)}: {_os_reason(exc)}") \
+                from None
+        except ValueError:
+            raise OutputPathError(f"{show_path(for_path)}: cannot write: the path contains a NUL character") from None
+        if stat.S_ISDIR(st.st_mode):
+            return cur
+        raise OutputPathError(f"{show_path(for_path)}: cannot write: {show_path(cur)} is {_kind_of(st.st_mode)}, "
+                              "not a folder")
+
+
+def _probe_folder(folder: Path, for_path: Path) -> None:
+    """Create and remove a temporary file (named as `atomic_output` names them) in `folder`: one line when the
+    folder takes no new files (read-only, no permission, no space for a file)."""
+    name = for_path.name or "output"
+    tmp = folder / f".{name}.tmp-{os.getpid()}-{next(_temp_numbers)}{for_path.suffix}"
+    try:
+        fd = os.open(tmp, _TEMP_FLAGS, 0o666)
+    except OSError as exc:
+        raise OutputPathError(f"{show_path(for_path)}: cannot write in {show_path(folder)}: {_os_reason(exc)}") \
+            from None
+    os.close(fd)
+    _remove(tmp)
+
+
+def check_output(path: str | os.PathLike[str]) -> Path:
+    """Before anything renders: `path` can be written as a file. One line (`OutputPathError`) when a part of its
+    folder is a file, it is a folder or a device (`/dev/null`: replacing a device is never what was meant), or
+    the deepest existing folder takes no new files. Creates nothing it leaves behind; returns `path`."""
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None
+    except OSError as exc:
+        raise OutputPathError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    except ValueError:
+        raise OutputPathError(f"{show_path(p)}: cannot write: the path contains a NUL character") from None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise OutputPathError(f"{show_path(p)}: cannot write: it is a folder; give a file's name (inside it, or "
+                              "beside it)")
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        raise OutputPathError(f"{show_path(p)}: cannot write: expected a regular file, found {_kind(st.st_mode)}")
+    _probe_folder(_existing_folder(p.parent, p), p)
+    return p
+
+
+def check_output_folder(path: str | os.PathLike[str]) -> Path:
+    """Before anything renders: `path` is a folder that takes new files, or can be made one. One line
+    (`OutputPathError`) otherwise: it is a file or a device, a part above it is a file, files cannot be made."""
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None
+    except OSError as exc:
+        raise OutputPathError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    except ValueError:
+        raise OutputPathError(f"{show_path(p)}: cannot write: the path contains a NUL character") from None
+    if st is not None and not stat.S_ISDIR(st.st_mode):
+        raise OutputPathError(f"{show_path(p)}: cannot write into it: expected a folder, found {_kind_of(st.st_mode)}")
+    folder = p if st is not None else _existing_folder(p.parent, p)
+    _probe_folder(folder, p / "probe")
+    return p
+
+
+STALE_AGE = 24 * 3600.0
+"""Seconds after which a temporary file counts as stale even when a process with its pid runs (pids are reused)."""
+
+_TEMP_NAME = re.compile(r"\.(?P<target>.+)\.(?:tmp|partial)-(?P<pid>\d{1,10})(?:-\d{1,20})?(?P<ext>\.[^.]*)?")
+
+
+def temp_target(name: str) -> tuple[str, int] | None:
+    """(the output's name, the writer's pid) of one of our temporary files' names, else None."""
+    m = _TEMP_NAME.fullmatch(name)
+    if m is None:
+        return None
+    target = m.group("target")
+    if (m.group("ext") or "") != os.path.splitext(target)[1]:
+        return None
+    return target, int(m.group("pid"))
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process `pid` runs on this machine (a process of another user counts)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    except OverflowError:
+        return False
+    return True
+
+
+def clean_stale_temps(folder: str | os.PathLike[str], target: str | re.Pattern[str]) -> list[Path]:
+    """Remove our temporary files in `folder` for outputs named `target` (a name, or a pattern the whole name
+    matches) whose writer is gone: its pid is not a live process here, or the file is older than `STALE_AGE`.
+    Never this process's own files, never anything but regular files named as ours. Returns what was removed;
+    a folder that cannot be listed is left alone."""
+    matches = (lambda n: n == target) if isinstance(target, str) else (lambda n: target.fullmatch(n) is not None)
+    removed: list[Path] = []
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except (OSError, ValueError):
+        return removed
+    for entry in entries:
+        found = temp_target(entry.name)
+        if found is None or not matches(found[0]) or found[1] == os.getpid():
+            continue
+        try:
+            st = entry.stat(follow_symlinks=False)
+        except OSError:
+            continue
+        if not stat.S_ISREG(st.st_mode):
+            continue
+        if pid_alive(found[1]) and now - st.st_mtime < STALE_AGE:
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed
+
+
+def new_temp_name(p: Path, kind: str = "tmp") -> Path:
+    """A temporary path beside `p` named as ours (`.NAME.KIND-PID-N.EXT`), not yet created."""
+    folder = p.parent if str(p.parent) else Path(".")
+    return folder / f".{p.name}.{kind}-{os.getpid()}-{next(_temp_numbers)}{p.suffix}"
 
 
 def _probe_reason(tmp: Path) -> str | None:

@@ -3,11 +3,15 @@ pattern with `####` (PNG, EXR; one file per frame).
 
 Encoding and file writing run beside rendering: the render loop reads each frame back and hands it to a
 worker thread through a bounded queue, so a film costs little more than its frames. A film is encoded to
-a hidden temporary file in the output's folder and renamed when the container is finalised; if the run
-fails or is interrupted the temporary file is removed, so the output is either a complete, playable film
-or absent. With `resume`, image sequences keep the frames manifest of `nodegraph.output.frames_manifest` (beside the
+a hidden temporary file in the output's folder (`.NAME.partial-PID-N.EXT`) and renamed when the container is
+finalised; if the run fails or is interrupted the temporary file is removed, so the output is either a
+complete, playable film or absent. A killed run cannot remove it: the next film written to the same output
+(or an image sequence's next run, for its frames' `.tmp-` files) removes the temporary files whose process is
+gone (`fsio.clean_stale_temps`). A failed write (a full disk, the file-size limit) is one line naming the
+output. With `resume`, image sequences keep the frames manifest of `nodegraph.output.frames_manifest` (beside the
 pattern: frame -> the digest of what it was rendered from and the file's SHA-256, shared with distributed
-runs) and skip frames already written from the same keys whose files are intact.
+runs) and skip frames already written from the same keys whose files are intact; `render_frames` reports the
+frames it wrote and those it skipped apart.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import re
 import threading
 from collections.abc import Callable, Iterable
 from fractions import Fraction
@@ -24,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import SketchgraphError
+from ..fsio import OutputError, clean_stale_temps, make_folder, new_temp_name, show_path
 from .write import Bytes8, PngRows
 
 if TYPE_CHECKING:
@@ -54,8 +60,89 @@ Y-PSNR 47.98 against 47.92 dB (the noise that changes every frame leaves B-frame
 `bench film` extra CPU 12.4-13.5 against 14.4-14.5 ms a frame (three interleaved runs; the rates in the noise)."""
 
 
+MIN_FPS = 0.01
+MAX_FPS = 1000.0
+"""Frames per second `--fps` may give, and any film's rate (`FilmWriter`): a finite number in [MIN_FPS, MAX_FPS].
+A film's frame rate is a fraction with a denominator of at most 1001."""
+
+
 def is_film(path: str | Path) -> bool:
     return Path(str(path)).suffix.lower() in FILM_FORMATS
+
+
+def check_target(pattern: str, frames: list[int] | range | None = None) -> None:
+    """Before anything renders: the files `pattern` names for `frames` (one image, a sequence or a film) can be
+    written, as `fsio.check_output` checks (no part of the folder is a file, no target is a folder or a device,
+    the folder takes new files), each fault one line (`fsio.OutputPathError`); then temporary files that killed
+    runs left for these outputs are removed (`fsio.clean_stale_temps`: ours by name, their process gone)."""
+    import os
+    import stat
+
+    from ..fsio import OutputPathError, check_output, clean_stale_temps, show_path
+    from .write import frame_name_re, frame_path
+
+    frames = frames if frames else [0]
+    many = len(frames) > 1 and not is_film(pattern)
+    first = frame_path(pattern, frames[0], many)
+    check_output(first)
+    names = frame_name_re(pattern)
+    if names is None:
+        return
+    folder = first.parent if str(first.parent) else Path(".")
+    wanted = None
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        m = names.fullmatch(entry.name)
+        if m is None or entry.name == first.name:
+            continue
+        try:
+            mode = entry.stat().st_mode
+        except OSError:
+            continue
+        if stat.S_ISREG(mode):
+            continue
+        if wanted is None:
+            wanted = set(frames) if many else set()
+        number = m.group(1) if m.groups() else None
+        if (number is None and not many) or (number is not None and int(number) in wanted):
+            kind = "a folder" if stat.S_ISDIR(mode) else "not a regular file"
+            raise OutputPathError(f"{show_path(entry.path)}: cannot write: it is {kind} (a frame of {pattern})")
+    clean_stale_temps(folder, re.compile(names.pattern + "|" + re.escape(f".{Path(pattern).name}.frames.json")))
+
+
+def check_folder(folder: str | Path) -> Path:
+    """Before anything renders: `folder` is (or can be made) a folder that takes new files; one line if not."""
+    from ..fsio import check_output_folder
+
+    return check_output_folder(folder)
+
+
+def check_fps(fps: Any, what: str = "--fps") -> float:
+    """`fps` as a float, or one line saying what a frame rate must be."""
+    import math
+
+    try:
+        rate = float(fps)
+    except (TypeError, ValueError, OverflowError):
+        rate = math.nan
+    if not (math.isfinite(rate) and MIN_FPS <= rate <= MAX_FPS):
+        raise SketchgraphError(f"{what}: expected frames per second between {MIN_FPS:g} and {MAX_FPS:g}, found "
+                               f"{str(fps)[:40]!r}")
+    return rate
+
+
+def _film_error(path: Path, exc: BaseException) -> OutputError:
+    """A failure of the film's encoder or file (PyAV's errors, OS errors) as one line naming the film."""
+    from ..fsio import _os_reason, clean
+
+    if isinstance(exc, OSError) and exc.errno is not None:
+        reason = _os_reason(exc)
+    else:
+        reason = clean(getattr(exc, "strerror", None) or str(exc) or type(exc).__name__)
+    return OutputError(f"{show_path(path)}: cannot write: {reason}")
 
 
 class _Worker:
@@ -95,7 +182,9 @@ class _Worker:
 
     def _check(self) -> None:
         if self.error is not None:
-            raise SketchgraphError(f"writing frames failed: {self.error}") from self.error
+            cls = OutputError if isinstance(self.error, OutputError) else SketchgraphError
+            text = " ".join(str(self.error).split()) or type(self.error).__name__
+            raise cls(f"writing frames failed: {text}") from self.error
 
 
 class FilmWriter:
@@ -107,9 +196,19 @@ class FilmWriter:
 
         self.path = Path(path)
         fmt, codec, pix, default_crf = FILM_FORMATS[self.path.suffix.lower()]
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.tmp = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
-        self.container = av.open(str(self.tmp), "w", format=fmt)
+        fps = check_fps(fps, "fps")
+        folder = self.path.parent if str(self.path.parent) else Path(".")
+        make_folder(folder, self.path)
+        clean_stale_temps(folder, self.path.name)  # what killed runs left for this film
+        legacy = folder / f".{self.path.stem}.partial{self.path.suffix}"  # the name before pids were in it
+        if legacy.is_file():
+            legacy.unlink(missing_ok=True)
+        self.tmp = new_temp_name(self.path, "partial")
+        try:
+            self.container = av.open(str(self.tmp), "w", format=fmt)
+        except Exception as exc:
+            self.tmp.unlink(missing_ok=True)
+            raise _film_error(self.path, exc) from None
         try:
             self.stream = self.container.add_stream(codec, rate=Fraction(fps).limit_denominator(1001))
             w, h = size
@@ -126,14 +225,25 @@ class FilmWriter:
                 options.update({"crf": str(quality), **({"b:v": "0"} if codec == "libvpx-vp9" else {})})
             if options:
                 self.stream.options = options
-        except Exception:
-            self.container.close()
+        except Exception as exc:
+            with contextlib.suppress(Exception):
+                self.container.close()
             self.tmp.unlink(missing_ok=True)
+            if isinstance(exc, (OSError, av.error.FFmpegError)):
+                raise _film_error(self.path, exc) from None
             raise
         self.frames = 0
         self._worker = _Worker(self._encode)
 
     def _encode(self, rgb: Any) -> None:
+        import av
+
+        try:
+            self._encode_frame(rgb)
+        except (OSError, av.error.FFmpegError) as exc:  # a full disk, the file-size limit (EFBIG), ...
+            raise _film_error(self.path, exc) from None
+
+    def _encode_frame(self, rgb: Any) -> None:
         import av
 
         from ..gpu.gl import Yuv420Planes
@@ -157,12 +267,19 @@ class FilmWriter:
         self.frames += 1
 
     def close(self) -> Path:
-        """Finish encoding, finalise the container, move it into place."""
+        """Finish encoding, finalise the container, move it into place. A failure (a full disk, the file-size
+        limit, the output turned into a folder meanwhile) is one line naming the film; the caller's `abort`
+        removes the temporary file."""
+        import av
+
         self._worker.finish()
-        for packet in self.stream.encode():
-            self.container.mux(packet)
-        self.container.close()
-        os.replace(self.tmp, self.path)
+        try:
+            for packet in self.stream.encode():
+                self.container.mux(packet)
+            self.container.close()
+            os.replace(self.tmp, self.path)
+        except (OSError, av.error.FFmpegError) as exc:
+            raise _film_error(self.path, exc) from None
         return self.path
 
     def abort(self) -> None:
@@ -188,7 +305,12 @@ class SequenceWriter:
     def __init__(self, pattern: str, resume: bool, png_level: int | None = None):
         from .frames_manifest import FramesManifest
         from .imageio import PNG_LEVEL
+        from .write import frame_name_re
 
+        names = frame_name_re(pattern)
+        if names is not None:  # temporary files killed runs left for these frames (and their manifest)
+            clean_stale_temps(Path(pattern).parent if str(Path(pattern).parent) else Path("."), re.compile(
+                names.pattern + "|" + re.escape(f".{Path(pattern).name}.frames.json")))
         self.manifest = FramesManifest.load(pattern) if resume else None
         self.png_level = PNG_LEVEL if png_level is None else png_level
         self._lock = threading.Lock()
@@ -251,7 +373,9 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
                   crf: int | None = None, resume: bool = False, bar: Callable[[list[int]], Any] | None = None,
                   png_level: int | None = None) -> dict[str, Any]:
     """Render `frames` of `ref` with executor `ex` into a film or an image sequence (by `pattern`'s extension).
-    Returns {"path", "frames", "skipped"}. The output key per frame is the node's key and the port.
+    Returns {"path", "frames", "skipped", "total"}: `frames` the frames this call wrote, `skipped` those an
+    earlier run had written (`resume`), `total` the frames asked for. The output key per frame is the node's key
+    and the port.
     Textures bound for 8-bit files are converted on the GPU: MP4 and WebM frames to their yuv420p planes
     (`GL.read_yuv420`, 1.5 bytes a pixel, handed to the encoder without swscale), GIF frames to `Bytes8`, PNG
     frames to the PNG's row bytes (`PngRows`, which zlib compresses as they are); everything else about the
@@ -293,7 +417,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
         except BaseException:
             film.abort()
             raise
-        return {"path": path, "frames": len(frame_list), "skipped": 0}
+        return {"path": path, "frames": len(frame_list), "skipped": 0, "total": len(frame_list)}
     many = len(frame_list) > 1
     from .frames_manifest import frame_digest
 
@@ -342,7 +466,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     finally:
         seq.close()
     return {"path": frame_path(pattern, frame_list[0], many) if frame_list else Path(pattern),
-            "frames": len(frame_list), "skipped": skipped}
+            "frames": len(frame_list) - skipped, "skipped": skipped, "total": len(frame_list)}
 
 
 def _host(value: Any) -> Any:
@@ -398,12 +522,14 @@ def prepare(pipe: Any, out: str | None, frames: str | None, fps: float | None, c
     from ..scene.scene import select_camera
     from .write import parse_frames
 
+    if fps is not None:
+        fps = check_fps(fps)
     if pipe.scene is not None:
         pipe.scene = with_fps(select_camera(pipe.scene, camera), fps)
     anim = getattr(pipe.scene, "animation", None)
     rate = float(fps) if fps is not None else (anim.fps if anim is not None else DEFAULT_FPS)
     if frames is None and out is not None and (is_film(out) or "#" in out):
-        whole = default_frames(pipe.scene)
+        whole = default_frames(pipe.scene)  # at most MAX_FRAMES, or one line suggesting --frames
         if whole is not None:
             return whole, rate
         if is_film(out):

@@ -8,11 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import SketchgraphError
-
-MAX_FRAMES = 1_000_000
-"""Most frames one --frames range may name."""
-MAX_FRAME = 2**31 - 1
-"""Frame numbers are stored as 32-bit integers (shader uniforms, seeds): |frame| at most this."""
+from ..scene.timeline import MAX_FRAME, MAX_FRAMES
 
 
 def parse_frames(text: str | None) -> list[int]:
@@ -46,6 +42,18 @@ def frame_path(pattern: str, frame: int, many: bool) -> Path:
         p = Path(pattern)
         return p.with_name(f"{p.stem}_{frame:04d}{p.suffix}")
     return Path(pattern)
+
+
+def frame_name_re(pattern: str) -> re.Pattern[str] | None:
+    """The file names `frame_path(pattern, frame, ...)` gives (one frame or many) in the pattern's folder, the
+    frame number as group 1 where there is one; None where `####` is in a folder's name (frames in many folders)."""
+    p = Path(pattern)
+    m = re.search(r"#+", p.name)
+    if "#" in str(p.parent):
+        return None
+    if m:
+        return re.compile(re.escape(p.name[:m.start()]) + r"(-?\d+)" + re.escape(p.name[m.end():]))
+    return re.compile(re.escape(p.name) + "|" + re.escape(p.stem) + r"_(-?\d+)" + re.escape(p.suffix))
 
 
 def to_image(value: Any) -> Any:

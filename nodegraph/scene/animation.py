@@ -18,6 +18,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from .timeline import MAX_FRAME, MAX_FRAMES
+
 Interpolation = Literal["LINEAR", "STEP", "CUBICSPLINE", "SMOOTH"]
 DEFAULT_FPS = 24.0
 
@@ -259,6 +261,22 @@ def with_fps(scene: Any, fps: float | None) -> Any:
 
 
 def default_frames(scene: Any) -> list[int] | None:
-    """The animation's frame range, or None for a static scene."""
+    """The animation's frame range, or None for a static scene. The range a run takes by default is capped as
+    a --frames range is: at most `MAX_FRAMES` frames, numbers within +-`MAX_FRAME`; a longer animation (a key
+    at t = 1e7 s is 2.4e8 frames at 24 fps) is one line suggesting --frames, before any list is made."""
+    from ..errors import SketchgraphError
+
     anim = getattr(scene, "animation", None)
-    return None if anim is None else list(anim.frame_range())
+    if anim is None:
+        return None
+    first, last = anim.start * anim.fps + 1e-9, anim.end * anim.fps + 1e-9
+    span = f"the scene's animation runs {anim.start:g} s to {anim.end:g} s at {anim.fps:g} fps"
+    if not (math.isfinite(first) and math.isfinite(last)) or min(first, last) < -MAX_FRAME or \
+            max(first, last) >= MAX_FRAME + 1:
+        raise SketchgraphError(f"{span}: frame numbers beyond {MAX_FRAME}; give --frames START:END (frame numbers "
+                               f"between {-MAX_FRAME} and {MAX_FRAME}) to render part of it")
+    count = math.floor(last) - math.floor(first) + 1
+    if count > MAX_FRAMES:
+        raise SketchgraphError(f"{span}: {count} frames, more than the {MAX_FRAMES} a run renders; give --frames "
+                               "START:END to render part of it")
+    return list(anim.frame_range())

@@ -16,6 +16,10 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from .animation import Track
 
 _INTERP = {"linear": "LINEAR", "step": "STEP", "smooth": "SMOOTH"}
+MAX_KEY = 2**31 - 1
+"""The latest key, as a frame number or in seconds: frame numbers are 32-bit (`output.write.MAX_FRAME`), so a key
+beyond it could never be rendered; an animation longer than a run renders by default (`MAX_FRAMES`) is refused
+when its frames are taken (`animation.default_frames`, suggesting --frames)."""
 
 
 class _Spec(BaseModel):
@@ -23,9 +27,9 @@ class _Spec(BaseModel):
 
 
 class KeySpec(_Spec):
-    time: float | None = Field(None, ge=0, description="Key time in seconds (give this or 'frame').")
-    frame: float | None = Field(None, ge=0, description="Key time as a frame number at the scene's fps (give this "
-                                "or 'time').")
+    time: float | None = Field(None, ge=0, le=MAX_KEY, description="Key time in seconds (give this or 'frame').")
+    frame: float | None = Field(None, ge=0, le=MAX_KEY, description="Key time as a frame number at the scene's fps "
+                                "(give this or 'time').")
     value: float | list[float] = Field(description="The value at this key: [x, y, z] (translate, rotate in "
                                        "degrees, eye, target, up), a number (fov; scale: uniform) or [sx, sy, sz].")
     interpolation: Literal["linear", "step", "smooth"] = Field("linear", description="How the value moves from "

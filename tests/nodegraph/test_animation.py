@@ -105,6 +105,7 @@ def test_static_scene_keys_do_not_change_with_posing():
     assert h.scene is scene
 
 
+@pytest.mark.slow  # 2.9 s
 def test_a_moving_object_recomputes_per_frame_a_still_ones_curvature_once(tmp_path):
     """pencil: curvature (per mesh) is computed once over four frames where one of two objects moves rigidly;
     the G-buffer every frame."""

@@ -38,6 +38,7 @@ def _read_exr(path: Path) -> np.ndarray:
     return np.asarray(pixels).reshape(spec.height, spec.width, spec.nchannels)
 
 
+@pytest.mark.slow  # 3.6 s
 def test_issue_example_equals_the_cli_png(gl, tmp_path: Path, cache_dir: Path) -> None:
     """The issue's example, run as written (a mesh from shared/, 1200x900, an override), against the PNG that
     `sketchgraph run` writes with the same arguments: the same pixels, row 0 at the top."""

@@ -199,6 +199,7 @@ def _file_size_limit(limit: int):
     return apply
 
 
+@pytest.mark.slow  # 2.5 s: CLI processes
 def test_file_size_limit_keeps_previous_image(tmp_path: Path) -> None:
     pipe = tiny_pipeline(tmp_path)
     out_png = tmp_path / "out.png"
@@ -245,7 +246,7 @@ def test_output_in_new_folder_on_read_only_filesystem(tmp_path: Path) -> None:
         pytest.skip("cannot mount a read-only tmpfs here")
     try:
         out = cli("run", tiny_pipeline(tmp_path), "-o", ro / "new" / "deeper" / "x.png", "--no-cache")
-        assert_one_line_error(out, "cannot create folder", "Read-only file system")
+        assert_one_line_error(out, "x.png: cannot write in", "Read-only file system")  # found before rendering
     finally:
         _umount(ro)
 
@@ -253,7 +254,7 @@ def test_output_in_new_folder_on_read_only_filesystem(tmp_path: Path) -> None:
 def test_output_path_that_is_a_folder(tmp_path: Path) -> None:
     (tmp_path / "o.png").mkdir()
     out = cli("run", tiny_pipeline(tmp_path), "-o", tmp_path / "o.png", "--no-cache")
-    assert_one_line_error(out, "o.png: cannot write: Is a directory")
+    assert_one_line_error(out, "o.png: cannot write: it is a folder")  # found before rendering
 
 
 # -- sizes, frames, cache limit ---------------------------------------------------------------------------
