@@ -107,7 +107,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
         png_level: int | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
         no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
-        chunk: int | None, view: str | None = None, up: str | None = None) -> None:
+        chunk: int | None, view: str | None = None, up: str | None = None, fill: float | None = None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
 
@@ -117,11 +117,14 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         from . import distributed as dist
         from .output import film
 
-        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up)
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up, fill=fill)
         opened = spec.open()
         dist.ref_of(opened, output_name)  # load-time errors before a cluster starts
         frame_list, rate = film.prepare(opened, out, frames, None, None)  # the scene's own animation and fps
         pattern = out or f"out/{Path(pipeline).stem}.png"
+        from .output.film import check_target
+
+        check_target(pattern, frame_list)  # -o faults as one line before a cluster starts
         root: Any = False if no_cache else cache_dir
         with dist.connect(scheduler, cache_root=root) as client:
             report = dist.render_frames(client, spec, frame_list, pattern, chunk=chunk, resume=resume,
@@ -141,13 +144,13 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
 
         watcher = watchmod.Watcher(pipeline, out, output_name, overrides, size, scene,
                                    open_cache(no_cache, cache_dir), frame=parse_frames(frames)[0],
-                                   out_dir=out_dir, allow_outside=allow_outside, view=view, up=up)
+                                   out_dir=out_dir, allow_outside=allow_outside, view=view, up=up, fill=fill)
         click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
         watchmod.watch(watcher, interval, echo=click.echo)
         return
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
-                         up=up)
+                         up=up, fill=fill)
     from .output import film
 
     frame_list, fps = film.prepare(pipe, out, frames, fps, camera)
@@ -162,6 +165,9 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
 
         click.echo(explain_plan(ex, frame_list[0]))
     pattern = out or f"out/{Path(pipeline).stem}.png"
+    from .output.film import check_target
+
+    check_target(pattern, frame_list)  # -o faults as one line before anything renders
     many = len(frame_list) > 1
     t0 = time.perf_counter()
     if film.is_film(pattern) or many:
@@ -248,18 +254,21 @@ def _progress_total(items: Any, total: int, disable: bool, unit: str) -> Any:
 @out_dir_options
 def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: bool, quiet: bool,
             overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool, cache_dir: Path | None,
-            out_dir: Path | None, allow_outside: bool, view: str | None = None, up: str | None = None) -> None:
+            out_dir: Path | None, allow_outside: bool, view: str | None = None, up: str | None = None,
+            fill: float | None = None) -> None:
     """Write any node's output (NODE.PORT) to a file; runs only what that output needs."""
     from .executor import Executor
 
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
-                         up=up)
+                         up=up, fill=fill)
     if all_:
         if port is not None:
             raise SketchgraphError("--all writes every output; drop NODE.PORT or drop --all")
+        from .output.film import check_folder
         from .tools.inspect_all import inspect_all
 
+        check_folder(out or f"out/{Path(pipeline).stem}.inspect")  # -o faults as one line before anything renders
         with _node_progress(quiet):
             insp, page = inspect_all(pipe, Path(out or f"out/{Path(pipeline).stem}.inspect"), frame, cache)
         click.echo(f"wrote {len(insp.ports())} outputs of {len(insp.nodes)} nodes to {page.parent}  "
@@ -269,6 +278,9 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
         raise SketchgraphError("name the output to inspect as NODE.PORT; outputs: "
                                + ", ".join(f"{n}.{p}" for n, node in pipe.nodes.items() for p in node.outputs))
     ref = pipe.parse_ref(port)
+    from .output.film import check_target
+
+    check_target(out or f"out/{ref[0]}.{ref[1]}.exr")  # -o faults as one line before anything renders
     ex = Executor(pipe, cache, requested=[ref])
     try:
         with _node_progress(quiet):
@@ -391,7 +403,7 @@ def _node_info(cls: Any) -> dict[str, Any]:
 @click.argument("pipeline", type=click.Path())
 @pipeline_options
 def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None, view: str | None = None,
-          up: str | None = None) -> None:
+          up: str | None = None, fill: float | None = None) -> None:
     """Print the DAG as Graphviz DOT text (pipe into `dot -Tsvg`)."""
     from .tools.dot import to_dot
 
@@ -524,15 +536,16 @@ def _bench_catalogue(benchmod: Any) -> str:
 @cache_options
 def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], out: str, frame: int,
          keys_only: bool, quiet: bool, overrides: tuple[str, ...], size: str | None, scene: str | None,
-         no_cache: bool, cache_dir: Path | None, view: str | None = None, up: str | None = None) -> None:
+         no_cache: bool, cache_dir: Path | None, view: str | None = None, up: str | None = None,
+         fill: float | None = None) -> None:
     """Which nodes differ between two pipelines (or one pipeline with --set-a/--set-b) and why; max and
     mean absolute difference and a difference image per differing output. Exit 1 if anything differs."""
     from .tools.diff import diff as diff_pipelines
     from .tools.diff import format_report
 
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
-    pipe_a = open_pipeline(a, overrides + set_a, size, scene, view=view, up=up)
-    pipe_b = open_pipeline(b or a, overrides + set_b, size, scene, view=view, up=up)
+    pipe_a = open_pipeline(a, overrides + set_a, size, scene, view=view, up=up, fill=fill)
+    pipe_b = open_pipeline(b or a, overrides + set_b, size, scene, view=view, up=up, fill=fill)
     with _node_progress(quiet):
         report = diff_pipelines(pipe_a, pipe_b, frame, cache, None if keys_only else Path(out), pixels=not keys_only)
     click.echo(f"A: {a}" + "".join(f" --set {s}" for s in overrides + set_a))
@@ -559,7 +572,7 @@ def diff(a: str, b: str | None, set_a: tuple[str, ...], set_b: tuple[str, ...], 
 def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: str | None, cell: int, frame: int,
           overrides: tuple[str, ...], size: str | None, scene: str | None, no_cache: bool,
           cache_dir: Path | None, scheduler: str | None, chunk: int | None, view: str | None = None,
-          up: str | None = None) -> None:
+          up: str | None = None, fill: float | None = None) -> None:
     """Sweep one or two params over listed values: a labelled contact sheet (columns: the first param)."""
     from .tools import viz
     from .tools import wedge as wedgemod
@@ -570,7 +583,7 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
     if scheduler is not None:
         from . import distributed as dist
 
-        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up)
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up, fill=fill)
         spec.open()  # load-time errors before a cluster starts
         root: Any = False if no_cache else cache_dir
         with dist.connect(scheduler, cache_root=root) as client:
@@ -580,7 +593,7 @@ def wedge(pipeline: str, params: tuple[str, ...], out: str | None, output_name: 
         raise SketchgraphError("--chunk splits work for --scheduler; give --scheduler too")
     else:
         cells = wedgemod.run(lambda extra: open_pipeline(pipeline, overrides + tuple(extra), size, scene, view=view,
-                                                         up=up), axes,
+                                                         up=up, fill=fill), axes,
                              output_name, frame, open_cache(no_cache, cache_dir),
                              progress=lambda it: _progress(list(it), n < 2, "cells"))
     path = Path(out or f"out/{Path(pipeline).stem}.wedge.png")

@@ -96,20 +96,22 @@ class PipeSpec:
     output: str | None = None
     view: str | None = None  # --view, --up: how a mesh-file scene is framed
     up: str | None = None
+    fill: float | None = None  # --fill
 
     @classmethod
     def make(cls, source: str | Path, overrides: Sequence[str] = (), size: str | None = None,
              scene: str | None = None, output: str | None = None, view: str | None = None,
-             up: str | None = None) -> PipeSpec:
+             up: str | None = None, fill: float | None = None) -> PipeSpec:
         src = str(source)
         if Path(src).exists():
             src = str(Path(src).resolve())
         if scene is not None and not scene.startswith("builtin:") and Path(scene).exists():
             scene = str(Path(scene).resolve())
-        return cls(src, tuple(overrides), size, scene, output, view, up)
+        return cls(src, tuple(overrides), size, scene, output, view, up, fill)
 
     def open(self) -> Any:
-        return render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view, up=self.up)
+        return render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view, up=self.up,
+                                    fill=self.fill)
 
 
 def ref_of(pipe: Any, output: str | None) -> tuple[str, str]:

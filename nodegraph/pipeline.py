@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from . import yamlio
@@ -134,7 +133,7 @@ class Pipeline:
 def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
          scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-         up: str | None = None, reference_size: int | None = None) -> Pipeline:
+         up: str | None = None, reference_size: int | None = None, fill: float | None = None) -> Pipeline:
     """Load and fully validate a pipeline file, or a shipped pipeline by name (`shipped.resolve`). Raises
     PipelineError (one line, file:line:col). Files that nodes write (`Node.file_params`) resolve against
     `out_dir` (default: the current directory) and must stay inside it unless `allow_outside`."""
@@ -143,7 +142,7 @@ def load(path: str | Path, *, overrides: list[str] = (), size: tuple[int, int] |
     data = yamlio.load(found)
     return build(data, file, overrides=overrides, size=size, scene=scene, registry=registry,
                  load_scene=load_scene, base_dir=found.parent, out_dir=out_dir, allow_outside=allow_outside,
-                 view=view, up=up, reference_size=reference_size)
+                 view=view, up=up, reference_size=reference_size, fill=fill)
 
 
 def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
@@ -153,8 +152,9 @@ def loads(text: str, file: str = "<string>", **kw: Any) -> Pipeline:
 def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, int] | None = None,
           scene: str | None = None, registry: Registry | None = None, load_scene: bool = True,
           base_dir: Path | None = None, out_dir: str | Path | None = None, allow_outside: bool = False,
-          view: str | None = None, up: str | None = None, reference_size: int | None = None) -> Pipeline:
-    """`view` and `up` (`--view`, `--up`) frame the scene when it is a mesh file (scene.load_scene);
+          view: str | None = None, up: str | None = None, reference_size: int | None = None,
+          fill: float | None = None) -> Pipeline:
+    """`view`, `up` and `fill` (`--view`, `--up`, `--fill`) frame the scene when it is a mesh file (scene.load_scene);
     `reference_size` replaces the file's (as `size` does)."""
     reg = registry or default()
     if not isinstance(data, dict):
@@ -241,7 +241,7 @@ def build(data: Any, file: str, *, overrides: list[str] = (), size: tuple[int, i
             where = loc.at(["scene"])
             base = base_dir or Path.cwd()
         try:
-            pipe.scene = _load_scene(pipe.scene_spec, base, view=view, up=up)
+            pipe.scene = _load_scene(pipe.scene_spec, base, view=view, up=up, fill=fill)
         except PipelineError as exc:
             if exc.location is not None:
                 raise
@@ -323,10 +323,7 @@ def _parse_override(text: str, nodes: dict[str, Node]) -> tuple[str, str, Any, L
     if nid not in nodes:
         raise PipelineError(f"unknown node '{nid}'" + yamlio.suggest(nid, nodes) + f"; nodes: {', '.join(nodes)}",
                             where)
-    try:
-        parsed = yaml.safe_load(value) if value.strip() else value
-    except yaml.YAMLError:
-        parsed = value
+    parsed = yamlio.value(value, where) if value.strip() else value
     return nid, pname, parsed, where
 
 

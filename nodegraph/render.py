@@ -13,14 +13,16 @@ if TYPE_CHECKING:
 
 def open_pipeline(path: str, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
                   load_scene: bool = True, out_dir: str | Path | None = None, allow_outside: bool = False,
-                  view: str | None = None, up: str | None = None, reference_size: int | None = None) -> Pipeline:
+                  view: str | None = None, up: str | None = None, reference_size: int | None = None,
+                  fill: float | None = None) -> Pipeline:
     """Load a pipeline; files its nodes write resolve against `out_dir` (default: the current directory);
-    `view` and `up` frame a mesh-file scene (`--view`, `--up`); `reference_size` replaces the pipeline's."""
+    `view`, `up` and `fill` frame a mesh-file scene (`--view`, `--up`, `--fill`); `reference_size` replaces the
+    pipeline's."""
     from . import pipeline as pl
 
     return pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
                    load_scene=load_scene, out_dir=out_dir, allow_outside=allow_outside, view=view, up=up,
-                   reference_size=reference_size)
+                   reference_size=reference_size, fill=fill)
 
 
 def open_cache(no_cache: bool, cache_dir: Path | None) -> Any:

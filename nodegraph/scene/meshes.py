@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import MeshError
 from ..fsio import check_input, clean, show_path
+from .origin import FLOAT64_RATIO
 
 SUPPORTED_EXTENSIONS = (".obj", ".ply", ".off", ".stl")
 GLTF_EXTENSIONS = (".gltf", ".glb")  # read by nodegraph.scene.gltf
@@ -30,6 +31,33 @@ FALLBACK_NORMAL = np.array([0.0, 0.0, 1.0])
 
 class MeshWarning(UserWarning):
     """A mesh was usable but had to be repaired (degenerate or duplicate faces removed)."""
+
+
+class MeshHealthWarning(MeshWarning):
+    """What reading a mesh file found about its surface, one line each: faces turned to match their neighbours'
+    winding, a noisy surface, holes in an otherwise closed one. Given when the file is parsed, not again when a
+    later run reads the parsed mesh from the mesh store (nodegraph/scene/meshstore.py)."""
+
+
+# --- surface health (thresholds of `Mesh.surface_noise` and `Mesh.holes`; see their docstrings) ---------------
+NOISE_MIN_VERTICES = 1000
+"""Fewer measured vertices than this: no noise verdict (a coarse mesh's triangles are large on screen, and its
+interpolated normals do not change much from pixel to pixel)."""
+NOISE_ROUGH_DEG = 5.0
+"""`SurfaceNoise.rough_deg` (degrees) from which a surface can be noisy. Measured: clean icospheres 0.0-0.04,
+fandisk 0.02, teapot 1.4, stanford-bunny 1.9, spot 2.3, ogre 2.6, cow 6.4 (coarse and curved: see NOISE_SHARE),
+suzanne 15.4 (461 vertices measured); unit icospheres with every vertex moved 0.5% of the radius in a random
+direction: 20k faces 2.9 (pencil's edges do not fire), 82k faces 6.3 (pencil's inner edges speckle the whole
+sphere: 2% of its pixels, in every part of it); moved 1%: 20k faces 6.3."""
+NOISE_SHARE = 0.55
+"""...and `rough_deg` at least this share of `step_deg`: the change is not smooth curvature. Random
+displacement: 0.72-0.92; the shared test meshes 0.0-0.37 (cow 0.37), suzanne 0.47."""
+HOLE_WARN_SHARE = 0.05
+"""Holes are reported on a mostly closed surface only: their loops can show at most this share of its area (the
+`hole_share` bound: ogre.obj 0.0085, stanford-bunny 0.037; open meshes: teapot 0.24, a plane 1.3)..."""
+HOLE_WARN_EDGES = 0.01
+"""...and at most this share of the welded edges lie on them (ogre.obj 0.1%, stanford-bunny 0.2%; suzanne 2.9%:
+its eye sockets, 0.052 of its area, are filled by the eyes, separate parts; teapot 1.7%)."""
 
 
 @dataclass(frozen=True)
@@ -46,6 +74,23 @@ class MeshTopology:
     @property
     def closed(self) -> bool:
         return self.n_boundary_edges == 0 and self.n_nonmanifold_edges == 0
+
+
+@dataclass(frozen=True)
+class SurfaceNoise:
+    """`Mesh.surface_noise`: how the drawn vertex normals vary between neighbouring vertices."""
+
+    step_deg: float  # median angle between the normals of the two ends of a smooth edge
+    rough_deg: float  # median angle between a vertex's normal and the mean of its neighbours' normals
+    n_measured: int  # vertices away from boundaries, creases and non-manifold edges (where rough_deg is measured)
+
+    @property
+    def noisy(self) -> bool:
+        """Enough vertices measured, and the normals change from vertex to vertex by more than NOISE_ROUGH_DEG
+        beyond what smooth curvature explains, that change making at least NOISE_SHARE of the whole: in a
+        drawing whose triangles are a few pixels wide, edge_detect's normal differences fire all over it."""
+        return (self.n_measured >= NOISE_MIN_VERTICES and self.rough_deg >= NOISE_ROUGH_DEG
+                and self.rough_deg >= NOISE_SHARE * self.step_deg)
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,10 +221,14 @@ class Mesh:
 
     def signed_volume(self) -> float:
         """Volume enclosed by the (closed, consistently wound) surface; positive for outward CCW winding.
-        Cached: pencil_shade asks every frame, and on ogre (124k faces) it took 16 ms a frame."""
+        Cached: pencil_shade asks every frame, and on ogre (124k faces) it took 16 ms a frame. Summed about the
+        bounding-box centre (the same volume for a closed surface): about the origin, a mesh far from it sums
+        terms of the order of its distance cubed, and a torus 0.26 across at 1e6 got a volume of the wrong sign
+        (pencil_shade then culled its front faces)."""
 
         def make() -> float:
-            p = self.vertices[self.faces]
+            lo, hi = self.bounds()
+            p = self.vertices[self.faces] - (lo + hi) / 2.0
             return float(np.einsum("ij,ij->i", p[:, 0], _cross(p[:, 1], p[:, 2])).sum() / 6.0)
 
         return self._cached("volume", make)
@@ -316,6 +365,82 @@ class Mesh:
 
         return self._cached("topology", make)
 
+    # --- surface health --------------------------------------------------------------------------
+
+    def winding_conflicts(self) -> int:
+        """Welded edges shared by exactly two faces that run along it the same way: the two faces are wound
+        in opposite senses (a closed mesh draws one of them culled: a hole)."""
+
+        def make() -> int:
+            h1, h2 = self._manifold_pairs()
+            wf = self.welded_faces()
+            f1, i1 = np.divmod(h1, 3)
+            f2, i2 = np.divmod(h2, 3)
+            return int((wf[f1, i1] == wf[f2, i2]).sum())  # the same start: the same direction
+
+        return self._cached("conflicts", make)
+
+    def surface_noise(self) -> SurfaceNoise:
+        """How much the vertex normals change from vertex to vertex, and how much of that is not smooth
+        curvature. Over welded edges shared by exactly two faces: `step_deg`, the median angle between the
+        normals (`vertex_normals`) at the two ends; at every vertex away from boundary and non-manifold edges,
+        the angle between its normal and the normalised sum of its neighbours' normals, `rough_deg` its median.
+        Smooth curvature turns the normal evenly, so the neighbours' mean lies near the vertex's own normal (a
+        clean sphere: below 0.2 degrees at any resolution; along a crease the two sides balance too: fandisk
+        0.02); random displacement turns each normal its own way (about 0.7 of `step_deg`). Creases are not left
+        out: displacement of a few per cent makes most edges creases. See `SurfaceNoise.noisy`."""
+
+        def make() -> SurfaceNoise:
+            wid, nu = self.weld()
+            wf = self.welded_faces().astype(np.int64)
+            h1, _ = self._manifold_pairs()
+            f1, i1 = np.divmod(h1, 3)
+            a, b = wf[f1, i1], wf[f1, (i1 + 1) % 3]
+            order, _, count = self._edge_stats()
+            rough_edges = order[count != 2]  # boundary and non-manifold: their vertices are not measured
+            skip = np.zeros(nu, bool)
+            skip[wf[rough_edges // 3, rough_edges % 3]] = True
+            skip[wf[rough_edges // 3, (rough_edges % 3 + 1) % 3]] = True
+            vn = np.zeros((nu, 3))
+            vn[wid] = self.vertex_normals()
+            step = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", vn[a], vn[b]), -1.0, 1.0)))
+            ends = np.concatenate([a, b])
+            others = vn[np.concatenate([b, a])]
+            acc = np.stack([np.bincount(ends, others[:, k], minlength=nu) for k in range(3)], axis=1)
+            measured = ~skip & (np.bincount(ends, minlength=nu) > 0)
+            mean = _normalize_or(acc[measured], FALLBACK_NORMAL)
+            rough = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", mean, vn[measured]), -1.0, 1.0)))
+            return SurfaceNoise(step_deg=float(np.median(step)) if len(step) else 0.0,
+                                rough_deg=float(np.median(rough)) if len(rough) else 0.0,
+                                n_measured=int(measured.sum()))
+
+        return self._cached("noise", make)
+
+    def holes(self) -> tuple[int, int, float]:
+        """(boundary loops, boundary edges, hole share): loops of welded edges used by one face, and the same
+        bound on the share of the surface they can show as `hole_share` (sum of L^2 / (4 pi) over the loops,
+        over the area), found without scipy (the loops are connected components of the boundary edges)."""
+
+        def make() -> tuple[int, int, float]:
+            order, _, count = self._edge_stats()
+            boundary = order[count == 1]
+            area = self.area()
+            if len(boundary) == 0 or area <= 0:
+                return 0, int(len(boundary)), 0.0
+            wid, nu = self.weld()
+            wf = self.welded_faces().astype(np.int64)
+            f, i = boundary // 3, boundary % 3
+            a, b = wf[f, i], wf[f, (i + 1) % 3]
+            rep = np.zeros((nu, 3))
+            rep[wid] = self.vertices
+            length = np.linalg.norm(rep[a] - rep[b], axis=1)
+            label = connected_labels(nu, a, b)[a]
+            loops, loop_of = np.unique(label, return_inverse=True)
+            per_loop = np.bincount(loop_of, weights=length)
+            return int(len(loops)), int(len(boundary)), float((per_loop**2).sum() / (4.0 * np.pi * area))
+
+        return self._cached("holes", make)
+
     def vertex_components(self) -> np.ndarray:
         """(n,) component id per original vertex: that of the first face using it (-1 if unreferenced)."""
 
@@ -414,6 +539,62 @@ class Mesh:
         return Mesh(name or self.name, v, f, self.source)
 
 
+def orient_consistently(mesh: Mesh) -> tuple[Mesh, int]:
+    """(the mesh with every face wound like its neighbours, how many faces were turned). Within each patch of
+    faces joined by manifold welded edges (libigl's `bfs_orient` on the welded faces), the winding that covers
+    more of the patch's area is kept and the other faces are reversed; which way a whole patch faces is left to
+    the file (and to `signed_volume`). The mesh itself (same object) when no edge is in conflict."""
+    conflicts = mesh.winding_conflicts()
+    if conflicts == 0:
+        return mesh, 0
+    import igl
+
+    wf = np.ascontiguousarray(mesh.welded_faces(), dtype=np.int64)
+    ff, patch = igl.bfs_orient(wf)
+    ff, patch = np.asarray(ff, dtype=np.int64), np.asarray(patch, dtype=np.int64).ravel()
+    kept = (ff == wf).all(axis=1) | (ff == np.roll(wf, 1, axis=1)).all(axis=1) | \
+        (ff == np.roll(wf, -1, axis=1)).all(axis=1)  # the same cyclic order: not turned
+    turned = ~kept
+    p = mesh.vertices[mesh.faces]
+    area = np.linalg.norm(_cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    k = int(patch.max()) + 1 if len(patch) else 0
+    majority = np.bincount(patch, area * turned, k) > 0.5 * np.bincount(patch, area, k)
+    turned ^= majority[patch]  # keep what most of the patch does
+    if not turned.any():
+        return mesh, 0
+    faces = np.array(mesh.faces)
+    faces[turned] = faces[turned][:, ::-1]
+    out = Mesh(mesh.name, mesh.vertices, faces, mesh.source)
+    if out.winding_conflicts() >= conflicts:  # a non-orientable patch (a Moebius strip): nothing gained
+        return mesh, 0
+    return out, int(turned.sum())
+
+
+def health_notes(mesh: Mesh, turned: int = 0) -> list[str]:
+    """One line for each thing wrong with the surface of a mesh read from a file (`MeshHealthWarning`): faces
+    `turned` by `orient_consistently`, noise (`Mesh.surface_noise`), holes in a mostly closed surface
+    (`Mesh.holes`)."""
+    where = f"mesh '{mesh.name}' ({mesh.source})" if mesh.source else f"mesh '{mesh.name}'"
+    notes: list[str] = []
+    if turned:
+        notes.append(f"{where}: {_plural(turned, 'face', 'faces')} flipped to match their neighbours (they "
+                     "were wound the other way round, so culling would have drawn them as holes)")
+    noise = mesh.surface_noise()
+    if noise.noisy:
+        notes.append(f"{where}: noisy surface: vertex normals turn {noise.rough_deg:.1f} degrees from their "
+                     f"neighbours' mean (median; {noise.step_deg:.1f} between neighbours), more than smooth curvature "
+                     f"does; edges will fire everywhere; smooth it first or raise edges.normal_threshold")
+    loops, boundary, share = mesh.holes()
+    if loops:
+        _, _, count = mesh._edge_stats()
+        n_edges = float((1.0 / count).sum()) if len(count) else 0.0
+        if share <= HOLE_WARN_SHARE and boundary <= HOLE_WARN_EDGES * n_edges:
+            notes.append(f"{where}: {_plural(loops, 'hole', 'holes')} in an otherwise closed surface ({boundary} "
+                         f"boundary edges, at most {share:.1%} of its area): the background or the inside shows "
+                         "through")
+    return notes
+
+
 def merge_meshes(meshes: list[Mesh], name: str) -> Mesh:
     """One mesh holding all of `meshes` (vertex ids offset; nothing welded)."""
     if not meshes:
@@ -508,7 +689,9 @@ _LOAD_LOCK = threading.Lock()
 
 def load_mesh(path: str | Path) -> Mesh:
     """Load a triangle mesh (OBJ, PLY, OFF, STL); polygons are triangulated, degenerate and duplicate
-    faces removed with a `MeshWarning`. Memoised by (absolute path, mtime, size)."""
+    faces removed with a `MeshWarning`, faces wound against their neighbours turned (`orient_consistently`);
+    a `MeshHealthWarning` a line for what `health_notes` finds, when the file is parsed. Memoised by (absolute
+    path, mtime, size)."""
     p = Path(path).expanduser().absolute()
     if p.suffix.lower() not in SUPPORTED_EXTENSIONS:
         raise MeshError(f"{show_path(p)}: unsupported mesh format '{show_path(p.suffix or '(no extension)', 20)}'; "
@@ -529,8 +712,18 @@ def load_mesh(path: str | Path) -> Mesh:
         raise MeshError(f"{p}: empty file (no faces)")
     from . import meshstore
 
-    # parsed in an earlier run: from the disk (nodegraph/scene/meshstore.py)
-    mesh = meshstore.load(p, _load_uncached, lambda v, f: Mesh(p.stem, v, f, str(p)), MeshWarning, (__file__,))
+    health: list[str] = []
+
+    def parse(path: Path) -> Mesh:
+        mesh, turned = orient_consistently(_load_uncached(path))
+        health.extend(health_notes(mesh, turned))
+        return mesh
+
+    # parsed in an earlier run: from the disk (nodegraph/scene/meshstore.py), the repairs' MeshWarnings given again;
+    # what health_notes found is told here, once, when the file is parsed (not on a store hit: not every run)
+    mesh = meshstore.load(p, parse, lambda v, f: Mesh(p.stem, v, f, str(p)), MeshWarning, (__file__,))
+    for text in health:
+        warnings.warn(text, MeshHealthWarning, stacklevel=2)
     with _LOAD_LOCK:
         for old in [k for k in _LOAD_CACHE if k[0] == key[0]]:
             del _LOAD_CACHE[old]
@@ -568,7 +761,7 @@ def _load_uncached(p: Path) -> Mesh:
     if bad.any():
         raise MeshError(f"{p}: {int(bad.sum())} of {_plural(len(v), 'vertex', 'vertices')} with NaN/Inf "
                         f"coordinates (first: vertex {int(np.argmax(bad))})")
-    _check_float32(p, v)
+    _check_precision(p, v)
     out = (f < 0) | (f >= len(v))
     if out.any():
         rows = out.any(axis=1)
@@ -577,7 +770,32 @@ def _load_uncached(p: Path) -> Mesh:
                         f"{_plural(len(v), 'vertex', 'vertices')}, numbered from 0)")
     if note:
         warnings.warn(f"{show_path(p)}: {note}", MeshWarning, stacklevel=3)
-    return _repair(Mesh(p.stem, v, f.astype(np.int32), str(p)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mesh = _repair(Mesh(p.stem, v, f.astype(np.int32), str(p)))
+    mesh, n_unused = _drop_unused(mesh)
+    notes = [str(w.message) for w in caught if issubclass(w.category, MeshWarning)]
+    for w in caught:
+        if not issubclass(w.category, MeshWarning):
+            warnings.warn(w.message, w.category, stacklevel=3)
+    if n_unused:  # one line for the repair and the drop
+        dropped = f"dropped {_plural(n_unused, 'vertex', 'vertices')} no face uses; {mesh.n_vertices} remain"
+        notes = [f"{notes[0]}; {dropped}"] if notes else [f"mesh '{mesh.name}' ({mesh.source}): {dropped}"]
+    for text in notes:
+        warnings.warn(text, MeshWarning, stacklevel=3)
+    return mesh
+
+
+def _drop_unused(mesh: Mesh) -> tuple[Mesh, int]:
+    """The mesh without the vertices no face uses (never drawn; one far away would frame the picture), and how
+    many went."""
+    used = np.zeros(mesh.n_vertices, bool)
+    used[mesh.faces.ravel()] = True
+    n_unused = int((~used).sum())
+    if n_unused == 0:
+        return mesh, 0
+    remap = np.cumsum(used) - 1
+    return Mesh(mesh.name, mesh.vertices[used], remap[mesh.faces].astype(np.int32), mesh.source), n_unused
 
 
 def _triangulate(polygons: Any) -> np.ndarray:
@@ -652,25 +870,32 @@ def _reader_note(line: str) -> str:
 
 
 FLOAT32_MAX = float(np.finfo(np.float32).max)
-_FLOAT32_SPAN = 2.0**20
-"""A mesh whose coordinates are this many times larger than its extent keeps fewer than ~8 distinct
-float32 positions across itself (float32 has 24 bits): nothing of its shape survives on the GPU."""
+FLOAT64_SPAN = FLOAT64_RATIO
+"""A mesh whose coordinates reach this many times its extent (1e12) keeps fewer than ~12 bits of its shape even in
+float64 (53 bits): refused. Closer in, nothing is lost on the way to the GPU: coordinates are read as float64,
+and the nodes that draw upload them relative to the mesh's own centre (nodegraph/scene/origin.py), rounding to
+float32 only then. (origin.FLOAT64_RATIO: where a scene's objects are checked.)"""
 
 
-def _check_float32(p: Path, v: np.ndarray) -> None:
-    """Coordinates the GPU (float32) can hold: no overflow, and not so far out that the shape is lost."""
-    big = np.abs(v).max(axis=1) > FLOAT32_MAX
-    if big.any():
-        raise MeshError(f"{show_path(p)}: {int(big.sum())} of {_plural(len(v), 'vertex', 'vertices')} with "
-                        f"coordinates beyond float32 range (expected |x| <= {FLOAT32_MAX:.3g}, found "
-                        f"{float(np.abs(v).max()):.3g} at vertex {int(np.argmax(big))})")
+def _check_precision(p: Path, v: np.ndarray) -> None:
+    """Coordinates the drawing can hold: the mesh's extent within float32 range about its centre (what the GPU
+    receives), and its position not so far out, for its size, that float64 has lost its shape. A mesh far from
+    the origin is otherwise fine at any offset: at 1e6 its coordinates still hold 15 significant digits."""
     lo, hi = v.min(axis=0), v.max(axis=0)
-    extent = float(np.max(hi - lo))
+    half = hi * 0.5 - lo * 0.5  # halved first: no overflow
+    if float(half.max()) > FLOAT32_MAX:
+        centre = lo * 0.5 + hi * 0.5
+        big = np.abs(v - centre).max(axis=1) > FLOAT32_MAX
+        raise MeshError(f"{show_path(p)}: {int(big.sum())} of {_plural(len(v), 'vertex', 'vertices')} with "
+                        f"coordinates beyond float32 range from the mesh's centre (expected the mesh to span at "
+                        f"most {FLOAT32_MAX:.3g} each way; vertex {int(np.argmax(big))} lies "
+                        f"{float(np.abs(v[int(np.argmax(big))] - centre).max()):.3g} from it)")
+    extent = 2.0 * float(half.max())
     reach = float(np.abs(v).max())
-    if not np.isfinite(extent) or (reach > 0 and reach > extent * _FLOAT32_SPAN):
+    if reach > 0 and reach > extent * FLOAT64_SPAN:
         raise MeshError(f"{show_path(p)}: coordinates reach {reach:.3g} but the mesh spans only {extent:.3g}: "
-                        f"float32 (as the GPU holds them) cannot tell its vertices apart; expected coordinates "
-                        f"at most {_FLOAT32_SPAN:.0f} times the mesh's extent (move it near the origin)")
+                        f"even float64 keeps too few digits of its shape there; expected coordinates at most "
+                        f"{FLOAT64_SPAN:.0e} times the mesh's extent (move it nearer the origin)")
 
 
 _TEXT_BYTES = bytes(range(32, 127)) + b"\t\n\r\f\v"
@@ -837,9 +1062,40 @@ def _read_ply(p: Path) -> tuple[np.ndarray, Any]:
     v = np.stack([np.asarray(vert[k], dtype=np.float64) for k in "xyz"], axis=1)
     face = columns.get("face", {})
     lists = face.get("vertex_indices", face.get("vertex_index"))
-    if lists is None:
-        return v, np.zeros((0, 3), np.int64)
-    return v, lists
+    if lists is not None:
+        return v, lists
+    strips = columns.get("tristrips", {})
+    strip_lists = strips.get("vertex_indices", strips.get("vertex_index"))
+    if strip_lists is not None:
+        return v, _strips_to_triangles(strip_lists)
+    others = ", ".join(f"'{clean(el.name, 30)}' ({el.count})" for el in elements if el.name != "vertex") or "none"
+    raise _PlyError(f"no faces: {_plural(len(v), 'vertex', 'vertices')} and no 'face' or 'tristrips' element with "
+                    f"'vertex_indices' (other elements: {others}); a point cloud cannot be drawn")
+
+
+def _strips_to_triangles(strips: Any) -> np.ndarray:
+    """Triangles of PLY triangle strips (each a list of vertex indices; -1 restarts a strip): triangle k of a run
+    is (k, k+1, k+2), every other one reversed so all keep the first one's winding; triangles with a repeated
+    index (the joins strips use) are left out."""
+    flat = [np.asarray(s, dtype=np.int64).ravel() for s in (strips if not isinstance(strips, np.ndarray)
+                                                           or strips.ndim == 1 else list(strips))]
+    out: list[np.ndarray] = []
+    for strip in flat:
+        cuts = np.flatnonzero(strip < 0)
+        for run in np.split(strip, cuts):
+            run = run[run >= 0]
+            if len(run) < 3:
+                continue
+            k = np.arange(len(run) - 2)
+            tri = np.stack([run[k], run[k + 1], run[k + 2]], axis=1)
+            odd = (k % 2) == 1
+            tri[odd] = tri[odd][:, [1, 0, 2]]
+            out.append(tri)
+    if not out:
+        return np.zeros((0, 3), np.int64)
+    tri = np.concatenate(out)
+    repeated = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+    return tri[~repeated]
 
 
 def _check_ply_counts(fmt: str, elements: list[_PlyElement], available: int) -> None:

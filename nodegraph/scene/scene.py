@@ -482,10 +482,10 @@ class ObjectSpec(_Spec):
     color: Color = Field(DEFAULT_MESH_COLOR, description="Flat, unlit color [r, g, b] in [0, 1] (the shade "
                          "map).")
     sketchy: bool = Field(True, description="Draw sketchily (false: plain 3D geometry composed by depth).")
-    up: Literal["x", "y", "z", "auto"] | None = Field(None, description="With 'mesh': the file's up axis, "
-                                                      "turned to +Y before 'transform' (auto: guessed from the "
-                                                      "format and the shape, as for a bare mesh file); default: "
-                                                      "as written.")
+    up: Literal["x", "y", "z", "-x", "-y", "-z", "auto"] | None = Field(None, description="With 'mesh': the file's "
+                                                      "up axis (-y: upside down), turned to +Y before 'transform' "
+                                                      "(auto: the format's convention unless the shape clearly says "
+                                                      "otherwise, as for a bare mesh file); default: as written.")
 
     @model_validator(mode="after")
     def _one_source(self) -> ObjectSpec:
@@ -688,7 +688,8 @@ def _build_primitive(data: Any, file: str, path: tuple[Any, ...], root: Any) -> 
     return primitive_mesh(spec)
 
 
-def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, view: str | None = None) -> Scene:
+def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, view: str | None = None,
+                    allow_outside: bool = False) -> Scene:
     """Load a scene YAML file; every error is a one-line PipelineError with file:line:col. `camera_choice`
     (`--camera`) picks a camera of the scene's glTF objects instead of its `camera:`; `view` (`--view`)
     frames a scene without `camera:` from that side (as `camera: {view: ...}`)."""
@@ -714,7 +715,7 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
             loc = yamlio.locate(data, (*where, "gltf"), file)
             try:
                 moving.add_gltf(objects, obj, _resolve(base, obj.gltf), obj.transform.matrix(), "color" in
-                                obj.model_fields_set)
+                                obj.model_fields_set, allow_outside=allow_outside)
             except (MeshError, PipelineError) as exc:
                 raise PipelineError(str(exc), loc) from None
             continue
@@ -731,7 +732,7 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
             from .gltf import load_any_mesh  # imported where a mesh file is read: 8-22 ms a process otherwise
 
             try:
-                mesh = load_any_mesh(mesh_path)
+                mesh = load_any_mesh(mesh_path, allow_outside)
             except MeshError as exc:
                 raise PipelineError(str(exc), loc) from None
             if obj.up is not None:
@@ -824,52 +825,98 @@ def best_view_direction(mesh: Mesh, elevation_deg: float = 25.0, azimuths: int =
 
 
 def stand_up(mesh: Mesh, up: str | None, source: str | None = None) -> tuple[Mesh, str]:
-    """The mesh turned so that its up axis (`up`: x, y, z; None or 'auto': framing.detect_up from the
-    file's format and the mesh's shape) is +Y, and the axis used. A Y-up mesh is returned as it is."""
-    axis = framing.check_up(up) or _detect_up(mesh, framing.suffix_of(source or mesh.source))
+    """The mesh turned so that its up axis (`up`: x, y, z, -x, -y, -z; None or 'auto': the file format's
+    convention unless the shape clearly says otherwise, framing.orient, said in one FramingWarning) is +Y,
+    and the axis used. A Y-up mesh is returned as it is."""
+    given = framing.check_up(up)
+    suffix = framing.suffix_of(source or mesh.source)
+    axis = given or _detect_up(mesh, suffix)
+    if given is None:
+        conv = framing.convention(suffix)[0]
+        if axis != conv:
+            why = ("a flat base" if framing.base_share(mesh.vertices, mesh.faces, axis) >= framing.BASE_SHARE else
+                   f"the mesh is mirror-symmetric across {conv}, so {conv} runs left to right, not up")
+            framing.warn_notes(mesh.name, [f"stood up along {axis}: {why}; `--up {conv}` keeps the file's axis"])
     if axis == "y":
         return mesh, axis
     return mesh.transformed(framing.up_rotation(axis)), axis
 
 
 def _detect_up(mesh: Mesh, suffix: str) -> str:
-    """framing.detect_up, kept on disk for a large mesh (nodegraph/scene/meshstore.py); the suffix counts only as
-    a Z-up format or not."""
+    """framing.detect_up, kept on disk (nodegraph/scene/meshstore.py: scipy.spatial's import alone is 0.47 s);
+    the suffix counts only as a Z-up format or not."""
     from . import meshstore
 
-    axes = "xyz"
     what = "up-z" if suffix.lower() in framing.Z_UP_FORMATS else "up"
-    index = meshstore.memo(mesh, what, lambda: axes.index(framing.detect_up(mesh.vertices, mesh.faces, suffix)),
-                           (framing.__file__,))
-    return axes[int(index)]
+    index = meshstore.memo(mesh, what, lambda: framing.SIGNED_AXES.index(framing.detect_up(mesh.vertices, mesh.faces,
+                                                                                            suffix)),
+                           (framing.__file__,), always=True)
+    return framing.SIGNED_AXES[int(index)]
 
 
-def mesh_camera(mesh: Mesh, view: str | None = None) -> Camera:
-    """The camera of a bare (Y-up) mesh: a named view (framing.VIEWS; default three-quarter) of the side
-    framing.detect_front finds, framed from the bounding box."""
-    view = framing.check_view(view) or "three-quarter"
-    lo, hi = mesh.bounds()
-    if view == "widest":
-        return frame_camera(lo, hi, direction=best_view_direction(mesh))
+def mesh_front_choice(mesh: Mesh) -> framing.FrontChoice:
+    """framing.front_choice of a stood-up (Y-up) mesh (the front and the feature-line lengths that chose it),
+    kept on disk."""
     from . import meshstore
 
-    front = meshstore.memo(mesh, "front", lambda: framing.detect_front(mesh.vertices, mesh.faces),
-                           (framing.__file__,), always=True)  # scipy.spatial's import alone is 0.47 s
-    direction, up = framing.view_direction(view, front)
-    return frame_camera(lo, hi, direction=direction, up=up)
+    return framing.FrontChoice.decode(meshstore.memo(
+        mesh, "front", lambda: framing.front_choice(mesh.vertices, mesh.faces).encode(), (framing.__file__,),
+        always=True))  # scipy.spatial's import alone is 0.47 s
 
 
-def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = None, up: str | None = None) -> Scene:
+def mesh_front(mesh: Mesh) -> np.ndarray:
+    """The unit front of a stood-up (Y-up) mesh (mesh_front_choice)."""
+    return mesh_front_choice(mesh).front
+
+
+def fit_camera(points: Any, direction: Any, up: Any = (0.0, 1.0, 0.0), fill: float | None = None,
+               fov_y_deg: float = 35.0) -> Camera:
+    """A camera looking along -`direction` whose picture shows `points` centred, their projected bounding box
+    spanning `fill` (default framing.DEFAULT_FILL) of the shorter side (framing.fit_view)."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    fill = framing.check_fill(fill) or framing.DEFAULT_FILL
+    eye, target, cam_up = framing.fit_view(p, direction, up, fov_y_deg, fill)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    radius = float(np.linalg.norm(hi - lo)) / 2.0
+    near, far = near_far_for(eye, (lo + hi) / 2.0, radius)
+    return Camera(eye=eye, target=target, up=cam_up, fov_y_deg=fov_y_deg, near=near, far=far)
+
+
+def mesh_camera(mesh: Mesh, view: str | None = None, fill: float | None = None,
+                front: Any = None) -> Camera:
+    """The camera of a bare (Y-up) mesh: a named view (framing.VIEWS; default three-quarter, or face-on for a
+    flat or thin subject) of the side `front` (default: mesh_front) faces, framed on the vertices faces use
+    so the subject spans `fill` of the picture's shorter side (framing.fit_view)."""
+    chosen = framing.check_view(view) or "three-quarter"
+    points = framing.used_vertices(mesh.vertices, mesh.faces)
+    if chosen == "widest":
+        return fit_camera(points, best_view_direction(mesh), fill=fill)
+    front = mesh_front(mesh) if front is None else np.asarray(front, dtype=np.float64)
+    direction, up = framing.view_direction(chosen, front)
+    if view is None:
+        normal = framing.broad_side(mesh.vertices, mesh.faces)
+        if normal is not None:
+            direction, up = framing.face_on(normal, front)
+    return fit_camera(points, direction, up, fill=fill)
+
+
+def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = None, up: str | None = None,
+                   fill: float | None = None) -> Scene:
     """One sketchy object, stood up (`stand_up`), seen from `view` (default: three-quarter front; see
-    nodegraph/scene/framing.py), framed, with a 6 degrees/frame orbit about +Y."""
-    mesh, _ = stand_up(mesh, up, source)
+    nodegraph/scene/framing.py), framed to span `fill` of the picture, with a 6 degrees/frame orbit about +Y."""
+    mesh, axis = stand_up(mesh, up, source)
+    choice = mesh_front_choice(mesh)
+    front = choice.front
+    note = choice.note(framing.up_rotation(axis))
+    if note:
+        framing.warn_notes(mesh.name, [note])
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
-                 camera=mesh_camera(mesh, view), orbit=Orbit(), source=source or mesh.source)
+                 camera=mesh_camera(mesh, view, fill, front), orbit=Orbit(), source=source or mesh.source)
 
 
-def mesh_scene(path: str | Path, view: str | None = None, up: str | None = None) -> Scene:
+def mesh_scene(path: str | Path, view: str | None = None, up: str | None = None, fill: float | None = None) -> Scene:
     """A mesh file as a one-object scene (scene_for_mesh)."""
-    return scene_for_mesh(load_mesh(path), str(path), view=view, up=up)
+    return scene_for_mesh(load_mesh(path), str(path), view=view, up=up, fill=fill)
 
 
 # --- built-in scenes ----------------------------------------------------------------------------
@@ -1063,18 +1110,21 @@ def builtin_scene(name: str) -> Scene:
     return BUILTIN_SCENES[name]()
 
 
-def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None) -> Scene:
+def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None,
+               allow_outside: bool = False, fill: float | None = None) -> Scene:
     """`builtin:NAME`, a scene YAML (.yaml/.yml) or a mesh file (.obj/.ply/.off/.stl); relative paths
     start at `base_dir` (default: the current directory). `view` and `up` (`--view`, `--up`; see
-    nodegraph/scene/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera."""
+    nodegraph/scene/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera.
+    `allow_outside`: glTF files may read buffers and images outside their folder (trusted files only).
+    `fill` (`--fill`): the share of the picture's shorter side a mesh file or a still glTF file spans."""
     spec = str(spec).strip()
     try:
-        view, up = framing.check_view(view), framing.check_up(up)
+        view, up, fill = framing.check_view(view), framing.check_up(up), framing.check_fill(fill)
     except ValueError as exc:
         raise PipelineError(str(exc)) from None
     if spec.startswith("builtin:"):
-        if view is not None or up is not None:
-            raise PipelineError(f"--view/--up frame a mesh file; {spec} has its own camera")
+        if view is not None or up is not None or fill is not None:
+            raise PipelineError(f"--view/--up/--fill frame a mesh file; {spec} has its own camera")
         return builtin_scene(spec.removeprefix("builtin:"))
     path = Path(spec).expanduser()
     if not path.is_absolute() and base_dir is not None:
@@ -1084,7 +1134,7 @@ def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None,
         if not path.exists():
             raise PipelineError(f"scene file not found: {path.absolute()}")
         try:
-            return scene_from_gltf(path, view=view, up=up)
+            return scene_from_gltf(path, view=view, up=up, allow_outside=allow_outside, fill=fill)
         except MeshError as exc:
             raise PipelineError(str(exc)) from None
     if ext not in SCENE_EXTENSIONS + SUPPORTED_EXTENSIONS:
@@ -1100,8 +1150,10 @@ def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None,
     if ext in SCENE_EXTENSIONS:
         if up is not None:
             raise PipelineError(f"--up stands a mesh file up; in a scene file give 'up:' per mesh object ({spec})")
-        return scene_from_yaml(path, view=view)
-    return mesh_scene(path, view=view, up=up)
+        if fill is not None:
+            raise PipelineError(f"--fill frames a mesh file; a scene file is framed by its camera ({spec})")
+        return scene_from_yaml(path, view=view, allow_outside=allow_outside)
+    return mesh_scene(path, view=view, up=up, fill=fill)
 
 
 # --- animated scenes ------------------------------------------------------------------------------------
@@ -1118,10 +1170,10 @@ class _Moving:
         self.ranges: list[tuple[float, float]] = []
 
     def add_gltf(self, objects: list[SceneObject], spec: Any, path: Path, root: np.ndarray, color_given: bool,
-                 prefix: bool = True) -> None:
+                 prefix: bool = True, allow_outside: bool = False) -> None:
         from .gltf import GltfInstance, load_asset
 
-        asset = load_asset(path)
+        asset = load_asset(path, allow_outside)
         inst = GltfInstance(asset, np.asarray(root, dtype=np.float64), asset.animation(spec.animation))
         first = len(objects)
         head = spec.name or path.stem
@@ -1217,18 +1269,20 @@ class _Moving:
 
 
 def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation: str | int | None = None,
-                    fps: float = DEFAULT_FPS, view: str | None = None, up: str | None = None) -> Scene:
+                    fps: float = DEFAULT_FPS, view: str | None = None, up: str | None = None,
+                    allow_outside: bool = False, fill: float | None = None) -> Scene:
     """A glTF file as a scene: its objects (colour from the material), seen through its first perspective
     camera (or `camera`, by name or index), playing its first animation (or `animation`). Without a camera
     the scene is framed over the whole animation; a still file without a camera gets a mesh file's view and
     orbit. `up` (x, y, z) turns the file so that axis is +Y (glTF is Y-up: nothing is guessed); `view`
     (framing.VIEWS) picks the side a still file without a camera is seen from, the front being +Z as glTF
-    has it."""
+    has it, framed so that it spans `fill` of the picture's shorter side (framing.fit_view)."""
     p = Path(path).expanduser().absolute()
     spec = ObjectSpec(gltf=str(p), animation=animation)
     moving = _Moving(fps)
     objects: list[SceneObject] = []
-    moving.add_gltf(objects, spec, p, framing.up_rotation(framing.check_up(up) or "y"), False, prefix=False)
+    moving.add_gltf(objects, spec, p, framing.up_rotation(framing.check_up(up) or "y"), False, prefix=False,
+                    allow_outside=allow_outside)
     lo, hi = moving.bounds(objects)
     center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
     cam = moving.gltf_camera(camera, center, radius)
@@ -1238,13 +1292,17 @@ def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation
     orbit = None
     if cam is None:
         still = anim is None
+        if still:  # framed on the vertices faces use, to span `fill`
+            merged = merge_meshes([o.mesh.transformed(o.transform) for o in objects], p.stem)
+            points = framing.used_vertices(merged.vertices, merged.faces)
         if view is not None and view != "widest":
             direction, cam_up = framing.view_direction(view, (0.0, 0.0, 1.0))
-            cam = frame_camera(lo, hi, direction=direction, up=cam_up)
+            cam = fit_camera(points, direction, cam_up, fill) if still else frame_camera(lo, hi, direction=direction,
+                                                                                          up=cam_up)
+        elif still:
+            cam = fit_camera(points, best_view_direction(merged), fill=fill)
         else:
-            direction = best_view_direction(merge_meshes([o.mesh.transformed(o.transform) for o in objects],
-                                                         p.stem)) if still else (0.55, 0.45, 1.0)
-            cam = frame_camera(lo, hi, direction=direction)
+            cam = frame_camera(lo, hi, direction=(0.55, 0.45, 1.0))
         orbit = Orbit() if still else None
     return Scene(name=p.stem, objects=tuple(objects), camera=cam, orbit=orbit, source=str(p), animation=anim)
 

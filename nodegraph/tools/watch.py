@@ -92,9 +92,9 @@ class Watcher:
                  overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
                  cache: Any = None, frame: int = 0, load: Callable[..., Pipeline] | None = None,
                  out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-                 up: str | None = None):
+                 up: str | None = None, fill: float | None = None):
         self.pipeline_path = _watched_file(pipeline)
-        self.view, self.up = view, up
+        self.view, self.up, self.fill = view, up, fill
         self.out = Path(out) if out else Path("out") / f"{self.pipeline_path.stem}.png"
         self.output_name = output_name
         self.overrides = tuple(overrides)
@@ -124,7 +124,7 @@ class Watcher:
         from ..render import open_pipeline
 
         return open_pipeline(str(self.pipeline_path), self.overrides, self.size, self.scene, out_dir=self.out_dir,
-                             allow_outside=self.allow_outside, view=self.view, up=self.up)
+                             allow_outside=self.allow_outside, view=self.view, up=self.up, fill=self.fill)
 
     def step(self, force: bool = False) -> WatchEvent | None:
         """Re-run if any watched file changed since the last step (or on the first step); else None."""

@@ -1,5 +1,5 @@
-"""Framing a bare mesh file: the up axis (format and shape), the front (symmetry and the head's lean), and
-the named views (`--view`, `--up`, scene files' `view:` / `up:`, `ng.load(view=, up=)`)."""
+"""Framing a bare mesh file: the up axis and the front (the format's convention unless the shape says otherwise),
+the named views and the fill (`--view`, `--up`, `--fill`, scene files' `view:` / `up:`, `ng.load(view=, up=)`)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,10 @@ from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
 from nodegraph.executor import Executor
 from nodegraph.scene import framing, primitives
-from nodegraph.scene.meshes import Mesh, merge_meshes
-from nodegraph.scene.scene import load_scene, translation
+from nodegraph.scene.meshes import Mesh, MeshWarning, load_mesh, merge_meshes
+from nodegraph.scene.scene import load_scene, scene_for_mesh, translation
+from nodegraph.tools.bench import orientation
+from nodegraph.tools.bench.orientation import quadruped
 
 PIPE = """pipeline: t
 size: [96, 96]
@@ -80,38 +82,179 @@ def files(tmp_path: Path) -> dict[str, Path]:
             "x_front": write_obj(tmp_path / "fig_xf.obj", fig, TO_X_FRONT)}
 
 
-def test_up_is_detected_from_the_base_and_the_format(files) -> None:
+def test_up_keeps_the_file_convention_unless_the_shape_says_otherwise(files) -> None:
     fig = figure()
     assert framing.detect_up(fig.vertices, fig.faces, ".obj") == "y"
     z = fig.transformed(TO_Z_UP)
-    assert framing.detect_up(z.vertices, z.faces, ".obj") == "z"  # the flat base says so
-    ball = primitives.sphere(1.0, 2)  # no base, no tall axis: the format decides
+    assert framing.detect_up(z.vertices, z.faces, ".stl") == "z"  # STL's convention
+    assert framing.detect_up(z.vertices, z.faces, ".obj") == "y"  # it lies on its back, as an OBJ says: --up z
+    ball = primitives.sphere(1.0, 2)  # no evidence either way: the format decides
     assert framing.detect_up(ball.vertices, ball.faces, ".stl") == "z"
     assert framing.detect_up(ball.vertices, ball.faces, ".obj") == "y"
-    for key in ("y", "z", "stl"):
+    for key in ("y", "stl"):
         s = load_scene(str(files[key]))
         lo, hi = s.bounds()
         assert hi[1] - lo[1] == pytest.approx(1.5), key  # standing: the figure's height along +Y
 
 
-def test_front_is_found_by_the_head(files) -> None:
+def test_a_vertical_mirror_plane_overrides_the_convention() -> None:
+    """A four-legged animal written with its left-right axis along Y (a Z-up scan read as Y-up lies on its
+    side): Y cannot be up; it is stood up along Z and the line says so."""
+    animal = quadruped()
+    lying = animal.transformed(np.linalg.inv(framing.up_rotation("x")))  # +Y (up) -> +X, +X (left-right) -> -Y
+    o = framing.orient(lying.vertices, lying.faces, ".obj")
+    assert o.notes and "mirror-symmetric across y" in o.notes[0]
+    assert o.up[-1] != "y"
+    with pytest.warns(framing.FramingWarning, match="stood up along"):
+        scene_for_mesh(lying, "lying.obj")
+
+
+TURN_Z = TO_X_FRONT @ TO_X_FRONT  # half a turn about +Y: the front +Z -> -Z
+SPOT = Path(__file__).resolve().parents[3] / "shared" / "meshes" / "spot.obj"
+
+
+def _framed(mesh: Mesh, source: str = "m.obj") -> tuple[np.ndarray, list[str]]:
+    """(the default camera's direction target -> eye, the FramingWarning lines) of a mesh file."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cam = scene_for_mesh(mesh, source).camera
+    lines = [str(w.message) for w in caught if issubclass(w.category, framing.FramingWarning)]
+    return cam.eye - cam.target, lines
+
+
+def test_front_keeps_the_convention_unless_the_other_end_shows_more_detail() -> None:
     fig = figure()
     assert np.array_equal(framing.detect_front(fig.vertices, fig.faces), [0, 0, 1])
-    turned = fig.transformed(TO_X_FRONT)
-    assert np.array_equal(framing.detect_front(turned.vertices, turned.faces), [1, 0, 0])
-    back = fig.transformed(TO_X_FRONT @ TO_X_FRONT)  # facing -Z
-    assert np.array_equal(framing.detect_front(back.vertices, back.faces), [0, 0, -1])
-    s = load_scene(str(files["x_front"]), view="front")
-    d = s.camera.eye - s.camera.target
-    assert d[0] > 0 and abs(d[1]) < 1e-9 and abs(d[2]) < 1e-9
+    back = fig.transformed(TURN_Z)  # facing -Z: its nose and feet show little more than its back (1.1x)
+    assert np.array_equal(framing.detect_front(back.vertices, back.faces), [0, 0, 1])
+    animal = quadruped()  # clearly mirror-symmetric across X only
+    assert np.array_equal(framing.detect_front(animal.vertices, animal.faces), [0, 0, 1])
+    turned = animal.transformed(TO_X_FRONT)  # Z now runs left to right: the front is +-X, +X unless -X shows more
+    choice = framing.front_choice(turned.vertices, turned.faces)
+    assert choice.across_z and np.array_equal(choice.front, [1, 0, 0])
+    away = animal.transformed(np.linalg.inv(TO_X_FRONT))  # a box head shows no more than a box rump: a guess
+    choice = framing.front_choice(away.vertices, away.faces)
+    assert choice.across_z and abs(choice.front[0]) == 1.0
+    assert "do not say which end" in choice.note()
+
+
+def test_a_head_facing_away_is_seen_from_its_face_and_the_line_says_so() -> None:
+    head = orientation.face()  # a nose, eyes under brows and a mouth toward +Z
+    d, lines = _framed(head)
+    assert d[2] > 0 and lines == []
+    d, lines = _framed(head.transformed(TURN_Z))
+    assert d[2] < 0
+    assert len(lines) == 1 and lines[0].startswith("face: seen from -z: ")
+    assert "the feature lines of the file's front (+z)" in lines[0] and "`--view back`" in lines[0]
+    ratio = float(lines[0].split(": ")[2].split("x ")[0])
+    assert ratio >= framing.DETAIL_MARGIN
+    front = framing.front_choice(head.transformed(TURN_Z).vertices, head.faces)
+    assert np.array_equal(front.front, [0, 0, -1])
+
+
+def test_an_stl_facing_away_names_its_own_axes() -> None:
+    head = orientation.face().transformed(TURN_Z)  # facing -Z; as an STL (Z-up), the file's front is -Y
+    d, lines = _framed(head.transformed(TO_Z_UP), "away.stl")
+    assert d[2] < 0  # stood up: seen from its face
+    assert len(lines) == 1 and lines[0].startswith("face: seen from +y: ") and "file's front (-y)" in lines[0]
+
+
+@pytest.mark.parametrize("name", ["sphere", "box", "cube"])
+def test_a_featureless_shape_keeps_the_convention_without_a_word(name: str) -> None:
+    mesh = {"sphere": lambda: primitives.sphere(1.0, 3), "box": lambda: primitives.box((1.0, 0.6, 1.4)),
+            "cube": lambda: primitives.box(1.0)}[name]()
+    for m in (mesh, mesh.transformed(TURN_Z)):
+        choice = framing.front_choice(m.vertices, m.faces)
+        assert np.array_equal(choice.front, [0, 0, 1]) and choice.note() is None
+        d, lines = _framed(m)
+        assert d[2] > 0 and lines == []
+
+
+def test_visible_detail_is_deterministic_and_free_of_scale_position_and_mirror() -> None:
+    head = orientation.face()
+    plus, minus, width = framing.visible_detail(head.vertices, head.faces, 2)
+    assert (plus, minus, width) == framing.visible_detail(head.vertices, head.faces, 2)
+    assert plus > 2.0 * minus > 0.0  # the face shows the nose, the eyes, the brows and the mouth
+    small = head.vertices * 1e-3 + 7.0  # pixel edges fall a rounding apart: a few samples change sides
+    assert np.allclose(framing.visible_detail(small, head.faces, 2), (plus * 1e-3, minus * 1e-3, width * 1e-3),
+                       rtol=0.02)
+    mirrored = head.vertices * [-1.0, 1.0, 1.0]
+    assert np.allclose(framing.visible_detail(mirrored, head.faces[:, ::-1], 2), (plus, minus, width), rtol=0.02)
+    flipped = framing.visible_detail(head.vertices, head.faces[:, ::-1], 2)  # wound inside out: the same lines
+    assert np.allclose(flipped, (plus, minus, width), rtol=1e-9)
+
+
+@pytest.mark.skipif(not SPOT.exists(), reason=f"the shared meshes are absent ({SPOT.parent})")
+@pytest.mark.xfail(strict=True, reason="spot's face is a smooth muzzle: it shows 1.15x the feature lines of its "
+                   "rump and tail, under DETAIL_MARGIN (the cow's rear shows 1.2x its face), so the file's front "
+                   "(+Z, its back) is kept; `--view back` shows its face")
+def test_spot_is_seen_from_its_face() -> None:
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MeshWarning)
+        spot = load_mesh(SPOT)
+    d, _ = _framed(spot, str(SPOT))
+    assert d[2] < 0  # spot's file faces -Z
+
+
+def test_orientation_bench_on_the_convention_presentations() -> None:
+    result = orientation.run(meshes_dir=None, only=("head", "quadruped", "vase", "table", "van", "face"),
+                             n_rotations=1, variants=("plain",))
+    conv = result["summary"]["report: convention"]
+    assert conv["up found"] == 1.0 and conv["false overrides"] == 0.0
+    assert conv["front found (of up found)"] == 1.0
+    front = result["front"]
+    assert front["report: front +z"]["front found"] == 1.0 and front["report: front +z"]["false overrides"] == 0.0
+    away = [r for r in result["front_rows"] if r["toward"] == "-z"]
+    assert [r["mesh"] for r in away if r["front_ok"]] == ["face"]  # the one with a modelled face
+    assert all(r["overrode"] == r["front_ok"] for r in away)
 
 
 def test_a_z_up_copy_is_drawn_like_the_y_up_original(gl, files) -> None:
     ref = coverage(gl, str(files["y"]))
     assert iou(coverage(gl, str(files["z"]), up="z"), ref) >= 0.95
-    assert iou(coverage(gl, str(files["z"])), ref) >= 0.95  # auto
-    assert iou(coverage(gl, str(files["stl"])), ref) >= 0.95  # auto, STL
+    assert iou(coverage(gl, str(files["stl"])), ref) >= 0.95  # auto, STL: Z-up by convention
     assert iou(coverage(gl, str(files["z"]), up="y"), ref) < 0.8  # taken as Y-up it lies on its back
+    assert iou(coverage(gl, str(files["z"])), ref) < 0.8  # as an OBJ says (auto: no strong evidence against)
+
+
+def _drawn_fill(mask: np.ndarray) -> float:
+    rows, cols = np.nonzero(mask.any(axis=1))[0], np.nonzero(mask.any(axis=0))[0]
+    return max(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1) / min(mask.shape)
+
+
+@pytest.mark.parametrize("name", ["sphere", "box", "figure", "sheet_flat", "sheet_standing"])
+def test_the_subject_fills_80_to_90_percent_of_the_frame(gl, tmp_path: Path, name: str) -> None:
+    standing = np.array([[0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)  # +Y normal -> -X
+    mesh = {"sphere": lambda: primitives.sphere(1.0, 3), "box": lambda: primitives.box((1.0, 0.6, 1.4)),
+            "figure": figure, "sheet_flat": lambda: primitives.plane(2.0, 8),
+            "sheet_standing": lambda: primitives.plane(2.0, 8).transformed(standing)}[name]()
+    path = write_obj(tmp_path / f"{name}.obj", mesh)
+    for size in ((96, 96), (128, 80)):
+        mask = coverage(gl, str(path), size=size)
+        assert 0.80 <= _drawn_fill(mask) <= 0.90, (name, size, _drawn_fill(mask))
+    if name.startswith("sheet"):  # seen face-on: along the sheet's normal
+        cam = load_scene(str(path)).camera
+        normal = framing.broad_side(mesh.vertices, mesh.faces)
+        assert abs(abs(float(np.dot(cam.basis()[2], normal))) - 1.0) < 1e-9
+    half = coverage(gl, str(path), size=(96, 96), fill=0.5)
+    assert 0.45 <= _drawn_fill(half) <= 0.55
+
+
+def test_an_unused_vertex_far_away_changes_nothing(tmp_path: Path) -> None:
+    fig = figure()
+    far = fig.vertices.max(axis=0) + 5 * fig.diagonal()
+    with_far = Mesh("figure", np.vstack([fig.vertices, far]), fig.faces)
+    a, b = scene_for_mesh(fig, "f.obj").camera, scene_for_mesh(with_far, "f.obj").camera
+    assert np.allclose(a.eye, b.eye) and np.allclose(a.target, b.target) and np.allclose(a.up, b.up)
+    path = write_obj(tmp_path / "far.obj", with_far)
+    with pytest.warns(MeshWarning, match="dropped 1 vertex no face uses"):
+        loaded = load_mesh(path)
+    assert loaded.n_vertices == fig.n_vertices
+    assert np.allclose(load_scene(str(path)).camera.eye, a.eye)
 
 
 def test_views_give_the_expected_silhouettes(gl, files) -> None:
@@ -175,7 +318,11 @@ def test_api_and_cli_take_view_and_up(gl, files, tmp_path: Path) -> None:
     assert np.allclose(cam.basis()[2], [0, 0, -1])
     assert pipe.set({"edges.width": 2}).pipeline.scene.camera.params() == cam.params()
     out = tmp_path / "o.png"
-    r = cli("run", sketchy, "--scene", str(files["z"]), "--up", "z", "--view", "back",
+    with pytest.raises(PipelineError, match="fill"):
+        load_scene(str(files["y"]), fill=0)
+    with pytest.raises(PipelineError, match="own camera"):
+        load_scene("builtin:box", fill=0.8)
+    r = cli("run", sketchy, "--scene", str(files["z"]), "--up", "z", "--view", "back", "--fill", "0.7",
             "--size", "64x48", "--no-cache", "-q", "-o", str(out))
     assert r.exit_code == 0, r.output
     assert out.exists()

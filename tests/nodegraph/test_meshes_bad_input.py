@@ -49,6 +49,7 @@ def test_binary_stl_with_solid_header_loads(tmp_path: Path) -> None:
     assert load_mesh(p).n_faces >= 1
 
 
+@pytest.mark.slow  # 2.5 s: a CLI process
 def test_solid_header_then_binary_garbage_is_refused_not_looped(tmp_path: Path) -> None:
     p = tmp_path / "b.stl"
     p.write_bytes(b"solid x\n" + bytes(np.random.default_rng(0).integers(0, 256, 400, dtype=np.uint8)))
@@ -110,10 +111,22 @@ def test_obj_coordinates_the_gpu_cannot_hold(tmp_path: Path, coord: str, needle:
     assert needle in _load_error(p)
 
 
-def test_coordinates_so_far_out_that_float32_loses_the_shape(tmp_path: Path) -> None:
+def test_coordinates_so_far_out_that_float64_loses_the_shape(tmp_path: Path) -> None:
     p = tmp_path / "far.obj"
-    p.write_text("v 1e30 0 0\nv 1.0000001e30 0 0\nv 1e30 1e23 0\nf 1 2 3\n")
-    assert "float32 (as the GPU holds them) cannot tell its vertices apart" in _load_error(p)
+    p.write_text("v 1e20 0 0\nv 1e20 1e7 0\nv 1e20 0 1e7\nf 1 2 3\n")  # 1e7 across at 1e20
+    assert "even float64 keeps too few digits of its shape" in _load_error(p)
+
+
+def test_far_from_the_origin_for_its_size_loads(tmp_path: Path) -> None:
+    """Drawn relative to its own centre (nodegraph/scene/origin.py), a mesh is not limited by float32 where it lies:
+    0.1 across at 1e6 (refused before, as 2^20 times its size), and 1e23 across at 1e30, load."""
+    p = tmp_path / "far.obj"
+    p.write_text("v 1000000 0 0\nv 1000000.1 0 0\nv 1000000 0.1 0\nf 1 2 3\n")
+    m = load_mesh(p)
+    assert m.vertices[1, 0] == 1000000.1  # read as float64, every digit
+    q = tmp_path / "huge.obj"
+    q.write_text("v 1e30 0 0\nv 1.0000001e30 0 0\nv 1e30 1e23 0\nf 1 2 3\n")
+    assert load_mesh(q).n_faces == 1
 
 
 def test_far_but_fine_mesh_loads(tmp_path: Path) -> None:
@@ -193,3 +206,22 @@ def test_camera_values_must_be_finite(tmp_path: Path) -> None:
                      "far: .inf}\n")
     out = cli("run", tiny_pipeline(tmp_path, scene="s.yaml"), "-o", tmp_path / "o.png")
     assert_one_line_error(out, "camera.far", "finite")
+
+
+def test_ply_triangle_strips_are_read(tmp_path: Path) -> None:
+    """A 'tristrips' element (vertex_indices, -1 restarts a strip) gives triangles of one winding; joins with a
+    repeated index are left out; a PLY of vertices alone says it is a point cloud."""
+    grid = "".join(f"{x} {y} 0\n" for y in range(2) for x in range(4))  # 0..3 along the bottom, 4..7 above
+    p = tmp_path / "strip.ply"
+    p.write_text("ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+                 "element tristrips 1\nproperty list int int vertex_indices\nend_header\n" + grid
+                 + "9 4 0 5 1 -1 6 2 7 3\n")
+    m = load_mesh(p)
+    assert m.n_faces == 4  # two strips of two triangles
+    normals = m.face_normals()
+    assert np.allclose(normals[:, 2], normals[0, 2]) and abs(normals[0, 2]) == pytest.approx(1.0)
+    cloud = tmp_path / "cloud.ply"
+    cloud.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "end_header\n0 0 0\n1 0 0\n0 1 0\n")
+    with pytest.raises(MeshError, match="no faces: 3 vertices and no 'face' or 'tristrips' element"):
+        load_mesh(cloud)

@@ -13,8 +13,8 @@ import pytest
 from nodegraph.cache import Cache, CacheWarning
 from nodegraph.scene import framing, meshes, meshstore, scene
 
-# a square pyramid whose base is split in two triangles, plus one degenerate face (a repeated vertex): the
-# repair drops it with a MeshWarning
+# a square pyramid whose base is split in two triangles, every face wound outward, plus one degenerate face (a
+# repeated vertex): the repair drops it with a MeshWarning
 OBJ = """v 0 0 0
 v 1 0 0
 v 1 0 1
@@ -22,10 +22,10 @@ v 0 0 1
 v 0.5 1.2 0.5
 f 1 2 3
 f 1 3 4
-f 1 2 5
-f 2 3 5
-f 3 4 5
-f 4 1 5
+f 2 1 5
+f 3 2 5
+f 4 3 5
+f 1 4 5
 f 1 1 5
 """
 
@@ -163,7 +163,7 @@ def test_entries_are_counted_and_pruned_with_the_cache(store, tmp_path):
     path.write_text(OBJ)
     scene.mesh_scene(path)
     cache = Cache(store.parent)
-    assert cache.info()["entries"] == cache.info()["meshes"] == 2  # the parsed file and its front direction
+    assert cache.info()["entries"] == cache.info()["meshes"] == 3  # the parsed file, its up axis and its front
     cache.prune(limit=0)
     assert not list(store.glob("*.npz"))
 

@@ -352,11 +352,14 @@ def test_load_is_memoised_by_path_mtime_size(tmp_path: Path) -> None:
     assert b is not a and b.n_faces == 2
 
 
+UNUSED_VERTICES = {"stanford-bunny": 1113}  # the scan's file lists vertices no face uses
+
+
 @pytest.mark.parametrize("name", list(README_COUNTS))
 def test_shared_meshes_load(name: str) -> None:
     m = shared_mesh(name)
     n_v, n_f = README_COUNTS[name]
-    assert m.n_vertices == n_v
+    assert m.n_vertices == n_v - UNUSED_VERTICES.get(name, 0)  # vertices no face uses are dropped at load
     assert n_f - 10 <= m.n_faces <= n_f  # a few degenerate faces may be dropped (ogre has 4)
     ra = m.render_arrays()
     assert np.isfinite(ra.normals).all() and np.isfinite(ra.smooth_normals).all()

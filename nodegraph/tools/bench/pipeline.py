@@ -47,6 +47,7 @@ NAMED: dict[str, str] = {
     "targets": "nodegraph.tools.bench.targets:command",
     "peer": "nodegraph.tools.bench.peer:command",
     "checksum": "nodegraph.tools.bench.checksum:command",
+    "orientation": "nodegraph.tools.bench.orientation:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
@@ -79,9 +80,9 @@ def _pipeline_command(path: str) -> click.Command:
     @click.option("--set", "overrides", multiple=True, help="NODE.PARAM=VALUE")
     @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
     def cmd(scene: str | None, frames: int, size: str | None, overrides: tuple[str, ...],
-            json_path: Path | None, view: str | None = None, up: str | None = None) -> None:
-        emit(bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides, view=view, up=up),
-             json_path)
+            json_path: Path | None, view: str | None = None, up: str | None = None, fill: float | None = None) -> None:
+        emit(bench_pipeline(path, scene=scene, frames=frames, size=size, overrides=overrides, view=view, up=up,
+                            fill=fill), json_path)
 
     return cmd
 
@@ -111,13 +112,13 @@ def _fmt(v: Any) -> str:
 
 def bench_pipeline(path: str, *, scene: str | None = None, frames: int = 60, size: str | None = None,
                    overrides: tuple[str, ...] = (), warmup: int = 3, view: str | None = None,
-                   up: str | None = None) -> dict[str, Any]:
+                   up: str | None = None, fill: float | None = None) -> dict[str, Any]:
     from ... import pipeline as pl
     from ...executor import Executor
     from ...gpu import gl as glmod
 
     pipe = pl.load(path, overrides=list(overrides), size=pl.parse_size(size) if size else None, scene=scene,
-                   view=view, up=up)
+                   view=view, up=up, fill=fill)
     gl = glmod.get()
     ex = Executor(pipe, None, mode="loop", memory_limit=256 * 1024**2)
     for f in range(-warmup, 0):

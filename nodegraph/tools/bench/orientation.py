@@ -1,0 +1,386 @@
+"""`sketchgraph bench orientation`: how often the framing of a mesh file stands it up and faces it the right way
+(nodegraph/scene/framing.py, `orient`), on meshes whose up and front are known, each presented in the 24
+axis-aligned rotations and once as a Z-up STL, and, for the front alone, turned four ways about +Y.
+
+The meshes are kept in two sets, and the figures are given for each apart:
+
+- **tune**: what the rules and thresholds were chosen on (the shared spot, cow, stanford-bunny, ogre, suzanne
+  and teapot, the boxes-figure of tests/nodegraph/test_framing.py, and the chair and car generated here: their
+  first run stood them on their back and roof, and the flat-base rule was changed for it). The front's measure
+  (feature lines over FEATURE_DEG seen from each end, `framing.visible_detail`), its angle and DETAIL_MARGIN
+  were chosen on these alone: spot, cow, bunny, ogre, suzanne, chair, car and figure, plus fandisk and teapot
+  (no known front) for what they would do;
+- **report**: shapes generated here and not looked at while choosing them (a head with a nose and ears, a
+  four-legged animal of boxes, a vase, a table, a van; and, made for the front and first measured with the
+  measure and margin fixed, a face with a nose, eyes under brows and a mouth, an animal with a snout, eyes
+  and ears, a car with a sloping windshield and headlights). The head, the box animal and the van were seen
+  once in an exploratory table of a curvature-weighted variant that was not kept.
+
+Presentations fall in three cases: *convention* (the file's convention is right: up +Y and front +Z as an
+OBJ, or Z-up with the front -Y as an STL), *front turned* (up +Y, the front any other way) and *up turned*
+(the 20 rotations where +Y is not up). For each: the share whose up is found, the share (of those) whose
+front is found (meshes with a known front), and how often the framing said it overrode the convention
+(`notes`): a right override on a turned presentation, a false one on a convention presentation.
+
+The *front sign* table gives the up (Y) and judges the front alone, on every mesh with a known front turned so
+that it faces +Z (the convention right: any override is false), -Z (the file faces away: the convention is
+wrong) and +-X, each as a plain, a noisy (NOISE of the diagonal), a scaled (a thousandth, moved off the
+origin) and a mirrored copy (left to right, so the front stays).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ...fsio import atomic_write_text
+from ...scene import framing, primitives
+from ...scene.meshes import Mesh, merge_meshes
+
+SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
+
+# (file stem, front in the file) of the shared meshes: fronts read from renders of the four sides; all Y-up
+SHARED_KNOWN: dict[str, tuple[float, float, float] | None] = {
+    "spot": (0, 0, -1), "cow": (1, 0, 0), "stanford-bunny": (-1, 0, 0), "ogre": (0, 0, 1), "suzanne": (0, 0, 1),
+    "teapot": None,  # the spout to +X: which side is its front is a matter of taste
+}
+
+
+@dataclass
+class Case:
+    name: str
+    mesh: Mesh  # Y-up
+    front: np.ndarray | None  # in the mesh's frame; None: no known front
+    group: str  # "tune" or "report"
+
+
+def _place(mesh: Mesh, lo: Any, hi: Any) -> Mesh:
+    """`mesh` (centred at the origin) scaled and moved to fill the box lo..hi."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    mlo, mhi = mesh.bounds()
+    s = (hi - lo) / np.where(mhi - mlo > 0, mhi - mlo, 1.0)
+    m = np.diag([*s, 1.0])
+    m[:3, 3] = (lo + hi) / 2.0 - s * (mlo + mhi) / 2.0
+    return mesh.transformed(m)
+
+
+def _box(lo: Any, hi: Any) -> Mesh:
+    return _place(primitives.box(1.0), lo, hi)
+
+
+def _along(mesh: Mesh, axis: str) -> Mesh:
+    """A +Y-axis primitive turned to run along `axis` (x or z)."""
+    r = np.eye(4)
+    if axis == "x":
+        r[:3, :3] = [[0, 1, 0], [-1, 0, 0], [0, 0, 1]]
+    elif axis == "z":
+        r[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]
+    return mesh.transformed(r)
+
+
+def head() -> Mesh:
+    """A head on a neck: a sphere, a nose pointing +Z, two ears at +-X."""
+    parts = [primitives.sphere(1.0, 3), _place(_along(primitives.cone(0.5, 1.0, 24), "z"), (-0.18, -0.1, 0.85),
+                                                (0.18, 0.25, 1.35)),
+             _place(primitives.sphere(1.0, 2), (-1.15, 0.0, -0.15), (-0.85, 0.5, 0.15)),
+             _place(primitives.sphere(1.0, 2), (0.85, 0.0, -0.15), (1.15, 0.5, 0.15)),
+             _place(primitives.cylinder(0.5, 1.0, 24), (-0.45, -1.6, -0.45), (0.45, -0.6, 0.45))]
+    return merge_meshes(parts, "head")
+
+
+def chair() -> Mesh:
+    """Four legs, a seat, a back at -Z: the front (where one sits) toward +Z."""
+    legs = [_box((x - 0.04, 0.0, z - 0.04), (x + 0.04, 0.5, z + 0.04)) for x in (-0.42, 0.42) for z in (-0.42, 0.42)]
+    return merge_meshes([*legs, _box((-0.5, 0.5, -0.5), (0.5, 0.58, 0.5)), _box((-0.5, 0.58, -0.5), (0.5, 1.5, -0.42))],
+                        "chair")
+
+
+def car() -> Mesh:
+    """A long body on four wheels, the cabin set back: the bonnet toward +Z."""
+    wheels = [_place(_along(primitives.cylinder(0.5, 1.0, 24), "x"), (x - 0.1, 0.0, z - 0.3), (x + 0.1, 0.6, z + 0.3))
+              for x in (-0.55, 0.55) for z in (-0.95, 0.95)]
+    body = [_box((-0.5, 0.25, -1.4), (0.5, 0.75, 1.4)), _box((-0.45, 0.75, -1.0), (0.45, 1.2, 0.3))]
+    return merge_meshes([*wheels, *body], "car")
+
+
+def quadruped() -> Mesh:
+    """A body on four legs, a neck and a head ahead and above: the front toward +Z."""
+    legs = [_box((x - 0.08, 0.0, z - 0.08), (x + 0.08, 0.8, z + 0.08)) for x in (-0.18, 0.18) for z in (-0.6, 0.6)]
+    return merge_meshes([*legs, _box((-0.28, 0.8, -0.8), (0.28, 1.3, 0.8)), _box((-0.1, 1.2, 0.6), (0.1, 1.8, 0.85)),
+                         _box((-0.14, 1.7, 0.55), (0.14, 1.95, 1.15)), _box((-0.03, 0.9, -1.1), (0.03, 1.25, -0.8))],
+                        "quadruped")
+
+
+def vase() -> Mesh:
+    """A body of revolution on a flat foot: up +Y, no front."""
+    return merge_meshes([_place(primitives.sphere(1.0, 3), (-0.5, 0.15, -0.5), (0.5, 1.1, 0.5)),
+                         _place(primitives.cylinder(0.5, 1.0, 32), (-0.3, 0.0, -0.3), (0.3, 0.3, 0.3)),
+                         _place(primitives.cylinder(0.5, 1.0, 32), (-0.18, 1.0, -0.18), (0.18, 1.5, 0.18))], "vase")
+
+
+def figure() -> Mesh:
+    """The boxes-figure of tests/nodegraph/test_framing.py: a base, feet and a nose toward +Z, arms, a head."""
+    parts = [_box((-0.6, 0.0, -0.4), (0.6, 0.1, 0.4)),
+             _box((-0.3, 0.1, -0.12), (-0.08, 0.2, 0.35)), _box((0.08, 0.1, -0.12), (0.3, 0.2, 0.35)),
+             _box((-0.3, 0.2, -0.15), (0.3, 1.1, 0.15)),
+             _box((-0.45, 0.55, -0.08), (-0.3, 1.05, 0.08)), _box((0.3, 0.55, -0.08), (0.45, 1.05, 0.08)),
+             _box((-0.2, 1.1, -0.18), (0.2, 1.5, 0.18)), _box((-0.05, 1.22, 0.18), (0.05, 1.34, 0.38))]
+    return merge_meshes(parts, "figure")
+
+
+def table() -> Mesh:
+    """A square top on four legs: up +Y, no front."""
+    legs = [_box((x - 0.05, 0.0, z - 0.05), (x + 0.05, 0.7, z + 0.05)) for x in (-0.6, 0.6) for z in (-0.4, 0.4)]
+    return merge_meshes([*legs, _box((-0.7, 0.7, -0.5), (0.7, 0.78, 0.5))], "table")
+
+
+def van() -> Mesh:
+    """A tall box body on four wheels with a short bonnet toward +Z."""
+    wheels = [_place(_along(primitives.cylinder(0.5, 1.0, 24), "x"), (x - 0.1, 0.0, z - 0.25), (x + 0.1, 0.5, z + 0.25))
+              for x in (-0.5, 0.5) for z in (-0.8, 0.9)]
+    return merge_meshes([*wheels, _box((-0.5, 0.25, -1.1), (0.5, 1.4, 0.7)), _box((-0.5, 0.25, 0.7), (0.5, 0.75, 1.2))],
+                        "van")
+
+
+def _prism(profile: Any, x0: float, x1: float, name: str = "prism") -> Mesh:
+    """A closed prism: the convex polygon `profile` of (z, y) points, extruded along X from x0 to x1."""
+    q = np.asarray(profile, float)
+    k = len(q)
+    v = np.array([[x, y, z] for x in (x0, x1) for z, y in q])
+    faces = [[0, i, i + 1] for i in range(1, k - 1)] + [[k, k + i + 1, k + i] for i in range(1, k - 1)]
+    for i in range(k):
+        j = (i + 1) % k
+        faces += [[i, j, k + j], [i, k + j, k + i]]
+    f = np.array(faces)
+    centre = v.mean(axis=0)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    inward = np.einsum("ij,ij->i", n, v[f].mean(axis=1) - centre) < 0
+    f[inward] = f[inward][:, ::-1]
+    return Mesh(name, v, f)
+
+
+def face() -> Mesh:
+    """A head with a face toward +Z: a nose, two eyes under two brows, a mouth; ears at +-X, a neck below."""
+    eyes = [_place(primitives.sphere(1.0, 2), (x - 0.12, 0.2, 0.78), (x + 0.12, 0.44, 1.0)) for x in (-0.35, 0.35)]
+    brows = [_box((x - 0.2, 0.52, 0.7), (x + 0.2, 0.6, 0.9)) for x in (-0.35, 0.35)]
+    mouth = _place(primitives.sphere(1.0, 2), (-0.3, -0.52, 0.8), (0.3, -0.38, 0.97))
+    nose = _place(_along(primitives.cone(0.5, 1.0, 24), "z"), (-0.15, -0.15, 0.9), (0.15, 0.2, 1.3))
+    ears = [_place(primitives.sphere(1.0, 2), (x - 0.15, 0.0, -0.15), (x + 0.15, 0.5, 0.15)) for x in (-1.0, 1.0)]
+    neck = _place(primitives.cylinder(0.5, 1.0, 24), (-0.45, -1.6, -0.45), (0.45, -0.6, 0.45))
+    return merge_meshes([primitives.sphere(1.0, 3), nose, *eyes, *brows, mouth, *ears, neck], "face")
+
+
+def animal() -> Mesh:
+    """A four-legged animal: a rounded body on four legs, a neck and a head with a snout, eyes and ears at the +Z
+    end, a thin tail at the -Z end."""
+    legs = [_place(primitives.cylinder(0.5, 1.0, 16), (x - 0.08, 0.0, z - 0.08), (x + 0.08, 0.9, z + 0.08))
+            for x in (-0.2, 0.2) for z in (-0.6, 0.6)]
+    body = _place(primitives.sphere(1.0, 3), (-0.35, 0.7, -0.9), (0.35, 1.3, 0.9))
+    neck = _place(primitives.cylinder(0.5, 1.0, 16), (-0.09, 1.1, 0.72), (0.09, 1.5, 0.9))
+    head = _place(primitives.sphere(1.0, 3), (-0.2, 1.4, 0.7), (0.2, 1.75, 1.1))
+    snout = _place(_along(primitives.cylinder(0.5, 1.0, 16), "z"), (-0.1, 1.42, 1.0), (0.1, 1.58, 1.25))
+    eyes = [_place(primitives.sphere(1.0, 2), (x - 0.04, 1.61, 0.99), (x + 0.04, 1.69, 1.07)) for x in (-0.12, 0.12)]
+    ears = [_place(primitives.cone(0.5, 1.0, 12), (x - 0.05, 1.7, 0.85), (x + 0.05, 1.9, 0.95)) for x in (-0.12, 0.12)]
+    tail = _place(_along(primitives.cylinder(0.5, 1.0, 8), "z"), (-0.03, 1.0, -1.25), (0.03, 1.06, -0.85))
+    return merge_meshes([*legs, body, neck, head, snout, *eyes, *ears, tail], "animal")
+
+
+def sedan() -> Mesh:
+    """A car-like box on four wheels: a cabin with a sloping windshield, two headlights, a grille and a bumper at
+    the +Z end; a steeper rear window and a bumper at the -Z end."""
+    wheels = [_place(_along(primitives.cylinder(0.5, 1.0, 24), "x"), (x - 0.1, 0.0, z - 0.3), (x + 0.1, 0.6, z + 0.3))
+              for x in (-0.55, 0.55) for z in (-0.95, 0.95)]
+    cabin = _prism([(-1.0, 0.75), (0.45, 0.75), (0.05, 1.2), (-0.75, 1.2)], -0.45, 0.45, "cabin")
+    lights = [_place(_along(primitives.cylinder(0.5, 1.0, 24), "z"), (x - 0.09, 0.46, 1.4), (x + 0.09, 0.64, 1.46))
+              for x in (-0.32, 0.32)]
+    bumpers = [_box((-0.52, 0.25, 1.4), (0.52, 0.35, 1.5)), _box((-0.52, 0.25, -1.5), (0.52, 0.35, -1.4))]
+    return merge_meshes([*wheels, _box((-0.5, 0.25, -1.4), (0.5, 0.75, 1.4)), cabin, *lights,
+                         _box((-0.18, 0.4, 1.4), (0.18, 0.62, 1.43)), *bumpers], "sedan")
+
+
+GENERATED = {"head": (head, (0, 0, 1), "report"), "quadruped": (quadruped, (0, 0, 1), "report"),
+             "vase": (vase, None, "report"), "table": (table, None, "report"), "van": (van, (0, 0, 1), "report"),
+             "face": (face, (0, 0, 1), "report"), "animal": (animal, (0, 0, 1), "report"),
+             "sedan": (sedan, (0, 0, 1), "report"),
+             "chair": (chair, (0, 0, 1), "tune"), "car": (car, (0, 0, 1), "tune")}
+
+
+def cases(meshes_dir: Path | None = SHARED_MESHES, only: tuple[str, ...] = ()) -> list[Case]:
+    out = [Case(name, make(), None if front is None else np.array(front, float), group)
+           for name, (make, front, group) in GENERATED.items()]
+    out.append(Case("figure", figure(), np.array([0.0, 0.0, 1.0]), "tune"))
+    if meshes_dir is not None and Path(meshes_dir).is_dir():
+        import warnings
+
+        from ...scene.meshes import MeshWarning, load_mesh
+
+        for stem, front in SHARED_KNOWN.items():
+            path = Path(meshes_dir) / f"{stem}.obj"
+            if path.exists():
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", MeshWarning)
+                    mesh = load_mesh(path)
+                out.append(Case(stem, mesh, None if front is None else np.array(front, float), "tune"))
+    return [c for c in out if not only or c.name in only]
+
+
+def rotations() -> list[np.ndarray]:
+    """The 24 proper rotations that map axes to axes (identity first)."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1, -1), repeat=3):
+            m = np.zeros((3, 3))
+            m[range(3), perm] = signs
+            if np.linalg.det(m) > 0:
+                out.append(m)
+    out.sort(key=lambda m: 0 if np.array_equal(m, np.eye(3)) else 1)
+    return out
+
+
+def judge(case: Case, rot: np.ndarray, suffix: str = ".obj") -> dict[str, Any]:
+    """Present `case.mesh` turned by `rot` as a `suffix` file and compare what `orient` finds with the truth."""
+    v = case.mesh.vertices @ rot.T
+    faces = case.mesh.faces if np.linalg.det(rot) > 0 else case.mesh.faces[:, ::-1]
+    true_up = rot @ np.array([0.0, 1.0, 0.0])
+    true_front = None if case.front is None else rot @ case.front
+    conv_up, conv_front = framing.convention(suffix)
+    o = framing.orient(v, faces, suffix)
+    found_up = framing.axis_vector(o.up)
+    found_front = framing.up_rotation(o.up)[:3, :3].T @ o.front  # back in the file's frame
+    up_ok = bool(np.allclose(found_up, true_up))
+    if np.allclose(true_up, framing.axis_vector(conv_up)):
+        kind = "convention" if true_front is None or np.allclose(true_front, conv_front) else "front turned"
+    else:
+        kind = "up turned"
+    return {"mesh": case.name, "group": case.group, "kind": kind, "up_ok": up_ok,
+            "front_ok": None if true_front is None or not up_ok else bool(np.allclose(found_front, true_front)),
+            "overrode": bool(o.notes), "up": o.up, "true_up": framing.axis_name(true_up)}
+
+
+NOISE = 0.005  # the noisy copies: vertices moved by this share of the diagonal (root mean square)
+VARIANTS = ("plain", "noisy", "scaled", "mirrored")
+YAWS = {"+z": 0, "+x": 90, "-z": 180, "-x": 270}  # where the true front points, by the turn about +Y
+
+
+def variant(case: Case, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of `case.mesh` (Y-up, in its own frame) as a plain, noisy, scaled or mirrored copy, the
+    front where it was: noisy, every vertex moved by NOISE of the diagonal (fixed seed); scaled, a thousandth
+    the size and moved five diagonals off the origin; mirrored, reflected left to right (faces turned back)."""
+    v, f = case.mesh.vertices.astype(np.float64), case.mesh.faces
+    if kind == "noisy":
+        rng = np.random.default_rng(7)
+        v = v + rng.normal(0.0, NOISE * case.mesh.diagonal() / np.sqrt(3.0), v.shape)
+    elif kind == "scaled":
+        v = v * 1e-3 + 5e-3 * case.mesh.diagonal()
+    elif kind == "mirrored":
+        side = np.cross([0.0, 1.0, 0.0], case.front)
+        v = v - 2.0 * np.outer(v @ side, side)
+        f = f[:, ::-1]
+    return v, f
+
+
+def judge_front(case: Case, toward: str, kind: str) -> dict[str, Any]:
+    """The `kind` copy of `case.mesh` turned about +Y so that its front points `toward` (+z, +x, -z, -x), given
+    as a Y-up OBJ (the up axis given: only the front is judged)."""
+    assert case.front is not None
+    a = np.radians(YAWS[toward])
+    rot = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+    v, f = variant(case, kind)
+    truth = rot @ case.front
+    o = framing.orient(v @ rot.T, f, ".obj", up="y")
+    return {"mesh": case.name, "group": case.group, "toward": framing.axis_name(truth), "variant": kind,
+            "front_ok": bool(np.allclose(o.front, truth)), "found": framing.axis_name(o.front),
+            "overrode": bool(o.notes), "ratio": o.evidence.get("detail", {}).get("ratio")}
+
+
+def run_front(all_cases: list[Case], variants: tuple[str, ...] = VARIANTS) -> tuple[list[dict[str, Any]],
+                                                                                    dict[str, Any]]:
+    """The front table: every case with a known front, its front toward +Z (the convention right), -Z (the file
+    faces away) and +-X, in each variant."""
+    rows = [judge_front(c, toward, kind) for c in all_cases if c.front is not None for toward in YAWS
+            for kind in variants]
+    summary: dict[str, Any] = {}
+    for group in ("tune", "report"):
+        for label, towards in (("front +z", ("z",)), ("front -z", ("-z",)), ("front +-x", ("x", "-x"))):
+            sel = [r for r in rows if r["group"] == group and r["toward"] in towards]
+            if not sel:
+                continue
+            summary[f"{group}: {label}"] = {
+                "presentations": len(sel), "front found": round(sum(r["front_ok"] for r in sel) / len(sel), 3),
+                ("false overrides" if label == "front +z" else "overrides said"):
+                    round(sum(r["overrode"] for r in sel) / len(sel), 3)}
+    return rows, summary
+
+
+def run(meshes_dir: Path | None = SHARED_MESHES, only: tuple[str, ...] = (), n_rotations: int = 24,
+        variants: tuple[str, ...] = VARIANTS) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    rows = []
+    to_z_up = np.linalg.inv(framing.up_rotation("z")[:3, :3])  # +Y -> +Z, the front +Z -> -Y: as an STL has it
+    all_cases = cases(meshes_dir, only)
+    front_rows, front_summary = run_front(all_cases, variants)
+    for case in all_cases:
+        for rot in rotations()[:n_rotations]:
+            rows.append(judge(case, rot))
+        rows.append(judge(case, to_z_up, ".stl"))
+    summary: dict[str, Any] = {}
+    for group in ("tune", "report"):
+        for kind in ("convention", "front turned", "up turned"):
+            sel = [r for r in rows if r["group"] == group and r["kind"] == kind]
+            if not sel:
+                continue
+            fronts = [r["front_ok"] for r in sel if r["front_ok"] is not None]
+            summary[f"{group}: {kind}"] = {
+                "presentations": len(sel),
+                "up found": round(sum(r["up_ok"] for r in sel) / len(sel), 3),
+                "front found (of up found)": round(sum(fronts) / len(fronts), 3) if fronts else None,
+                ("false overrides" if kind == "convention" else "overrides said"):
+                    round(sum(r["overrode"] for r in sel) / len(sel), 3),
+            }
+    meshes = {g: sorted({r["mesh"] for r in rows if r["group"] == g}) for g in ("tune", "report")}
+    return {"benchmark": "orientation", "meshes": meshes, "summary": summary, "front": front_summary, "rows": rows,
+            "front_rows": front_rows, "seconds": round(time.perf_counter() - t0, 2)}
+
+
+@click.command(help="Up and front found by the framing of a mesh file, on meshes with a known up and front, "
+                    "in the 24 axis-aligned rotations and as a Z-up STL; tune and report sets apart.")
+@click.option("--meshes", "meshes_dir", type=click.Path(path_type=Path), default=None,
+              help="Folder of the shared test meshes (default: ../shared/meshes beside the checkout; the generated "
+                   "shapes alone where it is absent).")
+@click.option("--only", multiple=True, help="Only these meshes (by name; repeat).")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+def command(meshes_dir: Path | None, only: tuple[str, ...], json_path: Path | None) -> None:
+    result = run(meshes_dir or SHARED_MESHES, tuple(only))
+    click.echo(f"tune set: {', '.join(result['meshes']['tune'])}")
+    click.echo(f"report set: {', '.join(result['meshes']['report'])}")
+    for key, figures in result["summary"].items():
+        click.echo(f"{key}: " + ", ".join(f"{k} {v}" for k, v in figures.items()))
+    click.echo(f"front sign (up given; {', '.join(VARIANTS)} copies, front toward +z, -z, +-x):")
+    click.echo(f"  {'set: front toward':24s} {'shown':>6s} {'found':>6s} {'overrides':>10s}")
+    for key, figures in result["front"].items():
+        said = figures.get("false overrides", figures.get("overrides said"))
+        click.echo(f"  {key:24s} {figures['presentations']:6d} {figures['front found']:6.3f} {said:10.3f}"
+                   + ("  (false)" if "false overrides" in figures else ""))
+    misses: dict[str, int] = {}
+    for r in result["front_rows"]:
+        misses[r["mesh"]] = misses.get(r["mesh"], 0) + (not r["front_ok"])
+    click.echo(f"front missed per mesh (of {4 * len(VARIANTS)}): " + ", ".join(f"{m} {k}" for m, k in misses.items()))
+    per_mesh: dict[str, list[bool]] = {}
+    for r in result["rows"]:
+        per_mesh.setdefault(r["mesh"], []).append(r["up_ok"])
+    click.echo("up found per mesh (25 presentations): " + ", ".join(f"{m} {sum(v)}" for m, v in per_mesh.items()))
+    click.echo(f"{result['seconds']} s")
+    text = json.dumps(result, indent=1)
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(json_path, text + "\n")
+        click.echo(f"wrote {json_path}")
+    else:
+        click.echo(json.dumps({"summary": result["summary"], "front": result["front"]}))
