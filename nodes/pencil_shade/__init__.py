@@ -24,9 +24,13 @@ _LOCATIONS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND", "color": "LOC_COLOR"}
 
 
 class PencilShade(Node):
-    """Shades the scene's objects with the tonal art map. Brightness b = max(N.L, 0) from the scene light;
-    the tone index is max_darkness x (tones - 1) x (1 - sqrt(b x light_intensity)), continuous (the two
-    nearest tones are blended; they are nested, so without seams). Hatching is sampled in screen space in a
+    """Shades the scene's objects with the tonal art map. Brightness b = max(N.L, 0) from the scene light,
+    and no less than grazing_floor x (1 - N.V / sin grazing_angle) (N.V: the normal against the ray to the eye)
+    where a surface is seen within `grazing_angle` of edge-on: seen at a grazing angle from the side the light
+    does not reach, a surface keeps a readable mid tone (a sheet at 10 degrees: brightness 0.25, darkness 0.5)
+    rather than the darkest cross-hatching; `grazing_floor` 0 turns the rule off. The tone index is
+    max_darkness x (tones - 1) x (1 - sqrt(b x light_intensity)), continuous (the two nearest tones are
+    blended; they are nested, so without seams). Hatching is sampled in screen space in a
     frame rotated to each vertex's projected minimum-curvature direction (curvature node); a fragment
     blends the three frames of its triangle's vertices by its barycentric weights (3-way blending), which
     sum to 1, so where the three directions agree it is one rotated texture. Where a direction is
@@ -81,6 +85,14 @@ class PencilShade(Node):
         anchor: Literal["object", "screen"] = Field("object", description="Centre the hatching frame on each "
                                                     "object's projected centre (less swimming when objects "
                                                     "move) or on the screen origin.")
+        grazing_floor: float = Field(0.5, ge=0, le=1, description="Brightness a surface keeps when seen edge-on "
+                                     "(seen at a grazing angle, a surface turned from the light would be hatched "
+                                     "nearly black): brightness is at least grazing_floor x (1 - N.V / sin "
+                                     "grazing_angle), N.V the cosine between its normal and the view ray, so the "
+                                     "lift fades to nothing at grazing_angle from edge-on. 0: plain N.L.")
+        grazing_angle: float = Field(20.0, gt=0, le=90, description="Angle in degrees between the view ray and the "
+                                     "surface below which `grazing_floor` lifts the tone (at 0 degrees, edge-on, "
+                                     "it is the whole floor).")
         crease_angle: float = Field(40.0, ge=0, le=180, description="Dihedral angle in degrees above which "
                                     "normals are split (sharp creases shade flat).")
         paper_tint: float = Field(0.05, ge=0, le=1, description="How much the paper relief shows on bare paper.")
@@ -141,6 +153,8 @@ class PencilShade(Node):
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
+            "u_tan_half": (float(1.0 / proj[0, 0]), float(1.0 / proj[1, 1])),
+            "u_grazing": (p.grazing_floor, math.sin(math.radians(p.grazing_angle))),
         })
         anchors = np.zeros((1, max(len(scene.objects), 1), 2), dtype=np.float32)  # screen anchor: the origin
         with gl.depth_test() as state:
@@ -198,13 +212,18 @@ class PencilShade(Node):
         sampler = _sampler(gl, mipmaps=texel_scale > 1.0)
         shaded.depth_mask = False  # read the depth, keep it
         shaded.scissor = box
+        hatch = ctx.program("hatch.glsl", {**defines, "BACKGROUND": 0})
+        # t_tam is bound first, to unit 0; where only `blend` is asked for the program does not read it (the unit
+        # goes to the integer G-buffer, which a filtering sampler would make read as 0)
+        tam_used = "t_tam" in hatch
         try:
             with gl.depth_test(">"):  # the pass's triangle lies at depth 1, the clear value: covered pixels pass
-                sampler.use(location=0)  # t_tam is bound first, to unit 0
-                gl.fullscreen(ctx.program("hatch.glsl", {**defines, "BACKGROUND": 0}), targets, textures=textures,
-                              uniforms=uniforms, fbo=shaded)
+                if tam_used:
+                    sampler.use(location=0)
+                gl.fullscreen(hatch, targets, textures=textures, uniforms=uniforms, fbo=shaded)
         finally:
-            sampler.clear(location=0)
+            if tam_used:
+                sampler.clear(location=0)
             shaded.depth_mask = True  # framebuffers are shared: leave it as the others expect
             shaded.scissor = None
         gl.release(anchor_tex)

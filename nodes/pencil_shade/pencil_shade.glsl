@@ -53,6 +53,9 @@ in vec4 v_normal_b0;
 in vec4 v_angles_b1;
 uniform vec3 u_light;          // view-space unit direction towards the light
 uniform float u_light_intensity;
+uniform vec2 u_viewport;       // pixels
+uniform vec2 u_tan_half;       // tangents of half the field of view (x, y): the view ray through a pixel
+uniform vec2 u_grazing;        // brightness a surface keeps seen edge-on; N.V where that lift has faded to 0
 uniform uint u_object;         // the object's index: hatch.glsl looks its anchor up
 #if FACE_ORDER
 uniform sampler2D t_slots;     // per triangle (gl_PrimitiveID, SLOT_ROWS per row): slot(0) + 3 slot(1), / 255
@@ -71,8 +74,12 @@ const float HALF_PI = 1.5707963267948966;
 void main() {
     vec3 n = normalize(v_normal_b0.xyz);
     if (!gl_FrontFacing) n = -n;
-    // tone: brightness from the light; the darkest tone index is scaled by 1 - sqrt(brightness)
-    float brightness = max(dot(n, u_light), 0.0);
+    // tone: brightness from the light; the darkest tone index is scaled by 1 - sqrt(brightness). A surface seen
+    // nearly edge-on keeps some: lifted towards u_grazing.x as N.V falls from u_grazing.y to 0 (reference.py)
+    vec3 to_eye = normalize(vec3((1.0 - 2.0 * gl_FragCoord.xy / u_viewport) * u_tan_half, 1.0));
+    float facing = max(dot(n, to_eye), 0.0);
+    float brightness = max(max(dot(n, u_light), 0.0),
+                           u_grazing.x * clamp(1.0 - facing / max(u_grazing.y, 1e-6), 0.0, 1.0));
     float darkness = 1.0 - sqrt(clamp(brightness * u_light_intensity, 0.0, 1.0));
     vec3 w = vec3(v_normal_b0.w, v_angles_b1.w, 1.0 - v_normal_b0.w - v_angles_b1.w);
     vec3 wa = v_angles_b1.xyz;

@@ -22,6 +22,27 @@ def project_to_pixels(point: np.ndarray, view: np.ndarray, proj: np.ndarray,
     return (float((ndc[0] + 1.0) * 0.5 * size[0]), float((ndc[1] + 1.0) * 0.5 * size[1]))
 
 
+def view_rays_to_eye(size: tuple[int, int], proj: np.ndarray) -> np.ndarray:
+    """(H, W, 3) unit view-space directions from each pixel centre's surface point towards the eye (rows in
+    OpenGL order, row 0 at the bottom), for the perspective projection `proj`."""
+    w, h = size
+    x = 1.0 - 2.0 * (np.arange(w) + 0.5) / w
+    y = 1.0 - 2.0 * (np.arange(h) + 0.5) / h
+    d = np.stack(np.broadcast_arrays(x[None, :] / proj[0, 0], y[:, None] / proj[1, 1], np.ones((h, w))), axis=-1)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def brightness(n_dot_l: np.ndarray, facing: np.ndarray, grazing_floor: float = 0.0,
+               grazing_angle: float = 20.0) -> np.ndarray:
+    """max(N.L, 0), lifted where the surface is seen nearly edge-on: at least grazing_floor x (1 - N.V / sin
+    grazing_angle) (N.V = `facing`, clamped at 0), a lift that is the whole floor edge-on and nothing from
+    grazing_angle on."""
+    lit = np.maximum(np.asarray(n_dot_l, dtype=np.float64), 0.0)
+    v = np.maximum(np.asarray(facing, dtype=np.float64), 0.0)
+    lift = grazing_floor * np.clip(1.0 - v / max(math.sin(math.radians(grazing_angle)), 1e-6), 0.0, 1.0)
+    return np.maximum(lit, lift)
+
+
 def darkness(brightness: np.ndarray, light_intensity: float = 1.0) -> np.ndarray:
     """1 - sqrt(clamp(b x intensity, 0, 1)): 0 fully lit, 1 unlit."""
     return 1.0 - np.sqrt(np.clip(np.asarray(brightness, dtype=np.float64) * light_intensity, 0.0, 1.0))

@@ -230,7 +230,7 @@ def test_curvature_rejects_nan_coordinates_clearly():
 @pytest.mark.parametrize("name, check", [
     ("teapot.obj", lambda t: t.n_boundary_edges > 0 and t.n_components > 1),
     ("suzanne.obj", lambda t: t.n_components == 4),
-    ("stanford-bunny.obj", lambda t: t.n_boundary_edges > 0 and t.n_unreferenced > 1000),
+    ("stanford-bunny.obj", lambda t: t.n_boundary_edges > 0 and t.n_unreferenced == 0),  # 1113 unused: dropped
 ])
 @pytest.mark.slow  # up to 1.7 s a mesh
 def test_shared_broken_meshes_draw_and_measure(gl, name, check):

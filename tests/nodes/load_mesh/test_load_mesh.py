@@ -30,7 +30,7 @@ def test_missing_files_are_load_errors(tmp_path: Path):
 # -- roster -----------------------------------------------------------------------------------------
 # a unit square split into two triangles plus a tetrahedron apex: 5 vertices, 4 faces, no repairs needed
 VERTS = np.array([[0, 0, 0], [1.5, 0, 0], [1.5, 1, 0], [0, 1, 0], [0.75, 0.5, 0.8]], np.float64)
-FACES = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4]], np.int64)
+FACES = np.array([[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4]], np.int64)  # wound consistently (base facing down)
 
 
 def write_mesh(path: Path) -> Path:

@@ -32,9 +32,10 @@ def load(scene: str, size: tuple[int, int]) -> pl.Pipeline:
         scene = str(ROOT.parent / "shared" / "meshes" / scene)
     # the references were drawn before pipelines had a reference size, i.e. with every param per pixel (the
     # reference size equal to the image's shorter side gives that: px_scale 1), and before curvature's smooth
-    # field became the default (the spread field at its smoothing then)
+    # field became the default (the spread field at its smoothing then), and before the tone of surfaces seen
+    # nearly edge-on was lifted (shade.grazing_floor; the geometry shader never had it)
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=size, scene=scene, reference_size=min(size),
-                   overrides=["curv.field=spread", "curv.smoothing=0.05"])
+                   overrides=["curv.field=spread", "curv.smoothing=0.05", "shade.grazing_floor=0"])
     return pipe
 
 

@@ -212,9 +212,18 @@ def test_gpu_darkness_is_monotonic_in_brightness_on_a_sphere(gl):
     covered = (blend[..., 3] >= 0) & (normal[..., 3] > 0)
     n = normal[covered][:, :3]
     b = n @ view_light(pipe.scene, pipe.scene.camera)
-    max_tone = pipe.nodes["shade"].params.max_darkness * 15
-    # the tone index the GPU used is the reference mapping of the G-buffer's brightness
-    np.testing.assert_allclose(blend[covered][:, 3], reference.tone_index(b, 1.0, max_tone), atol=0.05)
+    p = pipe.nodes["shade"].params
+    max_tone = p.max_darkness * 15
+    # the tone index the GPU used is the reference mapping of the G-buffer's brightness, lifted near the outline
+    to_eye = reference.view_rays_to_eye(pipe.size, pipe.scene.camera.projection_matrix(1.0))[covered]
+    lit = reference.brightness(b, np.sum(n * to_eye, axis=1) / np.linalg.norm(n, axis=1), p.grazing_floor,
+                               p.grazing_angle)
+    assert (lit > np.maximum(b, 0) + 0.05).sum() > 20  # the rim of the sphere is lifted
+    # (the lift is steep in N.V: a pixel on the outline where rasterize's normal and the node's differ a little
+    # may be off by more)
+    diff = np.abs(blend[covered][:, 3] - reference.tone_index(lit, 1.0, max_tone))
+    assert (diff > 0.05).sum() <= 3 and diff.max() < 0.3, (int((diff > 0.05).sum()), float(diff.max()))
+    b = lit
     # measured darkness of the hatching, averaged in brightness bins, falls as the light rises
     bins = np.linspace(-0.2, 1.0, 9)
     which = np.digitize(b, bins)
@@ -293,21 +302,30 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 @pytest.mark.parametrize("name", ["torus", "spot", "teapot", "ogre"])
 def test_same_pixels_as_the_geometry_shader(gl, name: str):
     """The deferred implementation (corner slots, G-buffer, depth-tested full-screen pass) against what the
-    geometry-shader implementation drew (tests/golden/pencil_shade_gs, made by make_gs_reference.py before
-    it was replaced): shade, blend and color of pencil.yaml's `shade` node. The two differ by float rounding
+    geometry-shader implementation draws: stored for the torus (tests/golden/pencil_shade_gs, made by
+    make_gs_reference.py before it was replaced), live from the kept implementation for mesh files (whose
+    framing has changed since): shade, blend and color of pencil.yaml's `shade` node. The two differ by float rounding
     (the G-buffer's angles are interpolated and divided where the geometry shader handed them on flat; the
     projection is multiplied once on the CPU in float64) and, on ogre.obj, where back faces seen through its
     small holes are now culled (one pixel of 256x256)."""
+    from nodegraph_nodes.pencil_shade import geometry_shader
+
     from nodegraph.output import imageio
     from tests.helpers import GOLDEN, shared_mesh
-    from tests.nodes.pencil_shade.make_gs_reference import CASES
+    from tests.nodes.pencil_shade.make_gs_reference import CASES, load
     from tests.nodes.pencil_shade.make_gs_reference import render as render_pipeline
 
     scene, size, frame = CASES[name]
     if not scene.startswith("builtin:"):
-        shared_mesh(scene)
+        shared_mesh(scene)  # or a skip saying where it was looked for
     got = render_pipeline(scene, size, frame)
-    want = imageio.read(GOLDEN / "pencil_shade_gs" / f"{name}.exr")
+    if scene.startswith("builtin:"):  # a scene with its own camera: the pixels stored when the GS was replaced
+        want = imageio.read(GOLDEN / "pencil_shade_gs" / f"{name}.exr")
+    else:  # a mesh file, framed as framing frames it now: the kept geometry-shader implementation, live
+        pipe = load(scene, size)
+        out = _both_implementations(gl, pipe, pipe.scene, frame, frozenset({"shade", "blend", "color"}),
+                                    only=geometry_shader.compute)
+        want = np.concatenate([out["shade"][..., :1], out["blend"], out["color"][..., :3]], axis=2)
     assert got.shape == want.shape
     covered = want[..., 4] >= 0
     assert covered.mean() > 0.1  # an object to compare
@@ -363,7 +381,7 @@ def test_deferred_equals_the_geometry_shader_on_many_objects(gl, anchor: str, mi
     from nodegraph.scene.scene import Scene, SceneObject
 
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=(200, 150), scene="builtin:primitives",
-                   overrides=[f"shade.anchor={anchor}", *more])
+                   overrides=[f"shade.anchor={anchor}", "shade.grazing_floor=0", *more])  # the kept one predates it
     scene = pipe.scene
     if mirror:  # every other object flipped in x about its own position (the curvature is object-space)
         flip = np.diag([-1.0, 1.0, 1.0, 1.0])

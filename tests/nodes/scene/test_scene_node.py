@@ -43,7 +43,7 @@ def test_a_mesh_file_becomes_one_framed_object(gl, tmp_path: Path):
     identity transform, and every vertex inside the camera's view (projected with the camera matrices in
     float64)."""
     verts = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 1.5]], np.float64)
-    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    faces = np.array([[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])  # wound consistently, outward
     f = tmp_path / "m.obj"
     f.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in verts)
                  + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces))
