@@ -1008,8 +1008,8 @@ def _raise_failure(res: Any) -> None:
 def _bar(total: int, initial: int, disable: bool) -> Any:
     from tqdm import tqdm
 
-    return tqdm(total=total, initial=initial, disable=disable or not sys.stderr.isatty(), unit="frame", file=sys.stderr, leave=False,
-                dynamic_ncols=True, smoothing=0.1)
+    return tqdm(total=total, initial=initial, disable=disable or not sys.stderr.isatty(), unit="frame",
+                file=sys.stderr, leave=False, dynamic_ncols=True, smoothing=0.1)
 
 
 def render_frames(client: Any, spec: PipeSpec, frames: Sequence[int], out: str | Path, *,

@@ -425,7 +425,8 @@ def _progress(items: list[Any], disable: bool) -> Any:
 
     from tqdm import tqdm
 
-    return tqdm(items, disable=disable or not sys.stderr.isatty(), unit="entry", file=sys.stderr, leave=False, dynamic_ncols=True)
+    return tqdm(items, disable=disable or not sys.stderr.isatty(), unit="entry", file=sys.stderr, leave=False,
+                dynamic_ncols=True)
 
 
 def build(gallery: Gallery, cache: Any, *, only: list[str] | None = None, force: bool = False,
