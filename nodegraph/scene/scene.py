@@ -451,8 +451,29 @@ Scale3 = Annotated[Vec, BeforeValidator(_scale), AfterValidator(_positive),
                    WithJsonSchema({"anyOf": [_POSITIVE, _triple(_POSITIVE)]})]
 
 
+MAX_MAGNITUDE = 1e12
+"""Largest magnitude of any number in a scene file: float64 keeps about 15 significant digits, so coordinates
+up to 1e12 still hold a mesh 1e-3 across (the limit nodegraph/scene/origin.py recentres within); beyond it a
+value (a light direction squared, a camera's near plane) overflows or loses the shape later."""
+
+
+def _bounded(value: Any) -> Any:
+    if isinstance(value, float) and abs(value) > MAX_MAGNITUDE:
+        raise ValueError(f"expected numbers of magnitude at most {MAX_MAGNITUDE:g}")
+    if isinstance(value, (tuple, list)):
+        for item in value:
+            _bounded(item)
+    return value
+
+
 class _Spec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, defer_build=True)  # every float finite
+
+    @field_validator("*", mode="after")
+    @classmethod
+    def _magnitudes(cls, value: Any) -> Any:
+        """Every number of every field at most `MAX_MAGNITUDE` in magnitude (finite is checked already)."""
+        return _bounded(value)
 
 
 class TransformSpec(_Spec):
