@@ -1,10 +1,15 @@
 """Small glTF files built in code with pygltflib, for the tests: an animated box, a two-bone skinned bar, a
-morphing quad and a file with two cameras (and an orthographic one)."""
+morphing quad and a file with two cameras (and an orthographic one); and, for the hostile-input tests, a file
+that uses most of what the reader reads as raw parts (JSON dict, binary buffer) to break, GLB bytes with any
+header field, and PNG/JPEG bytes (or headers alone)."""
 
 from __future__ import annotations
 
 import base64
+import json
 import math
+import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -211,3 +216,125 @@ def two_cameras(path: Path) -> Path:
     b.node(camera=1, name="side_node", translation=[5.0, 0.0, 0.0], rotation=quat_axis((0, 1, 0), 90))
     b.node(camera=2, name="top_node", translation=[0.0, 5.0, 0.0], rotation=quat_axis((1, 0, 0), -90))
     return b.save(path)
+
+
+# --- raw parts, for the hostile-input tests (tests/nodegraph/test_gltf_hostile.py) -----------------------
+
+
+def png_bytes(rgb: np.ndarray) -> bytes:
+    """A PNG (8-bit RGB, no filtering) of the (h, w, 3) uint8 array, written here with zlib."""
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\0" + np.ascontiguousarray(rgb[y], np.uint8).tobytes() for y in range(h))
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def png_header(width: int, height: int) -> bytes:
+    """A PNG whose header claims width x height and whose pixel data is a few bytes (a decompression bomb's
+    shape: nothing of it is decoded when the header is refused)."""
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + ihdr
+            + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr) & 0xFFFFFFFF)
+            + struct.pack(">I", 10) + b"IDAT" + zlib.compress(b"\0" * 64)[:10] + b"\0\0\0\0")
+
+
+def jpeg_header(width: int, height: int) -> bytes:
+    """The start of a baseline JPEG: SOI, an APP0 segment, and a frame header (SOF0) claiming width x height."""
+    app0 = b"JFIF\0\x01\x01\0\0\x01\0\x01\0\0"
+    sof = struct.pack(">BHHB", 8, height, width, 3) + b"\x01\x11\0\x02\x11\0\x03\x11\0"
+    return (b"\xff\xd8" + b"\xff\xe0" + struct.pack(">H", len(app0) + 2) + app0
+            + b"\xff\xc0" + struct.pack(">H", len(sof) + 2) + sof + b"\xff\xd9")
+
+
+def sink_parts(texture: bytes | None = None) -> tuple[dict, bytes]:
+    """(JSON document as a dict, binary buffer) of a small file that uses most of what the reader reads: a
+    box with a textured material (the image in a bufferView; `texture` defaults to a 2x2 red PNG), a skinned
+    bar on two joints with a rotation animation, a morphing quad with a weights animation and a sparse
+    morph target, a camera on a node, a matrix node, and a child node. Buffer 0 has no uri (as in a .glb)."""
+    b = Builder()
+    box = b.mesh(BOX_V, BOX_F, color=(0.5, 0.5, 0.5))
+    img = texture if texture is not None else png_bytes(np.full((2, 2, 3), (255, 0, 0), np.uint8))
+    while len(b.blob) % 4:
+        b.blob += b"\0"
+    b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(img)))
+    b.blob += img
+    b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType="image/png"))
+    b.doc.samplers.append(g.Sampler(magFilter=9729, minFilter=9729))
+    b.doc.textures.append(g.Texture(source=0, sampler=0))
+    b.doc.materials[0].pbrMetallicRoughness.baseColorTexture = g.TextureInfo(index=0)
+    b.node(mesh=box, name="box", translation=[0.0, 0.0, -3.0], children=[1])
+    b.node(root=False, name="child", matrix=[1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 2, 0, 1])
+
+    v, f, joints, weights = bar_vertices()
+    bar = b.mesh(v, f, JOINTS_0=b.accessor(joints, "VEC4", UBYTE), WEIGHTS_0=b.accessor(weights, "VEC4"))
+    j1 = len(b.doc.nodes) + 1
+    j0 = b.node(name="j0", children=[j1])
+    b.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.array([[1, 0, 0, -1], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)])
+    b.doc.skins.append(g.Skin(joints=[j0, j1], inverseBindMatrices=b.accessor(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    b.node(mesh=bar, skin=0, name="bar")
+    b.animate(j1, "rotation", [0.0, 1.0], np.array([quat_axis((0, 0, 1), 0), quat_axis((0, 0, 1), 90)]))
+
+    quad_v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    pos = b.accessor(quad_v, "VEC3", minmax=True)
+    idx = b.accessor(np.array([0, 1, 2, 0, 2, 3], np.uint8), "SCALAR", UBYTE)
+    sp_idx = b.accessor(np.array([2], np.uint16), "SCALAR", USHORT)
+    sp_val = b.accessor(np.array([[0, 0, 1]], np.float32), "VEC3")
+    target = g.Accessor(componentType=FLOAT, count=4, type="VEC3", min=[0, 0, 0], max=[0, 0, 1], sparse=g.Sparse(
+        count=1, indices=g.AccessorSparseIndices(bufferView=b.doc.accessors[sp_idx].bufferView, componentType=USHORT),
+        values=g.AccessorSparseValues(bufferView=b.doc.accessors[sp_val].bufferView)))
+    b.doc.accessors.append(target)
+    b.doc.meshes.append(g.Mesh(primitives=[g.Primitive(attributes=g.Attributes(POSITION=pos), indices=idx,
+                                                       targets=[{"POSITION": len(b.doc.accessors) - 1}])],
+                               weights=[0.0]))
+    quad = b.node(mesh=len(b.doc.meshes) - 1, name="quad")
+    b.animate(quad, "weights", [0.0, 1.0], np.array([0.0, 1.0]))
+
+    b.doc.cameras.append(g.Camera(type="perspective", name="cam",
+                                  perspective=g.Perspective(yfov=0.8, znear=0.1, zfar=100.0)))
+    b.node(camera=0, name="cam_node", translation=[0.0, 0.0, 8.0])
+    # the box's texture coordinates come last, so that the indices above stay put
+    b.doc.meshes[box].primitives[0].attributes.TEXCOORD_0 = b.accessor((BOX_V[:, :2] + 0.5).astype(np.float32),
+                                                                       "VEC2")
+    b.doc.buffers = [g.Buffer(byteLength=len(b.blob))]
+    doc = json.loads(b.doc.to_json())
+    # pygltflib writes "byteOffset": 0 into accessors without a bufferView; the spec has no byteOffset there
+    for acc in doc["accessors"]:
+        if "bufferView" not in acc:
+            acc.pop("byteOffset", None)
+    return doc, bytes(b.blob)
+
+
+def glb_bytes(doc: dict, blob: bytes | None, version: int = 2, magic: bytes = b"glTF", length: int | None = None,
+              json_type: int = 0x4E4F534A, bin_type: int = 0x004E4942) -> bytes:
+    """A GLB of the document and binary chunk, each header field given (for broken ones)."""
+    text = json.dumps(doc, separators=(",", ":")).encode()
+    text += b" " * (-len(text) % 4)
+    out = struct.pack("<II", len(text), json_type) + text
+    if blob is not None:
+        data = blob + b"\0" * (-len(blob) % 4)
+        out += struct.pack("<II", len(data), bin_type) + data
+    total = 12 + len(out)
+    return magic + struct.pack("<II", version, total if length is None else length) + out
+
+
+def write_parts(path: Path, doc: dict, blob: bytes, how: str = "glb") -> Path:
+    """Write the parts as `how`: "glb" (buffer 0 the binary chunk), "data" (.gltf with a data URI) or
+    "external" (.gltf with `<stem>.bin` beside it); the document is not changed in place."""
+    doc = json.loads(json.dumps(doc))
+    path = Path(path)
+    if how == "glb":
+        path.write_bytes(glb_bytes(doc, blob))
+        return path
+    if how == "data":
+        doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
+    else:
+        path.with_suffix(".bin").write_bytes(blob)
+        doc["buffers"][0]["uri"] = path.with_suffix(".bin").name
+    path.write_text(json.dumps(doc))
+    return path
