@@ -1480,10 +1480,10 @@ class _Reader:
             return None
         kind, width, height = head
         total = np.zeros(3)
-        with tempfile.TemporaryDirectory() as tmp:
-            name = os.path.join(tmp, "texture." + ("png" if kind == "png" else "jpg"))
-            with open(name, "wb") as f:
-                f.write(data)
+        with tempfile.NamedTemporaryFile(suffix=".png" if kind == "png" else ".jpg") as tmp:  # OIIO reads files
+            tmp.write(data)
+            tmp.flush()
+            name = tmp.name
             inp = None
             try:
                 inp = oiio.ImageInput.open(name)

@@ -194,7 +194,9 @@ def test_sketch_and_edges_drawn_inside_their_footprint_give_the_whole_pass(gl, n
             for ref in refs:
                 _assert_same_bits(a[ref].native, b[ref].native, str(ref))
                 assert b[ref].footprint is None
-        if name != "builtin:cloister":  # the cloister's ground fills the view: nothing to leave out
+        # the cloister's ground fills the view, and the cow, framed to fill 85% of the shorter side, is wider
+        # than tall, so its sketch shifted by the largest offsets reaches every side: nothing to leave out
+        if name not in ("builtin:cloister", "cow.obj"):
             assert all(v[("s", "color")].footprint is not None for v in with_fp)
             assert all(v[("e", "out")].footprint is not None for v in with_fp)
 
