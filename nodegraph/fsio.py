@@ -181,19 +181,24 @@ def _probe_folder(folder: Path, for_path: Path) -> None:
     _remove(tmp)
 
 
+def _stat_output(p: Path) -> os.stat_result | None:
+    """`os.stat(p)`, None where nothing is there yet; any other fault one line (`OutputPathError`)."""
+    try:
+        return os.stat(p)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        raise OutputPathError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
+    except ValueError:
+        raise OutputPathError(f"{show_path(p)}: cannot write: the path contains a NUL character") from None
+
+
 def check_output(path: str | os.PathLike[str]) -> Path:
     """Before anything renders: `path` can be written as a file. One line (`OutputPathError`) when a part of its
     folder is a file, it is a folder or a device (`/dev/null`: replacing a device is never what was meant), or
     the deepest existing folder takes no new files. Creates nothing it leaves behind; returns `path`."""
     p = Path(path)
-    try:
-        st = os.stat(p)
-    except (FileNotFoundError, NotADirectoryError):
-        st = None
-    except OSError as exc:
-        raise OutputPathError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
-    except ValueError:
-        raise OutputPathError(f"{show_path(p)}: cannot write: the path contains a NUL character") from None
+    st = _stat_output(p)
     if st is not None and stat.S_ISDIR(st.st_mode):
         raise OutputPathError(f"{show_path(p)}: cannot write: it is a folder; give a file's name (inside it, or "
                               "beside it)")
@@ -207,14 +212,7 @@ def check_output_folder(path: str | os.PathLike[str]) -> Path:
     """Before anything renders: `path` is a folder that takes new files, or can be made one. One line
     (`OutputPathError`) otherwise: it is a file or a device, a part above it is a file, files cannot be made."""
     p = Path(path)
-    try:
-        st = os.stat(p)
-    except (FileNotFoundError, NotADirectoryError):
-        st = None
-    except OSError as exc:
-        raise OutputPathError(f"{show_path(p)}: cannot write: {_os_reason(exc)}") from None
-    except ValueError:
-        raise OutputPathError(f"{show_path(p)}: cannot write: the path contains a NUL character") from None
+    st = _stat_output(p)
     if st is not None and not stat.S_ISDIR(st.st_mode):
         raise OutputPathError(f"{show_path(p)}: cannot write into it: expected a folder, found {_kind_of(st.st_mode)}")
     folder = p if st is not None else _existing_folder(p.parent, p)
