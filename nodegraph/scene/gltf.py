@@ -33,6 +33,7 @@ import tempfile
 import warnings
 import zlib
 from collections.abc import Sequence
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
@@ -521,13 +522,19 @@ class _Acc:
     # its offset
 
 
+
+OUTSIDE_ALLOWED: ContextVar[bool] = ContextVar("gltf_outside_allowed", default=False)
+"""True: every glTF file read in this context may name buffers and images outside its folder, as if loaded with
+`allow_outside=True` (the command line's --allow-outside-scene-dir sets it for its process)."""
+
+
 class _Reader:
     def __init__(self, path: Path, allow_outside: bool = False):
         self.path = path
         self.name = path.name
         self.base = path.parent
         self.root = self.base.resolve()
-        self.allow_outside = allow_outside
+        self.allow_outside = allow_outside or OUTSIDE_ALLOWED.get()
         self.ignored: dict[str, None] = {}  # insertion-ordered set
         self._buffers: dict[int, bytes] = {}
         self._textures: dict[int, np.ndarray | None] = {}
@@ -763,14 +770,14 @@ class _Reader:
             self.fail(where, "the URI is empty")
         if text.startswith(("/", "\\")) and not self.allow_outside:
             self.fail(where, f"URI {uri[:80]!r} is an absolute path: only files in the folder of {self.name} are "
-                      "read (allow_outside=True for a trusted file)")
+                      "read (--allow-outside-scene-dir or allow_outside=True for a trusted file)")
         try:
             real = (self.base / text).resolve()
         except (OSError, RuntimeError, ValueError) as exc:
             self.fail(where, f"URI {uri[:80]!r} cannot be resolved: {exc}")
         if not self.allow_outside and not real.is_relative_to(self.root):
             self.fail(where, f"URI {uri[:80]!r} leads outside the folder of {self.name} (after resolving '..' and "
-                      "symlinks; allow_outside=True for a trusted file)")
+                      "symlinks; --allow-outside-scene-dir or allow_outside=True for a trusted file)")
         return real
 
     def _read_regular(self, real: Path, st: os.stat_result, size: int, where: str, follow: bool = False) -> bytes:
@@ -1740,7 +1747,8 @@ _ASSETS_KEPT = 16
 
 def load_asset(path: str | Path, allow_outside: bool = False) -> GltfAsset:
     """Read a glTF file (memoised by path, mtime and size); one warning names what was left out. Its buffers
-    and images must lie in its folder unless `allow_outside` (for a trusted file)."""
+    and images must lie in its folder unless `allow_outside` (for a trusted file) or `OUTSIDE_ALLOWED`."""
+    allow_outside = bool(allow_outside or OUTSIDE_ALLOWED.get())
     p = Path(path).expanduser().absolute()
     if not p.is_file():
         raise MeshError(f"{p}: glTF file not found")

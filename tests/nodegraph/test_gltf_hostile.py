@@ -859,3 +859,26 @@ def test_fuzz_glb_container(data):
 def test_fuzz_json_and_bytes_together(doc, blob):
     with tempfile.TemporaryDirectory() as tmp:
         _check_loads_sanely_or_refuses(gf.write_parts(Path(tmp) / "f.glb", doc, blob))
+
+
+def test_the_command_line_option_lets_a_trusted_file_read_outside(tmp_path):
+    """--allow-outside-scene-dir: without it the run is one line naming the URI; with it the file renders."""
+    import subprocess
+    import sys
+
+    scene_dir = tmp_path / "scene"
+    scene_dir.mkdir()
+    doc, blob = gf.sink_parts()
+    (tmp_path / "shared.bin").write_bytes(blob)
+    path = _scene_with_uri(scene_dir, "buffer", "../shared.bin", "gltf")
+    base = [sys.executable, "-m", "nodegraph.cli", "run", "nienhaus_sketchy", "--scene", str(path), "--size", "48x40",
+            "--no-cache"]
+    refused = subprocess.run([*base, "-o", str(tmp_path / "a.png")], capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "buffers[0].uri" in refused.stderr
+    assert "--allow-outside-scene-dir" in refused.stderr
+    assert len([ln for ln in refused.stderr.splitlines() if ln.strip()]) == 1, refused.stderr
+    assert not (tmp_path / "a.png").exists()
+    ok = subprocess.run([*base, "--allow-outside-scene-dir", "-o", str(tmp_path / "b.png")], capture_output=True,
+                        text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    assert (tmp_path / "b.png").stat().st_size > 0
