@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from nodegraph.values import Arrays, Strokes, Tex, TexArray
+
 EXR_MAGIC = 20000630
 
 
@@ -173,3 +175,26 @@ def fifo_at(path: Path, guard_dir: Path) -> Iterator[Callable[[], bool]]:
     finally:
         watcher.kill()
         watcher.wait()
+
+
+def host_value(value: Any) -> Any:
+    """A node value as plain host data, comparable with ==."""
+    if isinstance(value, (Tex, TexArray)):
+        return (value.fmt, value.read())
+    if isinstance(value, Strokes):
+        return (value.size, value.width, value.color, [p.tolist() for p in value.polylines])
+    if isinstance(value, Arrays):
+        return {k: (v.dtype.str, v.tolist()) for k, v in value.data.items()}
+    return value
+
+
+def assert_same_values(a: dict, b: dict) -> None:
+    """Two runs' host values equal, arrays bit for bit."""
+    assert a.keys() == b.keys()
+    for ref in a:
+        x, y = a[ref], b[ref]
+        if isinstance(x, tuple) and len(x) == 2 and isinstance(x[1], np.ndarray):
+            assert x[0] == y[0], ref
+            np.testing.assert_array_equal(x[1], y[1], err_msg=str(ref))
+        else:
+            assert x == y, ref

@@ -27,7 +27,8 @@ from nodegraph.executor import Executor
 from nodegraph.node import Node, NodeParams, Output
 from nodegraph.registry import Registry
 from nodegraph.types import ARRAYS, STROKES, Texture, TextureArray
-from nodegraph.values import Arrays, Strokes, Tex, TexArray
+from nodegraph.values import Arrays, Strokes
+from tests.nodegraph import entryfaults as ef
 
 COUNTS: dict[str, int] = {}
 META = {"node": "x", "type": "test", "version": "1", "params": {}, "package": "0"}
@@ -140,25 +141,8 @@ def _reset():
     COUNTS.clear()
 
 
-def _host(value: Any) -> Any:
-    if isinstance(value, (Tex, TexArray)):
-        return (value.fmt, value.read())
-    if isinstance(value, Strokes):
-        return (value.size, value.width, value.color, [p.tolist() for p in value.polylines])
-    if isinstance(value, Arrays):
-        return {k: (v.dtype.str, v.tolist()) for k, v in value.data.items()}
-    return value
-
-
-def _assert_same(a: dict, b: dict) -> None:
-    assert a.keys() == b.keys()
-    for ref in a:
-        x, y = a[ref], b[ref]
-        if isinstance(x, tuple) and len(x) == 2 and isinstance(x[1], np.ndarray):
-            assert x[0] == y[0], ref
-            np.testing.assert_array_equal(x[1], y[1], err_msg=str(ref))
-        else:
-            assert x == y, ref
+_host = ef.host_value
+_assert_same = ef.assert_same_values
 
 
 def _run(gl: Any, root: Path, text: str = TEXT) -> tuple[dict, list[str], Executor]:
