@@ -1866,7 +1866,7 @@ def camera_params(world: np.ndarray, cam: _Camera, center: np.ndarray, radius: f
     """Keyword arguments of the engine's Camera for a glTF camera whose node has world matrix `world`: it
     looks down its local -Z with +Y up (scale ignored), so its view matrix is the inverse of the (rigid)
     world matrix; the target is on the view axis level with the scene's centre; a missing zfar hugs the
-    scene; yfov becomes the field of view across the shorter image side (the same for wide images)."""
+    scene; yfov spans the image's height whatever its shape, as glTF defines it (`Camera.fov_vertical`)."""
     eye = world[:3, 3].copy()
     nz, ny = float(np.linalg.norm(world[:3, 2])), float(np.linalg.norm(world[:3, 1]))
     if not (nz > 1e-12 and ny > 1e-12 and np.all(np.isfinite(world))):
@@ -1882,7 +1882,7 @@ def camera_params(world: np.ndarray, cam: _Camera, center: np.ndarray, radius: f
         dist = float(np.linalg.norm(np.asarray(center) - eye))
         far = max(dist + 1.05 * max(radius, 1e-6), near * 1e3)
     return {"eye": eye, "target": eye + fwd * d, "up": up, "fov_y_deg": math.degrees(cam.yfov), "near": near,
-            "far": max(far, near * 1.001)}
+            "far": max(far, near * 1.001), "fov_vertical": True}
 
 
 def gltf_mesh(path: str | Path, allow_outside: bool = False) -> Mesh:

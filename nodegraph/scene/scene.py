@@ -125,6 +125,9 @@ class Camera:
     fov_y_deg: float = 35.0
     near: float = 0.1
     far: float = 100.0
+    fov_vertical: bool = False
+    """False: `fov_y_deg` spans the shorter image side (a framed subject stays in a tall picture too); True: it
+    spans the image's height whatever its shape, as a glTF camera's `yfov` does."""
 
     def __post_init__(self) -> None:
         for name in ("eye", "target", "up"):
@@ -166,9 +169,9 @@ class Camera:
 
     def tan_half(self, aspect: float = 1.0) -> tuple[float, float]:
         """tan of the half field of view across x and y. `fov_y_deg` spans the shorter image side, so a
-        framed subject stays in the picture whether the image is wide or tall."""
+        framed subject stays in the picture whether the image is wide or tall; with `fov_vertical`, the height."""
         t = math.tan(math.radians(self.fov_y_deg) / 2.0)
-        return (t * aspect, t) if aspect >= 1.0 else (t, t / aspect)
+        return (t * aspect, t) if aspect >= 1.0 or self.fov_vertical else (t, t / aspect)
 
     def projection_matrix(self, aspect: float = 1.0) -> np.ndarray:
         """Perspective projection to clip space; z_ndc in [-1, 1] maps near to -1 and far to +1."""
@@ -192,8 +195,11 @@ class Camera:
         return clip[:, :3] / clip[:, 3:4]
 
     def params(self) -> dict[str, Any]:
-        return {"eye": _floats(self.eye), "target": _floats(self.target), "up": _floats(self.up),
-                "fov_y_deg": self.fov_y_deg, "near": self.near, "far": self.far}
+        out = {"eye": _floats(self.eye), "target": _floats(self.target), "up": _floats(self.up),
+               "fov_y_deg": self.fov_y_deg, "near": self.near, "far": self.far}
+        if self.fov_vertical:  # only then: the keys of every other camera stay as they were
+            out["fov_vertical"] = True
+        return out
 
 
 def near_far_for(eye: Any, center: Any, radius: float) -> tuple[float, float]:

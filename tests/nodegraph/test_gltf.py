@@ -167,3 +167,25 @@ def test_skinning_100k_vertices_is_vectorised():
     # vertex at the peak now; a dense (n, J) weight matrix alone would take 320
     peak, _ = peak_bytes(lambda: an.skin_vertices(v, None, prebuilt, mats))
     assert peak <= 3 * 96 * n
+
+
+def test_a_gltf_cameras_yfov_spans_the_height_of_a_portrait_image_too(tmp_path):
+    """glTF's yfov is the vertical field of view: a tall image sees exactly yfov from top to bottom (the engine's
+    own cameras span the shorter side with theirs, so a framed subject stays in a tall picture)."""
+    import math
+
+    from nodegraph.scene import scene as sc
+    from tests import gltf_files as gf
+
+    path = gf.two_cameras(tmp_path / "cams.gltf")
+    cam = sc.load_scene(str(path)).camera  # 'front': yfov 0.8 rad at z = 5, looking down -z
+    assert cam.fov_vertical and cam.fov_y_deg == pytest.approx(math.degrees(0.8))
+    for w, h in ((80, 160), (160, 80), (100, 100)):
+        aspect = w / h
+        edge = np.array([[0.0, 5.0 * math.tan(0.4) * (1 - 1e-9), 0.0]])  # the top of the view at the origin's depth
+        assert cam.project(edge, aspect)[0, 1] == pytest.approx(1.0, abs=1e-6)
+        side = np.array([[5.0 * math.tan(0.4) * aspect, 0.0, 0.0]])
+        assert cam.project(side, aspect)[0, 0] == pytest.approx(1.0, abs=1e-6)
+    plain = sc.Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=math.degrees(0.8))
+    assert plain.tan_half(0.5) == pytest.approx((math.tan(0.4), math.tan(0.4) / 0.5))  # the shorter side
+    assert "fov_vertical" not in plain.params()  # other cameras' keys are unchanged
