@@ -443,7 +443,8 @@ class GL:
     def depth_test(self, func: str = "<") -> Iterator[DepthState]:
         """Depth-tested drawing (`func` as moderngl spells it: "<", "<=", "1", ...) with culling under the
         caller's control (`state.cull(...)`, `state.depth_func(...)`). On exit the engine's baseline state is
-        restored whatever happened: no depth test, no culling, cull face "back", depth function "<"."""
+        restored whatever happened: no depth test, no culling, cull face "back", depth function "<", front faces
+        counter-clockwise."""
         mgl = self.ctx
         mgl.enable(mgl.DEPTH_TEST)
         mgl.depth_func = func
@@ -454,6 +455,7 @@ class GL:
             mgl.disable(mgl.DEPTH_TEST)
             mgl.disable(mgl.CULL_FACE)
             mgl.cull_face = "back"
+            mgl.front_face = "ccw"
 
     def finish(self) -> None:
         self.ctx.finish()
@@ -736,6 +738,11 @@ class DepthState:
 
     def depth_func(self, func: str) -> None:
         self._mgl.depth_func = func
+
+    def front_face(self, clockwise: bool) -> None:
+        """Which winding faces the viewer: counter-clockwise (GL's default), or clockwise for a mirrored object,
+        whose transform flips its triangles' screen winding, so that `gl_FrontFacing` still means outside."""
+        self._mgl.front_face = "cw" if clockwise else "ccw"
 
 
 def bind(program: Any, textures: dict[str, Any], uniforms: dict[str, Any]) -> None:

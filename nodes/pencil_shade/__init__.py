@@ -41,7 +41,7 @@ class PencilShade(Node):
     direction. `color` adds the contours (multiplied) and the paper colour; `shade` is the hatching value
     alone; `blend` holds the weights (rgb) and the tone index (a; -1 off the objects)."""
 
-    version = "2"
+    version = "3"  # 3: mirrored objects shaded from their outside (their tone was inverted)
     shaders = ("pencil_shade.glsl", "hatch.glsl")
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
@@ -165,10 +165,12 @@ class PencilShade(Node):
                 vao, local, slots = geometry
                 # closed meshes hide their back faces, and meshes whose holes show at most 1% of the surface
                 # nearly so (rasterize's `backfaces: auto`; ogre.obj): culling halves the rasterised triangles
+                # a mirrored object's triangles wind clockwise on screen: clockwise is its front, so gl_FrontFacing
+                # still tells the outside from the inside (its normals are right already: the inverse transpose)
+                state.front_face(clockwise=obj.mirrored)
                 face = None
                 if obj.mesh.topology().closed or obj.mesh.hole_share() <= HOLE_SHARE_CULL:
-                    outward = (obj.mesh.signed_volume() > 0.0) != obj.mirrored
-                    face = "back" if outward else "front"
+                    face = "back" if obj.mesh.signed_volume() > 0.0 else "front"
                 state.cull(face)
                 model = np.asarray(obj.transform, dtype=np.float64)
                 if p.anchor == "object":

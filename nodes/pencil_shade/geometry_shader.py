@@ -92,10 +92,10 @@ def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozense
                 entry = gl.mesh_buffers(("pencil_shade.geometry_shader", mesh.content_hash(), float(p.crease_angle),
                                          ckey), build)
                 local = entry.meta["origin"]
+                state.front_face(clockwise=obj.mirrored)  # as the deferred node: gl_FrontFacing means outside
                 face = None
                 if mesh.topology().closed:  # version 1 culled closed meshes only
-                    outward = (mesh.signed_volume() > 0.0) != obj.mirrored
-                    face = "back" if outward else "front"
+                    face = "back" if mesh.signed_volume() > 0.0 else "front"
                 state.cull(face)
                 model = np.asarray(obj.transform, dtype=np.float64)
                 anchor = (0.0, 0.0)
