@@ -51,8 +51,7 @@ _NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0}
 _MODES = {0: "POINTS", 1: "LINES", 2: "LINE_LOOP", 3: "LINE_STRIP", 4: "TRIANGLES", 5: "TRIANGLE_STRIP",
           6: "TRIANGLE_FAN"}
 # extensions whose absence changes no geometry here (colour comes from the factor and texture anyway)
-_HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_lights_punctual", "KHR_mesh_quantization",
-                      "EXT_texture_", "KHR_xmp")
+_HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization", "EXT_texture_", "KHR_xmp")
 # extensions a file may list in extensionsRequired: read here (quantization) or irrelevant to a flat-coloured
 # drawing (materials, lights, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
@@ -859,7 +858,9 @@ class _Reader:
             if e not in used:
                 self.fail(f"extensionsRequired[{k}]", f"{e[:80]} is not listed in extensionsUsed")
         for e in used:
-            if not e.startswith(_HARMLESS_PREFIXES):
+            if e == "KHR_lights_punctual":  # allowed even where required: the drawing keeps the scene's own light
+                self.note("the file's lights (KHR_lights_punctual; the scene's default light is used)")
+            elif not e.startswith(_HARMLESS_PREFIXES):
                 self.note(f"extension {e[:80]}")
         self.quantized = "KHR_mesh_quantization" in used
         for key, names in (("extensionsUsed", used), ("extensionsRequired", required)):

@@ -189,3 +189,31 @@ def test_a_gltf_cameras_yfov_spans_the_height_of_a_portrait_image_too(tmp_path):
     plain = sc.Camera(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=math.degrees(0.8))
     assert plain.tan_half(0.5) == pytest.approx((math.tan(0.4), math.tan(0.4) / 0.5))  # the shorter side
     assert "fov_vertical" not in plain.params()  # other cameras' keys are unchanged
+
+
+@pytest.mark.parametrize("required", [False, True])
+def test_a_files_lights_are_named_in_the_one_warning(tmp_path, required: bool):
+    """KHR_lights_punctual is not drawn (the scene's light is): the file still loads, even where it requires the
+    extension, and the one warning of what was left out names the lights."""
+    import json
+    import warnings
+
+    from nodegraph.scene import scene as sc
+    from nodegraph.scene.meshes import MeshWarning
+    from tests import gltf_files as gf
+
+    b = gf.Builder()
+    b.node(mesh=b.mesh(gf.BOX_V, gf.BOX_F), name="box")
+    path = b.save(tmp_path / "lit.gltf")
+    doc = json.loads(path.read_text())
+    doc["extensionsUsed"] = ["KHR_lights_punctual"]
+    if required:
+        doc["extensionsRequired"] = ["KHR_lights_punctual"]
+    doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "directional"}]}}
+    path.write_text(json.dumps(doc))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = sc.load_scene(str(path))
+    notes = [str(w.message) for w in caught if issubclass(w.category, MeshWarning)]
+    assert len(scene.objects) == 1
+    assert len(notes) == 1 and "KHR_lights_punctual" in notes[0] and "default light" in notes[0]
