@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 FILM_FORMATS: dict[str, tuple[str, str, str, int | None]] = {
     ".mp4": ("mp4", "libx264", "yuv420p", 18),
     ".webm": ("webm", "libvpx-vp9", "yuv420p", 32),
-    ".gif": ("gif", "gif", "rgb8", None),  # GIF: a fixed 3-3-2 palette of 256 colours
+    ".gif": ("gif", "gif", "pal8", None),  # GIF: one palette for the film, ordered dithering (`gif`)
 }
 
 
@@ -59,6 +59,9 @@ same two cores. One x264 thread (frames stay on the writer thread, no frame-para
 Y-PSNR 47.98 against 47.92 dB (the noise that changes every frame leaves B-frames little to predict);
 `bench film` extra CPU 12.4-13.5 against 14.4-14.5 ms a frame (three interleaved runs; the rates in the noise)."""
 
+
+GIF_MAX_FPS = 100.0
+"""A GIF's frame delays are whole centiseconds (`gif.centiseconds`): above 100 frames/s some would be 0."""
 
 MIN_FPS = 0.01
 MAX_FPS = 1000.0
@@ -197,6 +200,9 @@ class FilmWriter:
         self.path = Path(path)
         fmt, codec, pix, default_crf = FILM_FORMATS[self.path.suffix.lower()]
         fps = check_fps(fps, "fps")
+        if pix == "pal8" and fps > GIF_MAX_FPS:
+            raise SketchgraphError(f"{show_path(self.path)}: a GIF times frames in whole hundredths of a second: at "
+                                   f"most {GIF_MAX_FPS:g} frames/s, found {fps:g}; write .mp4 or .webm instead")
         folder = self.path.parent if str(self.path.parent) else Path(".")
         make_folder(folder, self.path)
         clean_stale_temps(folder, self.path.name)  # what killed runs left for this film
@@ -210,7 +216,8 @@ class FilmWriter:
             self.tmp.unlink(missing_ok=True)
             raise _film_error(self.path, exc) from None
         try:
-            self.stream = self.container.add_stream(codec, rate=Fraction(fps).limit_denominator(1001))
+            self.rate = Fraction(fps).limit_denominator(1001)
+            self.stream = self.container.add_stream(codec, rate=self.rate)
             w, h = size
             if pix == "yuv420p":  # chroma subsampling needs even sizes: the last row/column is repeated
                 w, h = w + w % 2, h + h % 2
@@ -233,6 +240,8 @@ class FilmWriter:
                 raise _film_error(self.path, exc) from None
             raise
         self.frames = 0
+        self._palette: Any = None  # GIF: the film's palette (`gif.GifPalette`), from its first frame
+        self._muxed = 0  # GIF: packets muxed, each timed by `gif.centiseconds`
         self._worker = _Worker(self._encode)
 
     def _encode(self, rgb: Any) -> None:
@@ -255,11 +264,37 @@ class FilmWriter:
             rgb = _rgb(rgb)
             if rgb.shape[0] != h or rgb.shape[1] != w:
                 rgb = np.pad(rgb, ((0, h - rgb.shape[0]), (0, w - rgb.shape[1]), (0, 0)), mode="edge")
-            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+            if self.pix == "pal8":
+                frame = self._gif_frame(rgb)
+            else:
+                frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
         if self.pix == "yuv420p":
             for name, value in YUV_TAGS.items():
                 setattr(frame, name, value)
-        for packet in self.stream.encode(frame):
+        self._mux(self.stream.encode(frame))
+
+    def _gif_frame(self, rgb: np.ndarray) -> Any:
+        """A pal8 frame: `rgb` in the film's one palette (made from the first frame), ordered-dithered."""
+        import av
+
+        from .gif import GifPalette
+
+        if self._palette is None:
+            self._palette = GifPalette.for_frame(rgb)
+        return av.VideoFrame.from_ndarray((self._palette.indices(rgb), self._palette.argb()), format="pal8")
+
+    def _mux(self, packets: Iterable[Any]) -> None:
+        """Mux `packets`; a GIF's are timed in centiseconds, each frame's delay the difference of the rounded
+        exact times (`gif.centiseconds`), so they add up to the exact times without drift."""
+        for packet in packets:
+            if self.pix == "pal8":
+                from .gif import centiseconds
+
+                start, end = centiseconds(self._muxed, self.rate), centiseconds(self._muxed + 1, self.rate)
+                packet.time_base = Fraction(1, 100)
+                packet.pts = packet.dts = start
+                packet.duration = end - start
+                self._muxed += 1
             self.container.mux(packet)
 
     def write(self, rgb: np.ndarray) -> None:
@@ -274,8 +309,7 @@ class FilmWriter:
 
         self._worker.finish()
         try:
-            for packet in self.stream.encode():
-                self.container.mux(packet)
+            self._mux(self.stream.encode())
             self.container.close()
             os.replace(self.tmp, self.path)
         except (OSError, av.error.FFmpegError) as exc:
