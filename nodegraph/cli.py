@@ -440,6 +440,27 @@ def pipelines(show_paths: bool) -> None:
         click.echo(f"{name:<{width}}  {shipped.describe(path)}" + (f"  [{path}]" if show_paths else ""))
 
 
+# -- scene ----------------------------------------------------------------------------------
+@main.group("scene")
+def scene_group() -> None:
+    """What a scene file holds."""
+
+
+@scene_group.command("info")
+@click.argument("file", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the findings as JSON.")
+@click.option("--allow-outside-scene-dir", "allow_outside", is_flag=True,
+              help="Let a glTF file's buffers and images lie outside its folder (a trusted file).")
+def scene_info(file: str, as_json: bool, allow_outside: bool) -> None:
+    """A glTF/GLB file's meshes, materials, textures, animations, skins, morph targets, cameras, lights and
+    extensions; a mesh file's size, up axis and health; a scene YAML's objects; and for each part what
+    sketchgraph does with it (drawn, used or ignored, and why)."""
+    from .scene.info import format_info, info
+
+    found = info(file, allow_outside=allow_outside)
+    click.echo(json.dumps(found, indent=2) if as_json else format_info(found))
+
+
 # -- cache ----------------------------------------------------------------------------------
 @main.group()
 def cache() -> None:

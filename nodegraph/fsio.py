@@ -29,6 +29,7 @@ import itertools
 import os
 import re
 import stat
+import threading
 import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -65,6 +66,56 @@ def clean(text: str, limit: int = 120) -> str:
     out = "".join(c if 32 <= ord(c) < 127 else " " for c in str(text))
     out = " ".join(out.split())
     return out if len(out) <= limit else out[: limit - 1] + "…"
+
+
+# --- image libraries, kept quiet: each problem becomes one line of ours --------------------------------------
+_STDERR_LOCK = threading.RLock()
+
+
+@functools.cache
+def oiio() -> Any:
+    """The OpenImageIO module, with its own printing turned off: an ImageBuf destroyed with an error nobody
+    retrieved no longer prints it (`imagebuf:print_uncaught_errors`). Callers retrieve every error
+    (`geterror()`, also the global one, which OpenImageIO otherwise prints at exit) and say it in one line."""
+    import OpenImageIO
+
+    OpenImageIO.attribute("imagebuf:print_uncaught_errors", 0)
+    return OpenImageIO
+
+
+@contextlib.contextmanager
+def native_stderr() -> Iterator[list[str]]:
+    """Capture what C libraries write straight to file descriptor 2 while the block runs (libpng prints
+    "libpng error: ..." there, past OpenImageIO and Python); the lines fill the list yielded, for the caller's
+    one-line message. One block at a time in the process; whatever the process writes to stderr meanwhile is
+    captured too, so keep the block to the decoding call. Where descriptor 2 cannot be redirected, nothing
+    is captured."""
+    import sys
+    import tempfile
+
+    lines: list[str] = []
+    with _STDERR_LOCK:
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            sys.stderr.flush()
+        try:
+            saved = os.dup(2)
+        except OSError:
+            yield lines
+            return
+        try:
+            with tempfile.TemporaryFile() as sink:
+                os.dup2(sink.fileno(), 2)
+                try:
+                    yield lines
+                finally:
+                    with contextlib.suppress(AttributeError, OSError, ValueError):
+                        sys.stderr.flush()
+                    os.dup2(saved, 2)
+                    sink.seek(0)
+                    text = sink.read(1 << 16).decode("utf-8", "replace")
+                    lines += [ln for ln in text.splitlines() if ln.strip()]
+        finally:
+            os.close(saved)
 
 
 def _kind(mode: int) -> str:

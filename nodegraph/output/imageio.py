@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import fsio
 from ..errors import SketchgraphError
 from ..fsio import IncompleteWrite, atomic_output, clean
 from ..values import to_uint8
@@ -177,17 +178,30 @@ def _png_complete(data: bytes) -> bool:
 
 
 def read(path: str | Path) -> np.ndarray:
-    """Read an image as float32 (H, W, C), row 0 = bottom."""
-    import OpenImageIO as oiio
-
+    """Read an image as float32 (H, W, C), row 0 = bottom. A file that does not decode is one
+    `SketchgraphError` line; the decoder's own messages (libpng prints to stderr) never reach the terminal."""
+    oiio = fsio.oiio()
     p = Path(path)
     if not p.exists():
         raise SketchgraphError(f"{p}: file not found")
-    inp = oiio.ImageInput.open(str(p))
-    if inp is None:
-        raise SketchgraphError(f"{p}: cannot read: {oiio.geterror()}")
-    spec = inp.spec()
-    pixels = inp.read_image(oiio.FLOAT)
-    inp.close()
+    pixels, problem, spec = None, "", None
+    with fsio.native_stderr() as printed:
+        inp = oiio.ImageInput.open(str(p))
+        if inp is None:
+            problem = oiio.geterror()
+        else:
+            try:
+                spec = inp.spec()
+                pixels = inp.read_image(oiio.FLOAT)
+                problem = inp.geterror() if pixels is None or inp.has_error else ""
+            except Exception as exc:  # noqa: BLE001 - a broken file makes the decoder raise whatever it raises
+                pixels, problem = None, str(exc)
+            finally:
+                inp.close()
+            oiio.geterror()  # taken, so that OpenImageIO does not print it at exit
+    if spec is None or pixels is None or problem or np.asarray(pixels).size != spec.height * spec.width \
+            * spec.nchannels:
+        why = clean(problem.splitlines()[0] if problem.strip() else printed[0] if printed else "")
+        raise SketchgraphError(f"{p}: cannot read the image" + (f": {why}" if why else " (broken or truncated)"))
     arr = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     return np.ascontiguousarray(arr[::-1])

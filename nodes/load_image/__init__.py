@@ -43,13 +43,16 @@ class LoadImage(Node):
 
     def output_shape(self, port: str, size: tuple[int, int]) -> tuple[int, int, int]:
         """The image's own size, from its header (no pixels are read)."""
-        import OpenImageIO as oiio
+        from nodegraph.fsio import native_stderr, oiio
 
-        inp = oiio.ImageInput.open(str(self.params.path))
-        if inp is None:
-            return (size[0], size[1], 1)
-        spec = inp.spec()
-        inp.close()
+        io = oiio()
+        with native_stderr():  # a broken file is said in one line when it is read (`compute`)
+            inp = io.ImageInput.open(str(self.params.path))
+            if inp is None:
+                io.geterror()  # taken, so that OpenImageIO does not print it at exit
+                return (size[0], size[1], 1)
+            spec = inp.spec()
+            inp.close()
         return (spec.width, spec.height, 1)
 
     def hash_extra(self, ctx: HashContext) -> Any:
