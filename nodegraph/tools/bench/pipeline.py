@@ -48,6 +48,7 @@ NAMED: dict[str, str] = {
     "peer": "nodegraph.tools.bench.peer:command",
     "checksum": "nodegraph.tools.bench.checksum:command",
     "orientation": "nodegraph.tools.bench.orientation:command",
+    "posing": "nodegraph.tools.bench.posing:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")
