@@ -219,7 +219,8 @@ def _check_scheduler(scheduler: Any, chunk: Any) -> None:
 # CLI flags that load-time errors name, as this API spells them
 _FLAGS = {"--scene": "scene=", "--size": "size=", "--view": "view=", "--up": "up=", "--frames": "frames=",
           "--out-dir": "out_dir=", "--allow-outside-out-dir": "allow_outside=True",
-          "--reference-size": "reference_size=", "--fill": "fill="}
+          "--reference-size": "reference_size=", "--fill": "fill=", "--animation": "animation=",
+          "--animation-end": "animation_end="}
 
 
 def _api_words(text: str) -> str:
@@ -334,14 +335,17 @@ class Session:
     def load(self, pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
              set: Mapping[str, Any] | Iterable[str] | None = None,  # noqa: A002 - the CLI's --set
              out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-             up: str | None = None, reference_size: int | None = None, fill: float | None = None) -> Pipe:
+             up: str | None = None, reference_size: int | None = None, fill: float | None = None,
+             animation: str | int | None = None, animation_end: str | None = None) -> Pipe:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH'),
         `set` ({"node.param": value} or ["node.param=value"]), and `view` and `up` (`--view`, `--up`: the
         side a mesh file is seen from and its up axis; nodegraph/scene/framing.py). Files the pipeline's nodes
         write (`write`, `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
         unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
-        pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md). A mesh
+        pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md).
+        `animation` (`--animation`: a clip's name or index, or "all", the default) and `animation_end`
+        (`--animation-end`: hold, the default, or loop) choose what glTF files play (docs/animation.md). A mesh
         file parsed by an earlier process with the same disk cache is read from it (nodegraph/scene/meshstore.py).
         Every argument is checked before anything is read (see the module's docstring)."""
         from .pipeline import resolve
@@ -358,6 +362,11 @@ class Session:
         view = _choice("view", view, VIEWS, PipelineArgumentError)
         up = _choice("up", up, (*UP_AXES, "auto"), PipelineArgumentError)
         fill = _fill(fill)
+        if animation is not None and (isinstance(animation, bool) or not isinstance(animation, (str, int))):
+            raise _type_error("animation", animation, "a clip name, an index, 'all' or None")
+        from .scene.timeline import ANIMATION_ENDS
+
+        animation_end = _choice("animation_end", animation_end, ANIMATION_ENDS, PipelineArgumentError)
         if reference_size is not None:
             reference_size = _int("reference_size", reference_size, 1, 16384, "a size in pixels",
                                   PipelineArgumentError)
@@ -367,7 +376,8 @@ class Session:
             raise PipelineArgumentError(f"pipeline={_shown(pipeline)}: {exc}") from None
         meshstore.use_cache(self.cache)
         return Pipe(self, source, scene=scene_text, size=size_text, overrides=overrides, out_dir=out,
-                    allow_outside=allow, view=view, up=up, reference_size=reference_size, fill=fill)
+                    allow_outside=allow, view=view, up=up, reference_size=reference_size, fill=fill,
+                    animation=None if animation is None else str(animation), animation_end=animation_end)
 
     def executor(self, pipe: Any, requested: list[tuple[str, str]], mode: str, frame: int, like: Any = None) -> Any:
         """A new executor for `requested` that adopts the last one's in-memory values (same GL context)."""
@@ -413,13 +423,15 @@ def default_session() -> Session:
 def load(pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[int, int] | str | None = None,
          set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None,  # noqa: A002
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
-         up: str | None = None, reference_size: int | None = None, fill: float | None = None) -> Pipe:
+         up: str | None = None, reference_size: int | None = None, fill: float | None = None,
+         animation: str | int | None = None, animation_end: str | None = None) -> Pipe:
     """Load and validate a pipeline (a path, or the name of a shipped one) in the default session."""
     if session is not None and not isinstance(session, Session):
         raise _type_error("session", session, "a nodegraph.Session or None")
     return (session or default_session()).load(pipeline, scene=scene, size=size, set=set, out_dir=out_dir,
                                                allow_outside=allow_outside, view=view, up=up,
-                                               reference_size=reference_size, fill=fill)
+                                               reference_size=reference_size, fill=fill, animation=animation,
+                                               animation_end=animation_end)
 
 
 class Pipe:
@@ -428,7 +440,7 @@ class Pipe:
     def __init__(self, session: Session, source: str, *, scene: str | None, size: tuple[int, int] | str | None,
                  overrides: list[str], out_dir: str | Path | None = None, allow_outside: bool = False,
                  view: str | None = None, up: str | None = None, reference_size: int | None = None,
-                 fill: float | None = None) -> None:
+                 fill: float | None = None, animation: str | None = None, animation_end: str | None = None) -> None:
         self.session = session
         self.reference_size = reference_size
         self.out_dir = Path.cwd() if out_dir is None else Path(out_dir)  # fixed at load: set() keeps it
@@ -438,8 +450,11 @@ class Pipe:
         self.size_arg = size
         self.overrides = list(overrides)
         self.view, self.up, self.fill = view, up, fill
+        self.play = (animation, animation_end)  # what glTF files play (scene.views.playing)
         size_text = size if isinstance(size, str) or size is None else f"{int(size[0])}x{int(size[1])}"
-        with _load_errors(scene):
+        from .scene.views import playing
+
+        with _load_errors(scene), playing(*self.play):
             self.pipeline = render.open_pipeline(source, tuple(self.overrides), size_text, scene, out_dir=self.out_dir,
                                                  allow_outside=allow_outside, view=view, up=up,
                                                  reference_size=reference_size, fill=fill)
@@ -481,7 +496,8 @@ class Pipe:
         more = _overrides(values, "values") + _overrides({k.replace("__", "."): v for k, v in kw.items()}, "set")
         return Pipe(self.session, self.source, scene=self.scene_arg, size=self.size_arg,
                     overrides=self.overrides + more, out_dir=self.out_dir, allow_outside=self.allow_outside,
-                    view=self.view, up=self.up, reference_size=self.reference_size, fill=self.fill)
+                    view=self.view, up=self.up, reference_size=self.reference_size, fill=self.fill,
+                    animation=self.play[0], animation_end=self.play[1])
 
     # -- running ---------------------------------------------------------------------------------
     def _ref(self, output: str | None, arg: str = "output") -> tuple[str, str]:
@@ -578,8 +594,11 @@ class Pipe:
         root: Any = arg if arg is False else (None if arg is True else str(arg))
         size = self.size_arg if isinstance(self.size_arg, str) or self.size_arg is None else \
             f"{int(self.size_arg[0])}x{int(self.size_arg[1])}"
-        spec = dist.PipeSpec.make(self.source, self.overrides, size, self.scene_arg, output, view=self.view,
-                                  up=self.up, fill=self.fill)
+        from .scene.views import playing
+
+        with playing(*self.play):  # the spec carries them to the workers
+            spec = dist.PipeSpec.make(self.source, self.overrides, size, self.scene_arg, output, view=self.view,
+                                      up=self.up, fill=self.fill)
         with dist.connect(scheduler, cache_root=root) as client:
             scratch = dist.scratch_dir(root, "frames-")
             try:  # EXR keeps every channel and the float values; uint8 is quantised here as to_array does

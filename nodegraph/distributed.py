@@ -97,6 +97,10 @@ class PipeSpec:
     view: str | None = None  # --view, --up: how a mesh-file scene is framed
     up: str | None = None
     fill: float | None = None  # --fill
+    # --camera-type, --fov, --zoom as given where the spec was made (scene.views.LENS): workers apply them too
+    lens: tuple[str | None, float | None, float | None] = (None, None, None)
+    # --animation, --animation-end as given where the spec was made (scene.views.ANIMATION, ANIMATION_END)
+    play: tuple[str | None, str | None] = (None, None)
 
     @classmethod
     def make(cls, source: str | Path, overrides: Sequence[str] = (), size: str | None = None,
@@ -107,11 +111,17 @@ class PipeSpec:
             src = str(Path(src).resolve())
         if scene is not None and not scene.startswith("builtin:") and Path(scene).exists():
             scene = str(Path(scene).resolve())
-        return cls(src, tuple(overrides), size, scene, output, view, up, fill)
+        from .scene.views import ANIMATION, ANIMATION_END, LENS
+
+        return cls(src, tuple(overrides), size, scene, output, view, up, fill, lens=LENS.get(),
+                   play=(ANIMATION.get(), ANIMATION_END.get()))
 
     def open(self) -> Any:
-        return render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view, up=self.up,
-                                    fill=self.fill)
+        from .scene.views import lens, playing
+
+        with lens(*self.lens), playing(*self.play):
+            return render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view,
+                                        up=self.up, fill=self.fill)
 
 
 def ref_of(pipe: Any, output: str | None) -> tuple[str, str]:

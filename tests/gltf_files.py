@@ -1,5 +1,6 @@
-"""Small glTF files built in code with pygltflib, for the tests: an animated box, a two-bone skinned bar, a
-morphing quad and a file with two cameras (and an orthographic one); and, for the hostile-input tests, a file
+"""Small glTF files built in code with pygltflib, for the tests: an animated box, two clips on two boxes, a
+walking box figure, a morphing sphere, a two-bone skinned bar, a morphing quad and a file with two cameras
+(and an orthographic one); and, for the hostile-input tests, a file
 that uses most of what the reader reads as raw parts (JSON dict, binary buffer) to break, GLB bytes with any
 header field, and PNG/JPEG bytes (or headers alone)."""
 
@@ -67,14 +68,15 @@ class Builder:
         return i
 
     def animate(self, node: int, path: str, times: list[float], values: np.ndarray, interpolation: str = "LINEAR",
-                name: str = "anim") -> None:
+                name: str = "anim", clip: int = 0) -> None:
+        """A channel in animation `clip` (made, named `name`, when it does not exist yet)."""
         kind = {"translation": "VEC3", "scale": "VEC3", "rotation": "VEC4", "weights": "SCALAR"}[path]
         t = self.accessor(np.asarray(times, np.float32), "SCALAR", minmax=True)
         v = self.accessor(np.asarray(values, np.float32).reshape(-1, 4 if kind == "VEC4" else 3 if kind == "VEC3"
                                                                   else 1), kind)
-        if not self.doc.animations:
+        while len(self.doc.animations) <= clip:
             self.doc.animations.append(g.Animation(name=name))
-        an = self.doc.animations[0]
+        an = self.doc.animations[clip]
         an.samplers.append(g.AnimationSampler(input=t, output=v, interpolation=interpolation))
         an.channels.append(g.AnimationChannel(sampler=len(an.samplers) - 1,
                                               target=g.AnimationChannelTarget(node=node, path=path)))
@@ -111,6 +113,73 @@ def animated_box(path: Path, external: bool = True) -> Path:
     b.node(mesh=b.mesh(BOX_V, BOX_F), name="still", translation=[0.0, 0.0, -3.0])
     b.animate(box, "translation", [0.0, 1.0], np.array([[0, 0, 0], [2, 0, 0]]))
     return b.save(path, external)
+
+
+def two_clips(path: Path, shared: bool = False) -> Path:
+    """Two unit boxes and two clips: 'slide' moves box 'a' from x = 0 to x = 2 over 1 s; 'lift' moves box 'b'
+    (at z = -3) from y = 0 to y = 4 over 2 s. `shared`: 'lift' also moves 'a', from x = 10 to x = 12 over 2 s
+    (the same channel as 'slide')."""
+    b = Builder()
+    m = b.mesh(BOX_V, BOX_F, color=(0.5, 0.2, 0.1))
+    a = b.node(mesh=m, name="a")
+    box_b = b.node(mesh=m, name="b", translation=[0.0, 0.0, -3.0])
+    b.animate(a, "translation", [0.0, 1.0], np.array([[0, 0, 0], [2, 0, 0]]), name="slide", clip=0)
+    b.animate(box_b, "translation", [0.0, 2.0], np.array([[0, 0, -3], [0, 4, -3]]), name="lift", clip=1)
+    if shared:
+        b.animate(a, "translation", [0.0, 2.0], np.array([[10, 0, 0], [12, 0, 0]]), clip=1)
+    return b.save(path)
+
+
+def walking_figure(path: Path, distance: float = 12.0, seconds: float = 2.0) -> Path:
+    """A box figure 1.8 high (torso, head, two legs; feet at y = 0) walking along +x: its root node moves
+    from x = 0 to x = `distance` over `seconds` (LINEAR)."""
+    b = Builder()
+    parts = {"torso": ((0.0, 1.15, 0.0), (0.4, 0.7, 0.25)), "head": ((0.0, 1.65, 0.0), (0.25, 0.3, 0.25)),
+             "leg_l": ((-0.1, 0.4, 0.0), (0.15, 0.8, 0.15)), "leg_r": ((0.1, 0.4, 0.0), (0.15, 0.8, 0.15))}
+    verts, faces = [], []
+    for centre, size in parts.values():
+        faces.append(BOX_F.astype(np.uint32) + 8 * len(verts))
+        verts.append(BOX_V * np.asarray(size, np.float32) + np.asarray(centre, np.float32))
+    m = b.mesh(np.concatenate(verts), np.concatenate(faces).astype(np.uint32), color=(0.6, 0.6, 0.6))
+    fig = b.node(mesh=m, name="figure")
+    b.animate(fig, "translation", [0.0, seconds], np.array([[0, 0, 0], [distance, 0, 0]]), name="walk")
+    return b.save(path)
+
+
+def sphere_vertices(subdiv: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """A unit UV sphere (8 x 16 quads split in two; poles shared), outward counter-clockwise."""
+    rows, cols = 4 * subdiv, 8 * subdiv
+    v = [[0.0, 1.0, 0.0]]
+    for i in range(1, rows):
+        th = math.pi * i / rows
+        for k in range(cols):
+            ph = 2 * math.pi * k / cols
+            v.append([math.sin(th) * math.sin(ph), math.cos(th), math.sin(th) * math.cos(ph)])
+    v.append([0.0, -1.0, 0.0])
+    f = [[0, 1 + k, 1 + (k + 1) % cols] for k in range(cols)]
+    for i in range(rows - 2):
+        for k in range(cols):
+            a, b_ = 1 + i * cols + k, 1 + i * cols + (k + 1) % cols
+            c, d = a + cols, b_ + cols
+            f += [[a, c, d], [a, d, b_]]
+    last = len(v) - 1
+    f += [[last, last - cols + (k + 1) % cols, last - cols + k] for k in range(cols)]
+    return np.array(v, np.float32), np.array(f, np.uint32)
+
+
+def morphing_sphere(path: Path, grow: float = 4.0, seconds: float = 1.0) -> Path:
+    """A unit sphere whose morph target 0 moves every vertex out by (grow - 1) times its position: weight 0 -> 1
+    over `seconds` grows it to radius `grow` (about its centre at the origin)."""
+    b = Builder()
+    v, f = sphere_vertices()
+    pos = b.accessor(v, "VEC3", minmax=True)
+    tgt = b.accessor((v * (grow - 1.0)).astype(np.float32), "VEC3", minmax=True)
+    idx = b.accessor(f.reshape(-1), "SCALAR", UINT)
+    b.doc.meshes.append(g.Mesh(primitives=[g.Primitive(attributes=g.Attributes(POSITION=pos), indices=idx,
+                                                       targets=[{"POSITION": tgt}])], weights=[0.0]))
+    ball = b.node(mesh=0, name="ball")
+    b.animate(ball, "weights", [0.0, seconds], np.array([0.0, 1.0]), name="grow")
+    return b.save(path)
 
 
 def bar_vertices() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -222,14 +291,14 @@ def two_cameras(path: Path) -> Path:
 
 
 def png_bytes(rgb: np.ndarray) -> bytes:
-    """A PNG (8-bit RGB, no filtering) of the (h, w, 3) uint8 array, written here with zlib."""
-    h, w, _ = rgb.shape
+    """A PNG (8-bit RGB or RGBA, no filtering) of the (h, w, 3 or 4) uint8 array, written here with zlib."""
+    h, w, nch = rgb.shape
     raw = b"".join(b"\0" + np.ascontiguousarray(rgb[y], np.uint8).tobytes() for y in range(h))
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6 if nch == 4 else 2, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
@@ -338,3 +407,203 @@ def write_parts(path: Path, doc: dict, blob: bytes, how: str = "glb") -> Path:
         doc["buffers"][0]["uri"] = path.with_suffix(".bin").name
     path.write_text(json.dumps(doc))
     return path
+
+
+def lit_quad(path: Path, lights: list[dict], light_nodes: list[dict], color: tuple[float, float, float] = (1, 1, 1),
+             animate_light: tuple[list[float], np.ndarray] | None = None) -> Path:
+    """A 2 x 2 quad in the XY plane facing +Z (a fan about a centre vertex, so the point above the centre is a
+    vertex) and KHR_lights_punctual `lights` (written by hand as the extension's JSON) on nodes whose keyword
+    arguments are `light_nodes` (each with `light`: the light's index); `animate_light`: (times, translations) of
+    the first light node."""
+    b = Builder()
+    v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0], [0, 0, 0]], np.float32)
+    f = np.array([[4, 0, 1], [4, 1, 2], [4, 2, 3], [4, 3, 0]], np.uint16)
+    b.node(mesh=b.mesh(v, f, color), name="quad")
+    first = None
+    for kw in light_nodes:
+        kw = dict(kw)
+        index = kw.pop("light")
+        node = b.node(extensions={"KHR_lights_punctual": {"light": index}}, **kw)
+        first = node if first is None else first
+    b.doc.extensions = {"KHR_lights_punctual": {"lights": lights}}
+    b.doc.extensionsUsed = ["KHR_lights_punctual"]
+    if animate_light is not None and first is not None:
+        b.animate(first, "translation", animate_light[0], animate_light[1])
+    return b.save(path)
+
+
+# -- colour: a textured quad and a vertex-coloured quad, seen straight on by a camera that the quad fills -------
+QUAD_V = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+QUAD_F = np.array([[0, 1, 2], [0, 2, 3]], np.uint16)
+QUAD_UV = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # glTF's uv (0, 0) is the image's top left
+NEAREST, LINEAR = 9728, 9729
+
+
+def _quad_camera(b: Builder) -> None:
+    """A camera at z = 2 looking down -z with yfov 2 atan(1/2): the quad (-1..1 in x and y) fills a square image."""
+    b.doc.cameras.append(g.Camera(type="perspective", perspective=g.Perspective(
+        yfov=2 * math.atan(0.5), znear=0.5, zfar=10.0, aspectRatio=1.0)))
+    b.node(camera=len(b.doc.cameras) - 1, translation=[0.0, 0.0, 2.0], name="front")
+
+
+def textured_quad(path: Path, texels: np.ndarray, transform: dict | None = None, alpha_mode: str | None = None,
+                  cutoff: float | None = None, factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0),
+                  wrap: int = 10497) -> Path:
+    """The quad with the (h, w, 3 or 4) uint8 image as its base colour texture (NEAREST filters, `wrap` both ways),
+    its top-left corner at uv (0, 0); `transform`: a KHR_texture_transform object; `alpha_mode`, `cutoff`."""
+    b = Builder()
+    pos = b.accessor(QUAD_V, "VEC3", minmax=True)
+    uv = b.accessor(QUAD_UV, "VEC2")
+    idx = b.accessor(QUAD_F.reshape(-1), "SCALAR", USHORT)
+    png = png_bytes(np.asarray(texels, np.uint8))
+    while len(b.blob) % 4:
+        b.blob += b"\0"
+    b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(png)))
+    b.blob += png
+    b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType="image/png"))
+    b.doc.samplers.append(g.Sampler(magFilter=NEAREST, minFilter=NEAREST, wrapS=wrap, wrapT=wrap))
+    b.doc.textures.append(g.Texture(source=0, sampler=0))
+    info = g.TextureInfo(index=0)
+    if transform is not None:
+        info.extensions = {"KHR_texture_transform": transform}
+        b.doc.extensionsUsed = ["KHR_texture_transform"]
+    mat = g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=list(factor),
+                                                                 baseColorTexture=info), doubleSided=True)
+    if alpha_mode is not None:
+        mat.alphaMode = alpha_mode
+    if cutoff is not None:
+        mat.alphaCutoff = cutoff
+    b.doc.materials.append(mat)
+    prim = g.Primitive(attributes=g.Attributes(POSITION=pos, TEXCOORD_0=uv), indices=idx, material=0)
+    b.doc.meshes.append(g.Mesh(primitives=[prim]))
+    b.node(mesh=0, name="quad")
+    _quad_camera(b)
+    return b.save(path)
+
+
+def vertex_color_quad(path: Path, colors: np.ndarray, ctype: int = FLOAT) -> Path:
+    """The quad with COLOR_0 = `colors` ((4, 3) or (4, 4) in 0..1; as normalised `ctype` integers unless FLOAT) at
+    its corners (-1,-1), (1,-1), (1,1), (-1,1), and no material."""
+    b = Builder()
+    c = np.asarray(colors, np.float64)
+    data = c.astype(np.float32) if ctype == FLOAT else np.rint(c * {UBYTE: 255, USHORT: 65535}[ctype]).astype(
+        np.uint8 if ctype == UBYTE else np.uint16)
+    if ctype == UBYTE and c.shape[1] == 3:  # VEC3 of bytes: 4-byte aligned elements need a stride; use VEC4
+        raise ValueError("byte colours as VEC4")
+    col = b.accessor(data, "VEC4" if c.shape[1] == 4 else "VEC3", ctype, normalized=ctype != FLOAT)
+    pos = b.accessor(QUAD_V, "VEC3", minmax=True)
+    idx = b.accessor(QUAD_F.reshape(-1), "SCALAR", USHORT)
+    prim = g.Primitive(attributes=g.Attributes(POSITION=pos, COLOR_0=col), indices=idx)
+    b.doc.meshes.append(g.Mesh(primitives=[prim]))
+    b.node(mesh=0, name="quad")
+    _quad_camera(b)
+    return b.save(path)
+
+
+def colored_box(path: Path, color: tuple[float, float, float]) -> Path:
+    """The unit box with a baseColorFactor of `color` (linear), turned 30 degrees about y."""
+    b = Builder()
+    b.node(mesh=b.mesh(BOX_V, BOX_F, color=color), name="box", rotation=quat_axis((0, 1, 0), 30))
+    return b.save(path)
+
+
+# -- `sketchgraph scene info`: one file holding one of most things, each with a known answer ------------------
+INFO_BASE_PNG = png_bytes(np.arange(4 * 2 * 3, dtype=np.uint8).reshape(2, 4, 3) * 10)  # 4 wide, 2 high
+INFO_NORMAL_PNG = png_bytes(np.full((2, 2, 3), (128, 128, 255), np.uint8))
+
+
+def info_sampler(path: Path) -> Path:
+    """Meshes: 'box' (12 triangles, 8 vertices) on nodes 'a' and 'b', 'dots' (3 POINTS) on node 'dots', 'spare'
+    (a quad) on no node. Material 0 ('paint', BLEND): baseColorFactor (0.2, 0.4, 0.6, 1) x texture 0 (a 4x2 PNG),
+    normalTexture 1 (a 2x2 PNG), KHR_materials_emissive_strength. Animations: 'slide' (node a's translation,
+    0..2 s), 'spin' (node b's rotation and scale, 0..0.5 s). Cameras: 0 'plan' orthographic (xmag 3, ymag 2) on
+    'plan_node', 1 'eye' perspective (yfov 0.6) on 'eye_node', 2 'spare_cam' on no node. A point light 'bulb'
+    (colour (1, 0.5, 0.25), intensity 40) on node 'lamp'; KHR_lights_punctual is required."""
+    b = Builder()
+    uv = b.accessor((BOX_V[:, :2] + 0.5).astype(np.float32), "VEC2")
+    box = b.mesh(BOX_V, BOX_F, color=(0.2, 0.4, 0.6), TEXCOORD_0=uv)
+    b.doc.meshes[box].name = "box"
+    for png in (INFO_BASE_PNG, INFO_NORMAL_PNG):
+        while len(b.blob) % 4:
+            b.blob += b"\0"
+        b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(png)))
+        b.blob += png
+        b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType="image/png"))
+        b.doc.textures.append(g.Texture(source=len(b.doc.images) - 1))
+    mat = b.doc.materials[0]
+    mat.name, mat.alphaMode = "paint", "BLEND"
+    mat.pbrMetallicRoughness.baseColorTexture = g.TextureInfo(index=0)
+    mat.normalTexture = g.NormalMaterialTexture(index=1)
+    mat.extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}
+    dots = b.mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([0, 1, 2], np.uint16), mode=0)
+    b.doc.meshes[dots].name = "dots"
+    spare = b.mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32),
+                   np.array([[0, 1, 2], [0, 2, 3]], np.uint16))
+    b.doc.meshes[spare].name = "spare"
+    a = b.node(mesh=box, name="a")
+    bb = b.node(mesh=box, name="b", translation=[0.0, 0.0, -3.0])
+    b.node(mesh=dots, name="dots")
+    b.doc.cameras += [g.Camera(type="orthographic", name="plan",
+                               orthographic=g.Orthographic(xmag=3, ymag=2, znear=0.1, zfar=20)),
+                      g.Camera(type="perspective", name="eye", perspective=g.Perspective(yfov=0.6, znear=0.1)),
+                      g.Camera(type="perspective", name="spare_cam", perspective=g.Perspective(yfov=1.0, znear=1))]
+    b.node(camera=0, name="plan_node", translation=[0.0, 8.0, 0.0], rotation=quat_axis((1, 0, 0), -90))
+    b.node(camera=1, name="eye_node", translation=[0.0, 0.0, 8.0])
+    b.node(name="lamp", translation=[0.0, 3.0, 0.0], extensions={"KHR_lights_punctual": {"light": 0}})
+    b.doc.extensions = {"KHR_lights_punctual": {"lights": [
+        {"name": "bulb", "type": "point", "color": [1.0, 0.5, 0.25], "intensity": 40.0}]}}
+    b.doc.extensionsUsed = ["KHR_lights_punctual", "KHR_materials_emissive_strength"]
+    b.doc.extensionsRequired = ["KHR_lights_punctual"]
+    b.animate(a, "translation", [0.0, 2.0], np.array([[0, 0, 0], [2, 0, 0]]), name="slide")
+    an = g.Animation(name="spin")
+    for path_, values in (("rotation", np.array([quat_axis((0, 1, 0), 0), quat_axis((0, 1, 0), 90)])),
+                          ("scale", np.array([[1, 1, 1], [2, 2, 2]]))):
+        t = b.accessor(np.array([0.0, 0.5], np.float32), "SCALAR", minmax=True)
+        v = b.accessor(values.astype(np.float32), "VEC4" if path_ == "rotation" else "VEC3")
+        an.samplers.append(g.AnimationSampler(input=t, output=v))
+        an.channels.append(g.AnimationChannel(sampler=len(an.samplers) - 1,
+                                              target=g.AnimationChannelTarget(node=bb, path=path_)))
+    b.doc.animations.append(an)
+    return b.save(path)
+
+
+def skinned_parts(path: Path) -> Path:
+    """Two tubes on one skin (joint 0 at the origin, joint 1 at x = 1 turning 0 -> 90 degrees about +Z over 1 s,
+    as `skinned_tube`): 'morphing' (mesh 0) also has a morph target lifting every vertex by x/2 in +y, its weight
+    0 -> 1 over 1 s; 'plain' (mesh 1) is the same tube moved 0.6 in z. For the batched posing of several parts."""
+    b = Builder()
+    rings, segments = 9, 12
+    xs = np.linspace(0.0, 2.0, rings)
+    ang = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    v = np.array([[x, 0.2 * math.cos(a), 0.2 * math.sin(a)] for x in xs for a in ang], np.float32)
+    f = []
+    for i in range(rings - 1):
+        for k in range(segments):
+            k1 = (k + 1) % segments
+            a, b_, c, d = i * segments + k, i * segments + k1, (i + 1) * segments + k1, (i + 1) * segments + k
+            f += [[a, b_, c], [a, c, d]]
+    faces = np.array(f, np.uint16)
+    s_ = np.clip((v[:, 0] - 0.6) / 0.8, 0.0, 1.0)
+    w1 = s_ * s_ * (3 - 2 * s_)
+    weights = np.stack([1 - w1, w1, np.zeros_like(w1), np.zeros_like(w1)], axis=1).astype(np.float32)
+    joints = np.tile(np.array([0, 1, 0, 0], np.uint8), (len(v), 1))
+    delta = np.zeros_like(v)
+    delta[:, 1] = v[:, 0] / 2
+    for name, offset, morph in (("morphing", 0.0, True), ("plain", 0.6, False)):
+        verts = v + np.array([0.0, 0.0, offset], np.float32)
+        m = b.mesh(verts, faces, JOINTS_0=b.accessor(joints, "VEC4", UBYTE), WEIGHTS_0=b.accessor(weights, "VEC4"))
+        if morph:
+            b.doc.meshes[m].primitives[0].targets = [{"POSITION": b.accessor(delta, "VEC3", minmax=True)}]
+            b.doc.meshes[m].weights = [0.0]
+        b.doc.meshes[m].name = name
+    j1 = len(b.doc.nodes) + 1
+    j0 = b.node(name="j0", children=[j1])
+    b.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.array([[1, 0, 0, -1], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)])
+    b.doc.skins.append(g.Skin(joints=[j0, j1], inverseBindMatrices=b.accessor(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    morphing = b.node(mesh=0, skin=0, name="morphing")
+    b.node(mesh=1, skin=0, name="plain")
+    b.animate(j1, "rotation", [0.0, 1.0], np.array([quat_axis((0, 0, 1), 0), quat_axis((0, 0, 1), 90)]))
+    b.animate(morphing, "weights", [0.0, 1.0], np.array([0.0, 1.0]))
+    return b.save(path)

@@ -38,6 +38,7 @@ class GL:
         self._scratch: Any = None
         self.resources: dict[Any, Any] = {}  # per-context caches of nodes (samplers, lookup textures)
         self._meshes: OrderedDict[Any, MeshBuffers] = OrderedDict()  # vertex/index buffers, least recent first
+        self._slots: dict[Any, Any] = {}  # `mesh_buffers` slot -> the key of the buffers last built for it
         self.draws = DrawCount()  # full-screen passes and geometry draws issued through this wrapper
 
     @property
@@ -419,19 +420,57 @@ class GL:
         return target, fbo
 
     # -- geometry ---------------------------------------------------------------------------
-    def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays]) -> MeshBuffers:
+    def mesh_buffers(self, key: Any, build: Callable[[], MeshArrays], slot: Any = None) -> MeshBuffers:
         """Vertex and index buffers of one mesh, cached by `key` (say the node, the mesh's content hash and
         whatever else shaped the arrays); `build` runs only on a miss. The least recently used entries are
-        released beyond `MESH_CACHE_ENTRIES`. `.vao(program)` gives the program's vertex array over them."""
+        released beyond `MESH_CACHE_ENTRIES`. `.vao(program)` gives the program's vertex array over them.
+        `slot`: what stays the same from frame to frame (a posed part: its rest pose): on a miss, the buffers
+        last built for the slot take the new vertices in place when the layout and indices are the same
+        (no new buffers, vertex arrays kept); the entry then answers to `key` alone."""
         entry = self._meshes.get(key)
         if entry is not None:
             self._meshes.move_to_end(key)
             return entry
-        entry = self._meshes[key] = MeshBuffers(self.ctx, build(), self.draws)
+        arrays = build()
+        old_key = self._slots.get(slot) if slot is not None else None
+        old = self._meshes.get(old_key) if old_key is not None else None
+        if old is not None and old.rewrite(arrays):
+            del self._meshes[old_key]
+            self._meshes[key] = old
+            self._slots[slot] = key
+            return old
+        entry = self._meshes[key] = MeshBuffers(self.ctx, arrays, self.draws)
+        if slot is not None:
+            if len(self._slots) > 4 * MESH_CACHE_ENTRIES:
+                self._slots.clear()
+            self._slots[slot] = key
         while len(self._meshes) > MESH_CACHE_ENTRIES:
             _, old = self._meshes.popitem(last=False)
             old.release()
         return entry
+
+    def image_texture(self, key: Any, pixels: np.ndarray, srgb: bool = True, filters: tuple[int, int] = (9987, 9729),
+                      repeat: tuple[bool, bool] = (True, True)) -> Any:
+        """A moderngl texture of an (h, w, 4) uint8 image (row 0 at t = 0), kept by `key` (say the image's digest and
+        how it is sampled; the least recently used beyond IMAGE_CACHE_ENTRIES are released). `srgb`: stored as
+        SRGB8_ALPHA8, so samples (and their filtering) come out linear; `filters`: GL's (min, mag) enums, mipmaps
+        built where the min filter uses them; `repeat`: REPEAT (else CLAMP_TO_EDGE) along s and t."""
+        cache = self.resources.setdefault("gl.image_textures", OrderedDict())
+        tex = cache.get(key)
+        if tex is not None:
+            cache.move_to_end(key)
+            return tex
+        h, w = pixels.shape[:2]
+        tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(pixels, dtype=np.uint8).tobytes(), alignment=1,
+                               internal_format=0x8C43 if srgb else None)  # GL_SRGB8_ALPHA8
+        if filters[0] in (9984, 9985, 9986, 9987):
+            tex.build_mipmaps()
+        tex.filter = filters
+        tex.repeat_x, tex.repeat_y = repeat
+        cache[key] = tex
+        while len(cache) > IMAGE_CACHE_ENTRIES:
+            cache.popitem(last=False)[1].release()
+        return tex
 
     def release_meshes(self) -> None:
         """Release every cached mesh's buffers and vertex arrays (the next draw uploads them again)."""
@@ -640,6 +679,7 @@ def _block_target_place(block: tuple[int, int, int, int], full: tuple[int, int]
 
 
 MESH_CACHE_ENTRIES = 64
+IMAGE_CACHE_ENTRIES = 64  # textures of `GL.image_texture` kept on the GPU
 _ATTRIBUTE_DTYPES = {"f": np.float32, "i": np.int32, "u": np.uint32}
 
 
@@ -670,6 +710,20 @@ class MeshBuffers:
                                                             else np.uint32).tobytes())
         # by program id; each entry keeps its program alive, so the id cannot be reused while it exists
         self._vaos: dict[int, tuple[Any, Any]] = {}
+        self._indices = indices
+        self._layout = {name: (fmt, np.asarray(a).shape) for name, (a, fmt) in arrays.attributes.items()}
+
+    def rewrite(self, arrays: MeshArrays) -> bool:
+        """Take `arrays` in place (vertex buffers written, index buffer and vertex arrays kept) if they have this
+        entry's attributes, formats, shapes and indices; False (nothing changed) otherwise."""
+        layout = {name: (fmt, np.asarray(a).shape) for name, (a, fmt) in arrays.attributes.items()}
+        indices = np.asarray(arrays.indices)
+        if layout != self._layout or not (indices is self._indices or np.array_equal(indices, self._indices)):
+            return False
+        for name, (a, fmt) in arrays.attributes.items():
+            self.buffers[name][0].write(np.ascontiguousarray(a, dtype=_ATTRIBUTE_DTYPES[fmt[-1]]))
+        self.meta = arrays.meta
+        return True
 
     def vao(self, program: Any) -> Any:
         """The vertex array of `program` over the attributes it reads (16-bit indices where they fit)."""

@@ -141,6 +141,42 @@ class Track:
             h.update(",".join(self.segment).encode())
 
 
+class AnimationNote(UserWarning):
+    """What a file's animation plays (its clips, which one wins a shared channel): one line, said once."""
+
+
+def loop_time(t: float, period: float) -> float:
+    """The clip time of film time t for a clip that loops with `period` (its end, keys counted from 0): t
+    itself up to the end, then each later cycle (k * period, (k + 1) * period] mapped onto (0, period], so
+    every cycle closes on the last key; before 0 (negative frames) t as it is (the first key holds)."""
+    if not (period > 0.0) or t <= period:
+        return t
+    return t - period * (math.ceil(t / period) - 1.0)
+
+
+@dataclass(frozen=True, eq=False)
+class LoopedTrack:
+    """A track played in a loop of `period` seconds (`loop_time`); samples as `Track.sample`."""
+
+    track: Track
+    period: float
+
+    @property
+    def start(self) -> float:
+        return self.track.start
+
+    @property
+    def end(self) -> float:
+        return self.track.end
+
+    def sample(self, t: float) -> np.ndarray:
+        return self.track.sample(loop_time(t, self.period))
+
+    def digest_into(self, h: Any) -> None:
+        h.update(f"loop:{self.period!r}".encode())
+        self.track.digest_into(h)
+
+
 # --- deformation ----------------------------------------------------------------------------------
 
 
@@ -202,6 +238,12 @@ class CameraAnim:
 
 
 @dataclass(frozen=True, eq=False)
+class LightsAnim:
+    at: Callable[[float], tuple[Any, ...]]  # t -> the scene's lights (nodegraph/scene/lights.py)
+    digest: str
+
+
+@dataclass(frozen=True, eq=False)
 class Animator:
     """Per-object and camera animation of a scene, evaluated at t = frame / fps. `start`, `end`: the
     animation's time range in seconds (the default frame range of films: `frame_range`)."""
@@ -214,6 +256,7 @@ class Animator:
     # posed meshes carry their rest pose (Mesh.rest, Mesh.skin_linear) for object-space noise and curvature;
     # False drops it, so both are computed on the posed surface (the shower-door comparison's "before")
     rest_pose: bool = True
+    lights: LightsAnim | None = None  # lights on moving glTF nodes
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.fps) and self.fps > 0):
@@ -236,6 +279,8 @@ class Animator:
             h.update(f"|o{i}:{self.objects[i].digest}".encode())
         if self.camera is not None:
             h.update(f"|camera:{self.camera.digest}".encode())
+        if self.lights is not None:
+            h.update(f"|lights:{self.lights.digest}".encode())
         return h.hexdigest()
 
     def pose(self, scene: Any, frame: int) -> Any:
@@ -250,6 +295,9 @@ class Animator:
             objects[i] = replace(obj, mesh=obj.mesh if mesh is None else mesh, transform=matrix)
         camera = scene.camera if self.camera is None else self.camera.at(t)
         extent = scene.extent if scene.extent is not None else scene.bounds()
+        if self.lights is not None:
+            return replace(scene, objects=tuple(objects), camera=camera, animation=None, extent=extent,
+                           lights=tuple(self.lights.at(t)))
         return replace(scene, objects=tuple(objects), camera=camera, animation=None, extent=extent)
 
 

@@ -663,6 +663,68 @@ def fit_view(points: Any, direction: Any, up: Any, fov_y_deg: float, fill: float
     return eye, eye + fwd * depth_c, cam_up
 
 
+MOTION_MIN_SHARE = 0.5  # an animated subject at its first frame spans at least this share of its still framing
+
+
+def projected(points: Any, eye: Any, target: Any, up: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) of `points` seen from `eye` looking at `target`: tangents of the angles off the view axis (the
+    image plane at distance 1; the field of view's half-span is tan(fov / 2) in these units)."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3) - np.asarray(eye, dtype=np.float64)
+    fwd = np.asarray(target, dtype=np.float64) - np.asarray(eye, dtype=np.float64)
+    fwd = fwd / np.linalg.norm(fwd)
+    right = np.cross(fwd, np.asarray(up, dtype=np.float64))
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(right, fwd)
+    z = np.maximum(p @ fwd, 1e-12)
+    return (p @ right) / z, (p @ cam_up) / z
+
+
+def half_span(points: Any, eye: Any, target: Any, up: Any) -> float:
+    """Half the larger side of the projected bounding box of `points` (in `projected`'s units)."""
+    x, y = projected(points, eye, target, up)
+    return float(max(x.max() - x.min(), y.max() - y.min())) / 2.0
+
+
+def motion_view(first: Any, motion: Any, direction: Any, up: Any, fov_y_deg: float, fill: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(eye, target, up) framing an animated subject without a camera: readable at its first frame, the motion
+    kept in view as far as that allows. `first`: the points the subject's faces use at the first frame;
+    `motion`: points of it over the whole animation (its vertices at sampled times). The rule:
+
+    1. `wide` = fit_view of first + motion (the whole motion centred, spanning `fill`). When the first frame's
+       subject spans at least MOTION_MIN_SHARE of what it spans in its still framing (fit_view of `first`
+       alone), `wide` is the view: all the motion is in the picture.
+    2. Otherwise the camera stands where the first frame's subject spans exactly MOTION_MIN_SHARE of its still
+       size (fit_view of `first` at fill * MOTION_MIN_SHARE, from the same direction), then slides sideways
+       (the same distance and direction) toward where the centre of the motion's bounding box is seen, as far
+       as the first frame's subject stays within `fill` of the picture; the motion beyond leaves the picture
+       (a subject walking toward the camera may pass beside or behind it)."""
+    first = np.asarray(first, dtype=np.float64).reshape(-1, 3)
+    both = np.vstack([first, np.asarray(motion, dtype=np.float64).reshape(-1, 3)])
+    still = fit_view(first, direction, up, fov_y_deg, fill)
+    wide = fit_view(both, direction, up, fov_y_deg, fill)
+    size = half_span(first, *still)
+    if not size > 0.0 or half_span(first, *wide) >= MOTION_MIN_SHARE * size * (1.0 - 1e-9):
+        return wide
+    eye, target, cam_up = fit_view(first, direction, up, fov_y_deg, fill * MOTION_MIN_SHARE)
+    limit = fill * math.tan(math.radians(fov_y_deg) / 2.0)  # the first frame's box stays within +-limit
+    middle = (both.min(axis=0) + both.max(axis=0)) / 2.0
+    fwd = target - eye
+    depth = float(np.linalg.norm(fwd))
+    fwd = fwd / depth
+    right = np.cross(fwd, cam_up)
+    right /= np.linalg.norm(right)
+    for _ in range(20):  # a slide moves near points more than far ones: settle in a few steps
+        fx, fy = projected(first, eye, target, cam_up)
+        mx, my = projected(middle, eye, target, cam_up)
+        shift = [min(max(float(m[0]), f.max() - limit), f.min() + limit) for f, m in ((fx, mx), (fy, my))]
+        move = (right * shift[0] + np.cross(right, fwd) * shift[1]) * depth
+        eye, target = eye + move, target + move
+        if abs(shift[0]) + abs(shift[1]) < 1e-9 * limit:
+            break
+    return eye, target, cam_up
+
+
 def view_direction(view: str, front: Any, up: Any = (0.0, 1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
     """(direction target -> eye, camera up) of a named view for a mesh facing `front` (not 'widest')."""
     f = np.asarray(front, dtype=np.float64)
@@ -708,6 +770,6 @@ def describe(up: str, front: np.ndarray) -> str:
     return f"up {up}, front {axis_name(front)}"
 
 
-__all__ = ["DEFAULT_FILL", "UP_AXES", "VIEWS", "FramingWarning", "FrontChoice", "Orientation", "broad_side",
-           "check_fill", "check_up", "check_view", "detect_front", "detect_up", "feature_lines", "fit_view",
-           "front_choice", "orient", "up_rotation", "view_direction", "visible_detail"]
+__all__ = ["DEFAULT_FILL", "MOTION_MIN_SHARE", "UP_AXES", "VIEWS", "FramingWarning", "FrontChoice", "Orientation",
+           "broad_side", "check_fill", "check_up", "check_view", "detect_front", "detect_up", "feature_lines",
+           "fit_view", "front_choice", "motion_view", "orient", "up_rotation", "view_direction", "visible_detail"]

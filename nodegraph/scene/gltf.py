@@ -1,12 +1,16 @@
 """glTF 2.0 files (`.gltf` with embedded or external buffers, `.glb`) as scenes.
 
-What is read: the node hierarchy (TRS or matrix), every triangle primitive (triangles, strips and fans;
-indices of any component type; quantized or normalized attributes; sparse accessors), the base colour
-(baseColorFactor times the mean of the base colour texture where OpenImageIO decodes it, converted from
-glTF's linear values to display values), perspective cameras, skins (linear-blend skinning), morph targets
-(POSITION deltas) and animations (translation, rotation, scale and weights; LINEAR, STEP, CUBICSPLINE).
-Points and lines are skipped; orthographic cameras cannot be used (the engine's camera is perspective);
-extensions that change geometry (Draco, meshopt) are not decoded. Whatever is left out is named in ONE
+What is read: the node hierarchy (TRS or matrix), every triangle primitive (triangles, strips and fans; indices of
+any component type; quantized or normalized attributes; sparse accessors), the base colour (baseColorFactor, the
+base colour texture decoded by OpenImageIO with its TEXCOORD_n, KHR_texture_transform, sampler and alpha mode, and
+COLOR_0, kept on the mesh as a `Surface` for `rasterize`; one flat colour, the factor times their means, converted
+from glTF's linear values to display values), perspective and orthographic cameras, skins (linear-blend skinning),
+morph targets (POSITION deltas) and animations (translation, rotation, scale and weights; LINEAR, STEP,
+CUBICSPLINE; every clip plays, together, unless one is chosen: `GltfAsset.animation`), and KHR_lights_punctual
+lights (directional, point, spot: they shade the drawing, placed and moved by their nodes;
+nodegraph/scene/lights.py). An orthographic camera's `ymag` (KHR: a half extent) is half the image's
+height, as `yfov` spans the height; the width follows the output's shape (`xmag` is not used). Points and lines are
+skipped; extensions that change geometry (Draco, meshopt) are not decoded. Whatever is left out is named in ONE
 warning per file. glTF is Y-up and right-handed, as the engine is.
 
 A glTF file is untrusted input. The container (GLB header and chunks) and the JSON are parsed here, and the
@@ -41,9 +45,31 @@ from urllib.parse import unquote
 
 import numpy as np
 
+from .. import fsio
 from ..errors import MeshError, PipelineError
-from .animation import Animator, CameraAnim, ObjectAnim, Track, morph_vertices, skin_matrices, skin_weights, trs_matrix
-from .meshes import GLTF_EXTENSIONS, Mesh, MeshWarning
+from .animation import (
+    AnimationNote,
+    Animator,
+    CameraAnim,
+    LoopedTrack,
+    ObjectAnim,
+    Track,
+    morph_vertices,
+    skin_weights,
+    trs_matrix,
+)
+from .meshes import (
+    GLTF_EXTENSIONS,
+    WRAP_CLAMP,
+    WRAP_MIRROR,
+    WRAP_REPEAT,
+    BaseTexture,
+    Material,
+    Mesh,
+    MeshWarning,
+    Surface,
+)
+from .timeline import ANIMATION_ENDS
 
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _NCOMP = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
@@ -52,8 +78,8 @@ _MODES = {0: "POINTS", 1: "LINES", 2: "LINE_LOOP", 3: "LINE_STRIP", 4: "TRIANGLE
           6: "TRIANGLE_FAN"}
 # extensions whose absence changes no geometry here (colour comes from the factor and texture anyway)
 _HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization", "EXT_texture_", "KHR_xmp")
-# extensions a file may list in extensionsRequired: read here (quantization) or irrelevant to a flat-coloured
-# drawing (materials, lights, texture transforms, metadata); any other required one refuses the file, as the
+# extensions a file may list in extensionsRequired: read here (quantization, lights) or irrelevant to a
+# flat-coloured drawing (materials, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
 _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_transform", "KHR_lights_punctual",
                        "KHR_xmp")
@@ -92,12 +118,13 @@ class _Prim:
     joints: np.ndarray | None = None  # (n, 4k) int
     weights: np.ndarray | None = None  # (n, 4k) float64
     targets: np.ndarray | None = None  # (T, n, 3) POSITION deltas
+    surface: Surface | None = None  # texture coordinates, vertex colours and material, where they colour it
     _rest: Mesh | None = None
     _skin: Any = None  # the sparse (n, J) skin weights, built on first use
 
     def rest_mesh(self) -> Mesh:
         if self._rest is None:
-            self._rest = Mesh(self.name, self.positions, self.faces)
+            self._rest = Mesh(self.name, self.positions, self.faces, surface=self.surface)
         return self._rest
 
 
@@ -112,6 +139,7 @@ class _Node:
     skin: int | None = None
     camera: int | None = None
     weights: np.ndarray | None = None
+    light: int | None = None  # KHR_lights_punctual light on the node
 
 
 @dataclass
@@ -121,14 +149,16 @@ class _Camera:
     yfov: float = 0.7
     znear: float = 0.1
     zfar: float | None = None
+    ymag: float = 1.0  # orthographic: half the view's height (KHR: a half-width, not a magnification)
 
 
 @dataclass
 class GltfAnimation:
     name: str
-    channels: list[tuple[int, str, Track]]
+    channels: list[tuple[int, str, Track | LoopedTrack]]
     start: float
     end: float
+    index: int = -1  # in the file's `animations` (a clip without a channel the reader reads is left out)
 
 
 @dataclass
@@ -154,20 +184,73 @@ class GltfAsset:
     order: list[int]  # nodes in depth-first scene order
     objects: list[GltfObject]
     ignored: list[str] = field(default_factory=list)
+    lights: list[Any] = field(default_factory=list)  # KHR_lights_punctual definitions (lights.Light at the origin)
     rest_local: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 4)))  # (N, 4, 4) rest local matrices
     # the scene's nodes level by level from its roots: (nodes, their parents; None for the roots)
     levels: list[tuple[np.ndarray, np.ndarray | None]] = field(default_factory=list)
     _worlds: dict[Any, Any] = field(default_factory=dict)
+    _posed: dict[Any, Any] = field(default_factory=dict)  # (world, weights) -> every posed object (`_posed_all`)
+    _skin_rows: dict[Any, Any] = field(default_factory=dict)  # the stacked skin weights of the parts of one skin
 
     # -- pose ----------------------------------------------------------------------------------
-    def animation(self, which: str | int | None) -> GltfAnimation | None:
+    def clip_list(self) -> str:
+        """The file's clips as a note says them: `0 'walk' 1.2 s, 1 'wave' 0.5 s`."""
+        return ", ".join(f"{a.index} {a.name!r} {a.end:g} s" for a in self.animations)
+
+    def animation(self, which: str | int | None, end: str = "hold", note: bool = True) -> GltfAnimation | None:
+        """What plays: every clip together (`which` None or "all", as glTF viewers do) or one clip by name or
+        index; None when the file has none. Clips play from t = 0 on one clock; after its last key a shorter
+        clip holds its last pose (`end` "hold") or loops over [0, its end] (`end` "loop", `loop_time`). Two
+        clips driving the same channel (a node's translation, rotation, scale or weights): the later clip in
+        the file wins. `note`: say in one line (AnimationNote) what a file with several clips plays, and
+        which channels a later clip took over."""
+        if end not in ANIMATION_ENDS:
+            raise PipelineError(f"animation end {end!r}: expected one of {', '.join(ANIMATION_ENDS)}")
+        text = None if which is None else str(which).strip()
+        every = text is None or text.lower() == "all"
         if not self.animations:
-            if which is not None:
-                raise PipelineError(f"{self.path}: animation {which!r}: the file has no animations")
+            if not every:
+                raise PipelineError(f"{self.path.name}: animation {text!r}: the file has no animations")
             return None
-        if which is None:
-            return self.animations[0]
-        return self.animations[_pick(which, [a.name for a in self.animations], f"{self.path}: animation")]
+        if every:
+            picked = list(range(len(self.animations)))
+        elif text.lstrip("-").isdigit() and not any(a.name == text for a in self.animations):
+            i = int(text)
+            found = [k for k, a in enumerate(self.animations) if a.index == i]
+            if not found:
+                raise PipelineError(f"{self.path.name}: animation {i}: no such animation; the file's animations: "
+                                    f"{self.clip_list()} (or all)")
+            picked = found
+        elif any(a.name == text for a in self.animations):
+            picked = [next(i for i, a in enumerate(self.animations) if a.name == text)]
+        else:
+            raise PipelineError(f"{self.path.name}: animation {text!r}: no such animation; the file's animations: "
+                                f"{self.clip_list()} (or all)")
+        clips = [self.animations[i] for i in picked]
+        channels: dict[tuple[int, str], tuple[int, str, Any]] = {}
+        owner: dict[tuple[int, str], int] = {}
+        taken: list[str] = []
+        for clip in clips:
+            for node, path, track in clip.channels:
+                if (node, path) in owner:
+                    taken.append(f"{path} of node {node} {self.nodes[node].name!r}: clip {clip.index} over clip "
+                                 f"{owner[node, path]}")
+                owner[node, path] = clip.index
+                channels[node, path] = (node, path, LoopedTrack(track, clip.end) if end == "loop" else track)
+        if note and len(self.animations) > 1:
+            plays = "all play together" if every else f"playing {clips[0].index} {clips[0].name!r}"
+            if every and len({c.end for c in clips}) > 1:
+                plays += ", the shorter " + ("looping" if end == "loop" else "holding their last pose")
+            warnings.warn(f"{self.path.name}: {len(self.animations)} animations: {self.clip_list()}; {plays} "
+                          "(--animation NAME|INDEX|all)", AnimationNote, stacklevel=3)
+        if note and taken:
+            more = f" and {len(taken) - 3} more" if len(taken) > 3 else ""
+            warnings.warn(f"{self.path.name}: clips animate the same channel; the later clip in the file wins: "
+                          f"{'; '.join(taken[:3])}{more}", AnimationNote, stacklevel=3)
+        if len(clips) == 1 and end == "hold":
+            return clips[0]  # one clip as the file has it: its name (and so every key of it) as before
+        name = f"{'+'.join(str(c.index) for c in clips)}:{end}"
+        return GltfAnimation(name, list(channels.values()), min(c.start for c in clips), max(c.end for c in clips))
 
     def pose(self, t: float, anim: GltfAnimation | None) -> tuple[np.ndarray, dict[int, np.ndarray]]:
         """(world matrices (N, 4, 4), morph weights per node) at time t."""
@@ -227,31 +310,77 @@ class GltfAsset:
         """(mesh in the node's space, or in glTF world space when skinned; whether it is skinned)."""
         prim = self.meshes[obj.mesh][obj.prim]
         node = self.nodes[obj.node]
-        w = self.node_weights(obj.node, weights) if prim.targets is not None else None
-        skinned = node.skin is not None and prim.joints is not None
-        if not skinned and w is None:
+        if not (node.skin is not None and prim.joints is not None) and (
+                prim.targets is None or self.node_weights(obj.node, weights) is None):
             return prim.rest_mesh(), False
-        h = hashlib.sha256(prim.rest_mesh().content_hash().encode())
-        v = prim.positions
-        linear = None
-        if w is not None:
-            v = morph_vertices(v, prim.targets, w)
-            h.update(np.asarray(w, dtype=np.float64).tobytes())
-        if skinned:
-            joints, ibm = self.skins[node.skin]
-            mats = world[joints] @ ibm
-            if prim._skin is None or prim._skin.shape[1] != len(mats):
-                prim._skin = skin_weights(prim.joints, prim.weights, len(mats))
-            blended = skin_matrices(None, prim._skin, mats)
-            v = np.einsum("nij,nj->ni", blended[:, :, :3], v) + blended[:, :, 3]
-            linear = blended[:, :, :3]
-            h.update(mats.tobytes())
-        # the rest pose rides along: object-space noise and curvature read it (docs/animation.md)
-        mesh = Mesh(prim.name, v, prim.faces, rest=prim.rest_mesh(), skin_linear=linear)
-        # what shaped the vertices (rest mesh, joint matrices, morph weights) names them: no hashing of
-        # 100k posed vertices per frame
-        mesh._cache["hash"] = h.hexdigest()
-        return mesh, skinned
+        return self._posed_all(world, weights)[(obj.node, obj.mesh, obj.prim)]
+
+    def _posed_all(self, world: np.ndarray, weights: dict[int, np.ndarray]) -> dict[tuple[int, int, int],
+                                                                                   tuple[Mesh, bool]]:
+        """Every skinned or morphed object posed at once, by (node, mesh, primitive): the parts of one skin
+        skinned together (one sparse product and one einsum over all their vertices, row for row what each
+        part alone gives), and their derived arrays made together on first use (nodegraph/scene/posing.py)."""
+        from .posing import PoseBatch
+        from .posing import skin as posing_skin
+
+        hit = self._posed.get((id(world), id(weights)))
+        if hit is not None and hit[0] is world and hit[1] is weights:
+            return hit[2]
+        groups: dict[int | None, list[tuple[GltfObject, _Prim, np.ndarray, Any]]] = {}
+        for obj in self.objects:
+            prim = self.meshes[obj.mesh][obj.prim]
+            node = self.nodes[obj.node]
+            w = self.node_weights(obj.node, weights) if prim.targets is not None else None
+            skinned = node.skin is not None and prim.joints is not None
+            if not skinned and w is None:
+                continue
+            h = hashlib.sha256(prim.rest_mesh().content_hash().encode())
+            v = prim.positions
+            if w is not None:
+                v = morph_vertices(v, prim.targets, w)
+                h.update(np.asarray(w, dtype=np.float64).tobytes())
+            groups.setdefault(node.skin if skinned else None, []).append((obj, prim, v, h))
+        out: dict[tuple[int, int, int], tuple[Mesh, bool]] = {}
+        for skin, parts in groups.items():
+            verts: list[np.ndarray] = [v for _, _, v, _ in parts]
+            linear: list[np.ndarray | None] = [None] * len(parts)
+            if skin is not None:
+                joints, ibm = self.skins[skin]
+                mats = world[joints] @ ibm
+                stacked = self._skin_stack(skin, [p for _, p, _, _ in parts], len(mats))
+                v_all, lin_all = posing_skin(stacked, mats, np.concatenate(verts))
+                at = np.cumsum([0] + [len(v) for v in verts])
+                verts = [v_all[a:b] for a, b in zip(at[:-1], at[1:], strict=True)]
+                linear = [lin_all[a:b] for a, b in zip(at[:-1], at[1:], strict=True)]
+                for _, _, _, h in parts:
+                    h.update(mats.tobytes())
+            for (obj, prim, _, h), v, lin in zip(parts, verts, linear, strict=True):
+                rest = prim.rest_mesh()
+                # the rest pose rides along: object-space noise and curvature read it (docs/animation.md); its
+                # faces are shared, and with them its topology (`Mesh.topology_mesh`)
+                mesh = Mesh(prim.name, v, rest.faces, rest=rest, skin_linear=lin, surface=prim.surface)
+                # what shaped the vertices (rest mesh, joint matrices, morph weights) names them: no hashing of
+                # 100k posed vertices per frame
+                mesh._cache["hash"] = h.hexdigest()
+                out[(obj.node, obj.mesh, obj.prim)] = (mesh, skin is not None)
+        PoseBatch([m for m, _ in out.values()])
+        if len(self._posed) >= 4:
+            self._posed.clear()
+        self._posed[(id(world), id(weights))] = (world, weights, out)
+        return out
+
+    def _skin_stack(self, skin: int, prims: list[_Prim], n_joints: int) -> Any:
+        """The sparse skin weights of `prims` (all on skin `skin`) stacked, rows in order: built once."""
+        key = (skin, n_joints, tuple(id(p) for p in prims))
+        hit = self._skin_rows.get(key)
+        if hit is None:
+            import scipy.sparse as sp
+
+            for prim in prims:
+                if prim._skin is None or prim._skin.shape[1] != n_joints:
+                    prim._skin = skin_weights(prim.joints, prim.weights, n_joints)
+            hit = self._skin_rows[key] = (prims, sp.vstack([p._skin for p in prims], format="csr"))
+        return hit[1]
 
     def camera_nodes(self) -> list[tuple[int, int]]:
         """(camera index, the first node in scene order that carries it), by camera index."""
@@ -275,18 +404,6 @@ class GltfAsset:
             return np.zeros(3), np.zeros(3)
         return lo, hi
 
-
-def _pick(which: str | int, names: list[str], what: str) -> int:
-    text = str(which).strip()
-    if text.lstrip("-").isdigit():
-        i = int(text)
-        if 0 <= i < len(names):
-            return i
-        raise PipelineError(f"{what} {i}: out of range; the file has {len(names)} (0..{len(names) - 1})")
-    if text in names:
-        return names.index(text)
-    have = ", ".join(f"{i}: {n}" for i, n in enumerate(names)) or "none"
-    raise PipelineError(f"{what} {text!r}: no such name; the file has {have}")
 
 # --- reading ----------------------------------------------------------------------------------------
 
@@ -536,7 +653,7 @@ class _Reader:
         self.allow_outside = allow_outside or OUTSIDE_ALLOWED.get()
         self.ignored: dict[str, None] = {}  # insertion-ordered set
         self._buffers: dict[int, bytes] = {}
-        self._textures: dict[int, np.ndarray | None] = {}
+        self._textures: dict[int, tuple[np.ndarray, str, np.ndarray] | None] = {}
         self._colors: dict[int | None, tuple[float, float, float]] = {}
         self._decoded = 0
         raw = self._read_file()
@@ -858,8 +975,8 @@ class _Reader:
             if e not in used:
                 self.fail(f"extensionsRequired[{k}]", f"{e[:80]} is not listed in extensionsUsed")
         for e in used:
-            if e == "KHR_lights_punctual":  # allowed even where required: the drawing keeps the scene's own light
-                self.note("the file's lights (KHR_lights_punctual; the scene's default light is used)")
+            if e == "KHR_lights_punctual":  # read: the file's lights shade the drawing (_check_lights)
+                pass
             elif not e.startswith(_HARMLESS_PREFIXES):
                 self.note(f"extension {e[:80]}")
         self.quantized = "KHR_mesh_quantization" in used
@@ -890,6 +1007,7 @@ class _Reader:
         self._check_skins()
         self._check_scenes()
         self._check_animations()
+        self._check_lights()
 
     def _check_buffers(self) -> None:
         total = 0
@@ -1358,6 +1476,54 @@ class _Reader:
                     self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {path} need {keys * per}")
 
     # -- data ------------------------------------------------------------------------------------------
+    def _check_lights(self) -> None:
+        """KHR_lights_punctual: the light definitions (`self.light_defs`, placed at the origin) and the node that
+        carries each (`self.node_lights`)."""
+        from .lights import Light
+
+        self.light_defs: list[Light] = []
+        self.node_lights: dict[int, int] = {}
+        ext = self._dict(self.j, "extensions", "") or {}
+        khr = self._dict(ext, "KHR_lights_punctual", "extensions")
+        if khr is None:
+            return
+        base = "extensions.KHR_lights_punctual"
+        for li, lt in enumerate(self._list(khr, "lights", base)):
+            w = f"{base}.lights[{li}]"
+            if not isinstance(lt, dict):
+                self.fail(w, f"expected an object, found {_kind(lt)}")
+            kind = self._str(lt, "type", w, required=True)
+            if kind not in ("directional", "point", "spot"):
+                self.fail(f"{w}.type", f"{kind[:40]!r}: expected directional, point or spot")
+            color = self._numbers(lt, "color", w, 3, 0.0) or [1.0, 1.0, 1.0]
+            intensity = self._num(lt, "intensity", w, 1.0)
+            if not (math.isfinite(intensity) and intensity >= 0.0):
+                self.fail(f"{w}.intensity", f"{intensity}: must be >= 0")
+            rng = self._num(lt, "range", w)
+            if rng is not None and not (math.isfinite(rng) and rng > 0.0):
+                self.fail(f"{w}.range", f"{rng}: must be > 0")
+            inner, outer = 0.0, math.pi / 4.0
+            if kind == "spot":
+                spot = self._dict(lt, "spot", w, required=True)
+                inner = self._num(spot, "innerConeAngle", f"{w}.spot", 0.0)
+                outer = self._num(spot, "outerConeAngle", f"{w}.spot", math.pi / 4.0)
+                if not 0.0 <= inner < outer <= math.pi / 2.0:
+                    self.fail(f"{w}.spot", f"innerConeAngle {inner}, outerConeAngle {outer}: expected 0 <= inner < "
+                              "outer <= pi/2")
+            name = lt.get("name") if isinstance(lt.get("name"), str) else f"light{li}"
+            self.light_defs.append(Light(kind, tuple(color), intensity,  # type: ignore[arg-type]
+                                         None if kind == "directional" else rng, inner, outer, name=name))
+        for i, nd in enumerate(self.coll("nodes")):
+            node_ext = nd.get("extensions")
+            if not isinstance(node_ext, dict) or "KHR_lights_punctual" not in node_ext:
+                continue
+            w = f"nodes[{i}].extensions.KHR_lights_punctual"
+            ref = node_ext["KHR_lights_punctual"]
+            if not isinstance(ref, dict):
+                self.fail(w, f"expected an object, found {_kind(ref)}")
+            self.node_lights[i] = self._index(ref.get("light"), f"{w}.light", "lights", len(self.light_defs),
+                                              " in extensions.KHR_lights_punctual")
+
     def buffer(self, i: int) -> bytes:
         """Buffer i, exactly its byteLength bytes (checked: the data holds at least that many)."""
         if i not in self._buffers:
@@ -1434,11 +1600,88 @@ class _Reader:
                 factor = np.array((pbr.get("baseColorFactor") or [1, 1, 1, 1])[:3], np.float64)
                 tex = pbr.get("baseColorTexture")
                 if tex is not None:
-                    mean = self.texture_mean(tex["index"])
-                    if mean is not None:
-                        factor = factor * mean
+                    decoded = self.texture(tex["index"])
+                    if decoded is not None:
+                        factor = factor * decoded[2]
                 self._colors[material] = tuple(float(c) for c in _srgb(factor))  # type: ignore[assignment]
         return self._colors[material]
+
+    def base_texture(self, info: dict[str, Any], where: str) -> BaseTexture | None:
+        """A material's baseColorTexture as drawn: decoded pixels, the TEXCOORD set, KHR_texture_transform's
+        matrix and the sampler's wrap modes and filters; None where the image cannot be decoded."""
+        decoded = self.texture(info["index"])
+        if decoded is None:
+            return None
+        texcoord = int(info.get("texCoord", 0))
+        m = np.eye(3)
+        ext = info.get("extensions")
+        tt = ext.get("KHR_texture_transform") if isinstance(ext, dict) else None
+        if tt is not None:
+            wt = f"{where}.extensions.KHR_texture_transform"
+            if not isinstance(tt, dict):
+                self.fail(wt, f"expected an object, found {_kind(tt)}")
+            ox, oy = self._numbers(tt, "offset", wt, 2) or (0.0, 0.0)
+            sx, sy = self._numbers(tt, "scale", wt, 2) or (1.0, 1.0)
+            r = self._num(tt, "rotation", wt, 0.0)
+            texcoord = self._int(tt, "texCoord", wt, texcoord, lo=0)
+            c, sn = math.cos(r), math.sin(r)
+            # the extension's uv' = T R S uv: T the offset, R = [[cos, sin], [-sin, cos]], S the scale
+            m = (np.array([[1.0, 0.0, ox], [0.0, 1.0, oy], [0.0, 0.0, 1.0]])
+                 @ np.array([[c, sn, 0.0], [-sn, c, 0.0], [0.0, 0.0, 1.0]])
+                 @ np.diag([sx, sy, 1.0]))
+        smp_index = self.j["textures"][info["index"]].get("sampler")
+        smp = self.j["samplers"][smp_index] if smp_index is not None else {}
+        wraps = []
+        for key in ("wrapS", "wrapT"):
+            mode = smp.get(key, WRAP_REPEAT)
+            if mode not in (WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR):
+                self.note(f"samplers[{smp_index}].{key} {mode} (not a wrap mode; REPEAT is used)")
+                mode = WRAP_REPEAT
+            wraps.append(int(mode))
+        mag = smp.get("magFilter", 9729)
+        mag = mag if mag in (9728, 9729) else 9729
+        mini = smp.get("minFilter", 9987)
+        mini = mini if mini in (9728, 9729, 9984, 9985, 9986, 9987) else 9987
+        return BaseTexture(decoded[0], decoded[1], texcoord, tuple(float(v) for v in m[:2].ravel()),
+                           (wraps[0], wraps[1]), int(mag), int(mini))
+
+    def surface(self, p: dict[str, Any], n: int, where: str, label: str) -> Surface | None:
+        """A primitive's texture coordinates, vertex colours (COLOR_0) and material, where they colour it (a base
+        colour texture or vertex colours); None for a flat colour."""
+        attrs = p["attributes"]
+        material = p.get("material")
+        jm = self.j["materials"][material] if material is not None else {}
+        pbr = jm.get("pbrMetallicRoughness") or {}
+        tex = None
+        if pbr.get("baseColorTexture") is not None:
+            tex = self.base_texture(pbr["baseColorTexture"], f"materials[{material}].pbrMetallicRoughness."
+                                    "baseColorTexture")
+            if tex is not None and f"TEXCOORD_{tex.texcoord}" not in attrs:
+                self.note(f"{label}: its base colour texture samples TEXCOORD_{tex.texcoord}, which it does not "
+                          "have (its flat colour is used)")
+                tex = None
+        colors = None
+        if "COLOR_0" in attrs:
+            c = self.accessor(attrs["COLOR_0"], f"{where}.attributes.COLOR_0")
+            colors = np.ones((n, 4), np.float32)
+            colors[:, : c.shape[1]] = np.clip(c[:, :4], 0.0, 1.0)
+        if tex is None and colors is None:
+            return None
+        uvs = tuple(self.accessor(attrs[f"TEXCOORD_{k}"], f"{where}.attributes.TEXCOORD_{k}")[:, :2]
+                    .astype(np.float32) for k in range(tex.texcoord + 1)) if tex is not None else ()
+        # no material: glTF's default is white; the flat colour (0.8 grey) stands for it where nothing colours it
+        factor = tuple(float(v) for v in (pbr.get("baseColorFactor") or [1.0, 1.0, 1.0, 1.0]))
+        flat = np.asarray(factor[:3]) * (self._textures[pbr["baseColorTexture"]["index"]][2]  # type: ignore[index]
+                                         if tex is not None else 1.0)
+        if colors is not None:
+            flat = flat * colors[:, :3].astype(np.float64).mean(axis=0)
+        mode = jm.get("alphaMode", "OPAQUE")
+        if mode == "BLEND":
+            self.note(f"{label}: alphaMode BLEND (drawn opaque)")
+        mat = Material(factor=factor, flat=tuple(float(v) for v in _srgb(flat)),  # type: ignore[arg-type]
+                       texture=tex, alpha_mode=mode if mode in ("MASK", "BLEND") else "OPAQUE",
+                       alpha_cutoff=float(jm.get("alphaCutoff", 0.5)))
+        return Surface(mat, uvs, colors)
 
     def image_bytes(self, img: int) -> bytes:
         im = self.j["images"][img]
@@ -1454,13 +1697,14 @@ class _Reader:
             return self._decode64(self._data_uri(uri, f"{w}.uri", MAX_IMAGE_BYTES), f"{w}.uri")
         return self._read_uri(uri, f"{w}.uri", None, MAX_IMAGE_BYTES, "MAX_IMAGE_BYTES")
 
-    def texture_mean(self, tex_index: int) -> np.ndarray | None:
-        """Mean linear RGB of a base colour texture (sRGB-encoded per the spec), or None if undecodable. The
-        image's size is read from its PNG/JPEG header first and refused over MAX_TEXTURE_PIXELS; pixels are
-        decoded a band of rows at a time."""
+    def texture(self, tex_index: int) -> tuple[np.ndarray, str, np.ndarray] | None:
+        """A base colour texture decoded: (h, w, 4) uint8 pixels (RGB sRGB-encoded per the spec, alpha linear),
+        the digest of its encoded bytes, its mean linear RGB; None if undecodable (noted). The image's size is
+        read from its PNG/JPEG header first and refused over MAX_TEXTURE_PIXELS; decoded images are kept per
+        content digest for the process (`decode_image`)."""
         if tex_index in self._textures:
             return self._textures[tex_index]
-        mean = None
+        out = None
         src = self.j["textures"][tex_index].get("source")
         if src is None:
             self.note(f"base colour texture {tex_index} (no PNG or JPEG source; its factor alone is used)")
@@ -1473,43 +1717,48 @@ class _Reader:
                 self.fail(f"images[{src}]", f"{head[1]}x{head[2]} pixels: the limit is {MAX_TEXTURE_PIXELS} "
                           "(MAX_TEXTURE_PIXELS)")
             else:
-                mean = self._decode_mean(data, head) if head[0] != "png" or _png_sound(data) else None
-                if mean is None:
+                digest = hashlib.sha256(data).hexdigest()
+                found = _DECODED.get(digest)
+                if found is None and (head[0] != "png" or _png_sound(data)):
+                    px = self._decode_pixels(data, head)
+                    if px is not None:
+                        px.flags.writeable = False
+                        found = _DECODED[digest] = (px, _texture_mean(px))
+                if found is None:
                     self.note(f"base colour texture {tex_index} (not decoded; its factor alone is used)")
-        self._textures[tex_index] = mean
-        return mean
+                else:
+                    out = (found[0], digest, found[1])
+        self._textures[tex_index] = out
+        return out
 
-    def _decode_mean(self, data: bytes, head: tuple[str, int, int]) -> np.ndarray | None:
-        """Mean linear RGB of a PNG/JPEG whose header said width x height (within MAX_TEXTURE_PIXELS), decoded by
-        OpenImageIO a band of about a million pixels at a time; None where it cannot be decoded."""
+    def _decode_pixels(self, data: bytes, head: tuple[str, int, int]) -> np.ndarray | None:
+        """The (h, w, 4) uint8 pixels of a PNG/JPEG whose header said width x height (within MAX_TEXTURE_PIXELS),
+        decoded by OpenImageIO in one read (grey -> RGB, no alpha -> 255); None where it cannot be decoded. The
+        one place images are decoded."""
         try:
-            import OpenImageIO as oiio
+            oiio = fsio.oiio()
         except ImportError:
             return None
         kind, width, height = head
-        total = np.zeros(3)
-        with tempfile.NamedTemporaryFile(suffix=".png" if kind == "png" else ".jpg") as tmp:  # OIIO reads files
+        with tempfile.NamedTemporaryFile(suffix=".png" if kind == "png" else ".jpg") as tmp, \
+                fsio.native_stderr():  # OIIO reads files; libpng and libjpeg print past it: the note says it
             tmp.write(data)
             tmp.flush()
             name = tmp.name
             inp = None
             try:
-                inp = oiio.ImageInput.open(name)
+                config = oiio.ImageSpec()
+                config.attribute("oiio:UnassociatedAlpha", 1)  # glTF's colours are not premultiplied by alpha
+                inp = oiio.ImageInput.open(name, config)
                 if inp is None:
                     return None
                 spec = inp.spec()
                 if (spec.width, spec.height) != (width, height) or spec.depth != 1 or not 1 <= spec.nchannels <= 4:
                     return None  # the decoder sees another image than the header said
                 nch = spec.nchannels
-                band = max(1, (1 << 20) // max(width, 1))
-                for y0 in range(spec.y, spec.y + height, band):
-                    y1 = min(y0 + band, spec.y + height)
-                    px = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, oiio.FLOAT)
-                    if px is None or np.asarray(px).size != (y1 - y0) * width * nch:
-                        return None
-                    px = np.asarray(px, dtype=np.float64).reshape(-1, nch)
-                    rgb = px[:, :3] if nch >= 3 else np.repeat(px[:, :1], 3, axis=1)
-                    total += _linear(rgb).sum(axis=0)
+                px = inp.read_image(0, 0, 0, nch, oiio.UINT8)
+                if px is None or np.asarray(px).size != height * width * nch:
+                    return None
                 if inp.has_error:  # a truncated JPEG reads to the end, with an error (a property)
                     return None
             except Exception:  # OpenImageIO's decoders raise whatever a broken image makes them
@@ -1519,8 +1768,27 @@ class _Reader:
                     inp.geterror()
                     inp.close()
                 oiio.geterror()  # taken, so that OpenImageIO does not print it at exit
-        mean = total / (width * height)
-        return mean if np.all(np.isfinite(mean)) else None
+        px = np.asarray(px, dtype=np.uint8).reshape(height, width, nch)
+        out = np.full((height, width, 4), 255, np.uint8)
+        if nch >= 3:
+            out[..., :3] = px[..., :3]
+        else:  # grey, grey + alpha
+            out[..., :3] = px[..., :1]
+        if nch in (2, 4):
+            out[..., 3] = px[..., -1]
+        return out
+
+
+# decoded base colour textures by the sha256 of their encoded bytes: (pixels, mean linear RGB), for the process
+_DECODED: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+_SRGB_TO_LINEAR = _linear(np.arange(256) / 255.0)  # the 256 values an 8-bit channel can hold
+
+
+def _texture_mean(px: np.ndarray) -> np.ndarray:
+    """Mean linear RGB of (h, w, 4) uint8 sRGB pixels: a histogram per channel, then 256 decoded values."""
+    flat = px.reshape(-1, 4)
+    counts = [np.bincount(flat[:, c], minlength=256) for c in range(3)]
+    return np.array([float(k @ _SRGB_TO_LINEAR) for k in counts]) / max(len(flat), 1)
 
 
 def _triangles(mode: int, idx: np.ndarray) -> np.ndarray:
@@ -1574,8 +1842,10 @@ def _read_mesh(r: _Reader, mi: int) -> list[_Prim]:
             r._spend(8 * n, f"{w}.attributes.POSITION")
             idx = np.arange(n, dtype=np.int64)
         faces = _triangles(mode, idx)
+        surface = r.surface(p, n, w, label)
         prim = _Prim(name=base if len(m["primitives"]) == 1 else f"{base}.{pi}", positions=pos, faces=faces,
-                     color=r.color(p.get("material")))
+                     color=surface.material.flat if surface is not None else r.color(p.get("material")),
+                     surface=surface)
         pairs = [(attrs[f"JOINTS_{k}"], attrs[f"WEIGHTS_{k}"]) for k in range(len(attrs)) if f"JOINTS_{k}" in attrs]
         if pairs:
             prim.joints = np.concatenate([r.accessor(j, f"{w}.attributes.JOINTS_{k}", as_float=False)
@@ -1652,6 +1922,7 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
         nodes.append(_Node(name=name if isinstance(name, str) else f"node{i}", local=rest_local[i], trs=trs,
                            children=r.children[i], parent=None if r.parent[i] == -1 else r.parent[i],
                            mesh=nd.get("mesh"), skin=nd.get("skin"), camera=nd.get("camera"),
+                           light=r.node_lights.get(i),
                            weights=np.asarray(nd["weights"], float) if nd.get("weights") else None))
     # the scene's nodes by level: each level's world matrices are one batched product
     by_level: dict[int, list[int]] = {}
@@ -1690,6 +1961,10 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             pc = c["perspective"]
             cameras.append(_Camera(name, "perspective", float(pc["yfov"]), float(pc["znear"]),
                                    None if pc.get("zfar") is None else float(pc["zfar"])))
+        elif c["type"] == "orthographic":
+            oc = c["orthographic"]
+            cameras.append(_Camera(name, "orthographic", znear=float(oc["znear"]), zfar=float(oc["zfar"]),
+                                   ymag=abs(float(oc["ymag"]))))
         else:
             cameras.append(_Camera(name, c["type"]))
 
@@ -1723,7 +1998,7 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             start = min(tr.start for _, _, tr in channels)
             end = max(tr.end for _, _, tr in channels)
             name = an.get("name") if isinstance(an.get("name"), str) else f"animation{ai}"
-            animations.append(GltfAnimation(name, channels, start, end))
+            animations.append(GltfAnimation(name, channels, start, end, ai))
 
     objects = []
     for i in r.order:
@@ -1734,7 +2009,7 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             objects.append(GltfObject(i, nd.mesh, pi, nd.name if len(meshes[nd.mesh]) == 1 else f"{nd.name}.{pi}"))
     asset = GltfAsset(path=path, digest=r.hasher.hexdigest(), nodes=nodes, meshes=meshes, mesh_weights=mesh_weights,
                       skins=skins, cameras=cameras, animations=animations, order=r.order, objects=objects,
-                      ignored=list(r.ignored), rest_local=rest_local, levels=levels)
+                      ignored=list(r.ignored), rest_local=rest_local, levels=levels, lights=list(r.light_defs))
     world, _ = asset.pose(0.0, None)
     if not np.all(np.isfinite(world)):
         bad = int(np.argwhere(~np.isfinite(world))[0][0])
@@ -1819,6 +2094,25 @@ class GltfInstance:
             anims[first_index + k] = ObjectAnim(pose, f"{self.digest()}|object{k}")
         return anims
 
+    def light_nodes(self) -> list[tuple[int, int]]:
+        """(node, light index) of the scene's nodes that carry a KHR_lights_punctual light, in scene order."""
+        return [(i, self.asset.nodes[i].light) for i in self.asset.order  # type: ignore[misc]
+                if self.asset.nodes[i].light is not None]
+
+    def lights_at(self, t: float) -> list[Any]:
+        """The file's lights (lights.Light) placed by their nodes' world matrices at time t, under `root`."""
+        from dataclasses import replace
+
+        placed = self.light_nodes()
+        if not placed:
+            return []
+        world, _ = self.asset.pose(t, self.anim)
+        return [replace(self.asset.lights[li], matrix=self.root @ world[node]) for node, li in placed]
+
+    def lights_move(self) -> bool:
+        moving, _ = self.asset.moving(self.anim)
+        return any(node in moving for node, _ in self.light_nodes())
+
     def camera_names(self) -> list[tuple[str, int]]:
         """(name, camera index) of the cameras placed on nodes, by camera index."""
         return [(self.asset.cameras[c].name, c) for c, _ in self.asset.camera_nodes()]
@@ -1826,9 +2120,9 @@ class GltfInstance:
     def camera_params(self, camera_index: int, t: float, center: np.ndarray, radius: float) -> dict[str, Any]:
         """Camera(...) keyword arguments for glTF camera `camera_index` at time t (see `camera_params`)."""
         cam = self.asset.cameras[camera_index]
-        if cam.kind != "perspective":
-            raise PipelineError(f"{self.asset.path.name}: camera '{cam.name}' is {cam.kind}: sketchgraph's camera is "
-                                "perspective only; choose a perspective camera (--camera NAME|INDEX, `camera:`)")
+        if cam.kind not in ("perspective", "orthographic"):
+            raise PipelineError(f"{self.asset.path.name}: camera '{cam.name}' is of type {cam.kind!r}, neither "
+                                "perspective nor orthographic; choose another (--camera NAME|INDEX, `camera:`)")
         node = dict(self.asset.camera_nodes())[camera_index]
         moving, _ = self.asset.moving(self.anim)
         world, _ = self.asset.pose(t if node in moving else 0.0, self.anim)
@@ -1839,15 +2133,15 @@ class GltfInstance:
         return node in self.asset.moving(self.anim)[0]
 
     def find_camera(self, which: str | int | None) -> int | None:
-        """A camera index by name or index; None: the first perspective camera placed on a node (None if
-        there is none; orthographic ones skipped are noted)."""
+        """A camera index by name or index; None: the first perspective or orthographic camera placed on a node
+        (None if there is none; cameras of other types skipped are noted)."""
         placed = self.camera_names()
         if which is None:
             for name, ci in placed:
-                if self.asset.cameras[ci].kind == "perspective":
+                if self.asset.cameras[ci].kind in ("perspective", "orthographic"):
                     return ci
-                warnings.warn(f"{self.asset.path.name}: camera '{name}' is {self.asset.cameras[ci].kind} (the "
-                              "engine's camera is perspective only): skipped", MeshWarning, stacklevel=2)
+                warnings.warn(f"{self.asset.path.name}: camera '{name}' is of type {self.asset.cameras[ci].kind!r} "
+                              "(neither perspective nor orthographic): skipped", MeshWarning, stacklevel=2)
             return None
         text = str(which).strip()
         names = [self.asset.cameras[ci].name for _, ci in placed]
@@ -1867,7 +2161,8 @@ def camera_params(world: np.ndarray, cam: _Camera, center: np.ndarray, radius: f
     """Keyword arguments of the engine's Camera for a glTF camera whose node has world matrix `world`: it
     looks down its local -Z with +Y up (scale ignored), so its view matrix is the inverse of the (rigid)
     world matrix; the target is on the view axis level with the scene's centre; a missing zfar hugs the
-    scene; yfov spans the image's height whatever its shape, as glTF defines it (`Camera.fov_vertical`)."""
+    scene; yfov spans the image's height whatever its shape, as glTF defines it (`Camera.fov_vertical`), and an
+    orthographic camera's ymag half of it."""
     eye = world[:3, 3].copy()
     nz, ny = float(np.linalg.norm(world[:3, 2])), float(np.linalg.norm(world[:3, 1]))
     if not (nz > 1e-12 and ny > 1e-12 and np.all(np.isfinite(world))):
@@ -1882,6 +2177,9 @@ def camera_params(world: np.ndarray, cam: _Camera, center: np.ndarray, radius: f
     if far is None:  # infinite in the file: hug the scene
         dist = float(np.linalg.norm(np.asarray(center) - eye))
         far = max(dist + 1.05 * max(radius, 1e-6), near * 1e3)
+    if cam.kind == "orthographic":  # znear may be 0 and zfar is required
+        return {"eye": eye, "target": eye + fwd * d, "up": up, "near": near, "far": far, "fov_vertical": True,
+                "projection": "orthographic", "ortho_half": cam.ymag}
     return {"eye": eye, "target": eye + fwd * d, "up": up, "fov_y_deg": math.degrees(cam.yfov), "near": near,
             "far": max(far, near * 1.001), "fov_vertical": True}
 
@@ -1891,7 +2189,7 @@ def gltf_mesh(path: str | Path, allow_outside: bool = False) -> Mesh:
     from .meshes import merge_meshes
 
     asset = load_asset(path, allow_outside)
-    inst = GltfInstance(asset, np.eye(4), asset.animation(None))
+    inst = GltfInstance(asset, np.eye(4), asset.animation(None, note=False))
     parts = [m.transformed(x, name) for name, m, x, _ in inst.objects_at(0.0)]
     return merge_meshes(parts, Path(path).stem)
 

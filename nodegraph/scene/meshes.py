@@ -109,6 +109,56 @@ class RenderArrays:
         return int(self.positions.shape[0])
 
 
+# glTF sampler wrap modes (GL enums)
+WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR = 10497, 33071, 33648
+
+
+@dataclass(frozen=True, eq=False)
+class BaseTexture:
+    """A material's base colour texture as drawn: the decoded image and how it is sampled."""
+
+    pixels: np.ndarray  # (h, w, 4) uint8, RGB sRGB-encoded (as stored), alpha linear; row 0 is the image's top
+    digest: str  # sha256 of the encoded image bytes: what identifies it in caches
+    texcoord: int = 0  # TEXCOORD_n it is sampled through (KHR_texture_transform's texCoord wins)
+    transform: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # uv' = M (u, v, 1): the first 2 rows of M
+    wrap: tuple[int, int] = (WRAP_REPEAT, WRAP_REPEAT)  # wrapS, wrapT
+    mag_filter: int = 9729  # LINEAR
+    min_filter: int = 9987  # LINEAR_MIPMAP_LINEAR
+
+
+@dataclass(frozen=True, eq=False)
+class Material:
+    """A glTF material as `rasterize` draws it: colour = baseColorFactor x vertex colour x base texture (linear),
+    written as display values; alpha MASK discards fragments whose alpha is below `alpha_cutoff`."""
+
+    factor: tuple[float, float, float, float]  # baseColorFactor, linear RGBA
+    flat: tuple[float, float, float]  # the one display colour standing for it (the object's `color`)
+    texture: BaseTexture | None = None
+    alpha_mode: str = "OPAQUE"  # OPAQUE, MASK or BLEND (BLEND is drawn opaque)
+    alpha_cutoff: float = 0.5
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """What a mesh's surface carries besides geometry (glTF primitives): texture coordinates, vertex colours and
+    the material, vertex for vertex with `Mesh.vertices`."""
+
+    material: Material
+    uvs: tuple[np.ndarray, ...] = ()  # TEXCOORD_0, TEXCOORD_1, ...: (n, 2) float32 each
+    colors: np.ndarray | None = None  # COLOR_0 as linear RGBA, (n, 4) float32
+
+    def digest(self) -> str:
+        m, t = self.material, self.material.texture
+        h = hashlib.sha256(repr((m.factor, m.alpha_mode, m.alpha_cutoff)).encode())
+        if t is not None:
+            h.update(repr((t.digest, t.texcoord, t.transform, t.wrap, t.mag_filter, t.min_filter)).encode())
+        for a in (*self.uvs, self.colors):
+            if a is not None:
+                h.update(f"{a.shape}".encode())
+                h.update(np.ascontiguousarray(a, dtype=np.float32).tobytes())
+        return h.hexdigest()
+
+
 @dataclass(eq=False)
 class Mesh:
     """An indexed triangle mesh. Arrays are made read-only: derived data is cached on the instance."""
@@ -123,6 +173,8 @@ class Mesh:
     # a skinned mesh: (n, 3, 3) the linear part of each vertex's blended skin matrix (rest -> posed), which
     # carries rest-pose tangent directions (curvature) with the skin
     skin_linear: np.ndarray | None = field(default=None, repr=False, compare=False)
+    # a glTF primitive's texture coordinates, vertex colours and material (what `rasterize` colours it with)
+    surface: Surface | None = field(default=None, repr=False, compare=False)
     _cache: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -160,6 +212,8 @@ class Mesh:
             h.update(f"mesh:v{self.vertices.shape}:f{self.faces.shape}:".encode())
             h.update(self.vertices.tobytes())
             h.update(self.faces.tobytes())
+            if self.surface is not None:  # meshes without one keep their hashes
+                h.update(f"surface:{self.surface.digest()}".encode())
             return h.hexdigest()
 
         return self._cached("hash", make)
@@ -179,14 +233,25 @@ class Mesh:
 
     # --- welding ----------------------------------------------------------------------------------
 
+    def topology_mesh(self) -> Mesh:
+        """The mesh whose topology this one has: a posed mesh's rest pose (the same faces, vertex for vertex), so
+        welding, components, edges, holes and the smoothing groups of its render vertices are prepared once and
+        do not change from frame to frame (nodegraph/scene/posing.py); any other mesh itself."""
+        r = self.rest
+        return r if r is not None and r.faces is self.faces else self
+
     def weld(self, tol_rel: float = 1e-6) -> tuple[np.ndarray, int]:
         """(welded_index (n,), n_unique): vertices in the same cell of size tol_rel * bbox diagonal merge.
 
         Welded ids are numbered in order of first appearance, so a mesh without duplicates maps to itself.
         """
+        if (shape := self.topology_mesh()) is not self:
+            return shape.weld(tol_rel)
         return self._cached(("weld", float(tol_rel)), lambda: _weld(self.vertices, tol_rel * self.diagonal()))
 
     def welded_faces(self) -> np.ndarray:
+        if (shape := self.topology_mesh()) is not self:
+            return shape.welded_faces()
         return self._cached("wfaces", lambda: self.weld()[0][self.faces])
 
     # --- per-face geometry ------------------------------------------------------------------------
@@ -263,6 +328,8 @@ class Mesh:
         """(m,) component id per face, numbered in order of first face. Faces are adjacent when they
         share a welded edge used by exactly two faces (so parts that merely touch, like Suzanne's eyes,
         or meet at a non-manifold edge stay apart)."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape.face_components()
 
         def make() -> np.ndarray:
             m = self.n_faces
@@ -278,6 +345,8 @@ class Mesh:
 
         Returns (order of half-edge ids 3*f+i sorted by edge key, sorted keys, count of the key's edge per
         sorted half-edge)."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape._edge_stats()
 
         def make() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             _, nu = self.weld()
@@ -300,6 +369,8 @@ class Mesh:
 
     def _manifold_pairs(self) -> tuple[np.ndarray, np.ndarray]:
         """The two half-edge ids (3*f+i) of every welded edge used by exactly two faces."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape._manifold_pairs()
 
         def make() -> tuple[np.ndarray, np.ndarray]:
             order, skey, count = self._edge_stats()
@@ -314,6 +385,8 @@ class Mesh:
         """An upper bound on the share of the surface area that holes can show: sum over boundary loops
         of L^2 / (4 pi) (the largest area a loop of length L encloses), over the surface area. 0 for a
         closed mesh. (Measured: ogre.obj 0.0085, stanford-bunny 0.037, teapot 0.24.)"""
+        if (shape := self.topology_mesh()) is not self:
+            return shape.hole_share()
 
         def make() -> float:
             order, skey, count = self._edge_stats()
@@ -342,6 +415,8 @@ class Mesh:
         return self._cached("hole_share", lambda: float(meshstore.memo(self, "holes", make, (__file__,), always=True)))
 
     def topology(self) -> MeshTopology:
+        if (shape := self.topology_mesh()) is not self:
+            return shape.topology()
         def make() -> MeshTopology:
             n, m = self.n_vertices, self.n_faces
             _, nu = self.weld()
@@ -370,6 +445,8 @@ class Mesh:
     def winding_conflicts(self) -> int:
         """Welded edges shared by exactly two faces that run along it the same way: the two faces are wound
         in opposite senses (a closed mesh draws one of them culled: a hole)."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape.winding_conflicts()
 
         def make() -> int:
             h1, h2 = self._manifold_pairs()
@@ -420,6 +497,8 @@ class Mesh:
         """(boundary loops, boundary edges, hole share): loops of welded edges used by one face, and the same
         bound on the share of the surface they can show as `hole_share` (sum of L^2 / (4 pi) over the loops,
         over the area), found without scipy (the loops are connected components of the boundary edges)."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape.holes()
 
         def make() -> tuple[int, int, float]:
             order, _, count = self._edge_stats()
@@ -443,6 +522,8 @@ class Mesh:
 
     def vertex_components(self) -> np.ndarray:
         """(n,) component id per original vertex: that of the first face using it (-1 if unreferenced)."""
+        if (shape := self.topology_mesh()) is not self:
+            return shape.vertex_components()
 
         def make() -> np.ndarray:
             comp = np.full(self.n_vertices, -1, np.int64)
@@ -464,6 +545,9 @@ class Mesh:
         """
         from . import meshstore
 
+        batch = self._cache.get("posing.batch")
+        if batch is not None:  # a posed part: made with every part posed with it (nodegraph/scene/posing.py)
+            batch[0].render_arrays(float(crease_angle_deg))
         names = tuple(f.name for f in fields(RenderArrays))
 
         def compute() -> dict[str, np.ndarray]:

@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -34,8 +35,9 @@ from pydantic import (
 from .. import yamlio
 from ..errors import Location, MeshError, PipelineError
 from ..fsio import show_path
-from . import framing, keyframes, primitives
+from . import framing, keyframes, primitives, views
 from .animation import DEFAULT_FPS, Animator, CameraAnim, ObjectAnim
+from .lights import Light
 from .meshes import GLTF_EXTENSIONS, SUPPORTED_EXTENSIONS, Mesh, load_mesh, merge_meshes
 
 if TYPE_CHECKING:
@@ -117,7 +119,10 @@ def _floats(a: Any) -> list[float]:
 
 @dataclass(frozen=True, eq=False)
 class Camera:
-    """A perspective camera; OpenGL conventions (right-handed, looks down -z in view space)."""
+    """A perspective or orthographic camera; OpenGL conventions (right-handed, looks down -z in view space).
+    An orthographic camera (`projection="orthographic"`) sees along its one view direction: `ortho_half` is
+    half the extent it spans across the image's shorter side (its height with `fov_vertical`, as glTF's
+    `ymag`), in world units; `fov_y_deg` is then unused. Its eye still places the near and far planes."""
 
     eye: np.ndarray
     target: np.ndarray
@@ -127,7 +132,9 @@ class Camera:
     far: float = 100.0
     fov_vertical: bool = False
     """False: `fov_y_deg` spans the shorter image side (a framed subject stays in a tall picture too); True: it
-    spans the image's height whatever its shape, as a glTF camera's `yfov` does."""
+    spans the image's height whatever its shape, as a glTF camera's `yfov` does (`ortho_half` likewise)."""
+    projection: Literal["perspective", "orthographic"] = "perspective"
+    ortho_half: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("eye", "target", "up"):
@@ -135,9 +142,17 @@ class Camera:
         object.__setattr__(self, "fov_y_deg", float(self.fov_y_deg))
         object.__setattr__(self, "near", float(self.near))
         object.__setattr__(self, "far", float(self.far))
+        object.__setattr__(self, "ortho_half", float(self.ortho_half))
+        if self.projection not in PROJECTIONS:
+            raise ValueError(f"camera type must be one of {', '.join(PROJECTIONS)}, got {self.projection!r}")
         if not 0.0 < self.fov_y_deg < 180.0:
             raise ValueError(f"camera fov must be in (0, 180) degrees, got {self.fov_y_deg}")
-        if not 0.0 < self.near < self.far:
+        if self.orthographic:
+            if not (0.0 < self.ortho_half < math.inf):
+                raise ValueError(f"orthographic camera needs a finite half height > 0, got {self.ortho_half}")
+            if not (0.0 <= self.near < self.far < math.inf):
+                raise ValueError(f"orthographic camera needs 0 <= near < far, got near={self.near}, far={self.far}")
+        elif not 0.0 < self.near < self.far:
             raise ValueError(f"camera needs 0 < near < far, got near={self.near}, far={self.far}")
         forward = self.target - self.eye
         if np.linalg.norm(forward) == 0.0:
@@ -148,6 +163,25 @@ class Camera:
     @property
     def distance(self) -> float:
         return float(np.linalg.norm(self.target - self.eye))
+
+    @property
+    def orthographic(self) -> bool:
+        return self.projection == "orthographic"
+
+    def toward_eye(self) -> np.ndarray:
+        """The eye in homogeneous world coordinates (4,): (eye, 1) for a perspective camera, the direction
+        towards the viewer (-forward, 0) for an orthographic one, whose eye is at infinity. A surface point p
+        sees the viewer along e[:3] - e[3] p."""
+        if self.orthographic:
+            return np.r_[-self.basis()[2], 0.0]
+        return np.r_[self.eye, 1.0]
+
+    def target_half(self) -> float:
+        """Half the extent of the view across the shorter image side (the height with `fov_vertical`) in the
+        plane through the target: what a perspective and an orthographic camera both show there."""
+        if self.orthographic:
+            return self.ortho_half
+        return self.distance * math.tan(math.radians(self.fov_y_deg) / 2.0)
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(right, true up, forward) unit vectors in world space."""
@@ -173,10 +207,25 @@ class Camera:
         t = math.tan(math.radians(self.fov_y_deg) / 2.0)
         return (t * aspect, t) if aspect >= 1.0 or self.fov_vertical else (t, t / aspect)
 
+    def half_extent(self, aspect: float = 1.0) -> tuple[float, float]:
+        """An orthographic camera's half width and half height in world units (the rule of `tan_half`)."""
+        t = self.ortho_half
+        return (t * aspect, t) if aspect >= 1.0 or self.fov_vertical else (t, t / aspect)
+
     def projection_matrix(self, aspect: float = 1.0) -> np.ndarray:
-        """Perspective projection to clip space; z_ndc in [-1, 1] maps near to -1 and far to +1."""
-        tan_x, tan_y = self.tan_half(aspect)
+        """Projection to clip space; z_ndc in [-1, 1] maps near to -1 and far to +1. Orthographic: x and y
+        scaled by the half extents, z linear in the view depth, w = 1."""
         n, fa = self.near, self.far
+        if self.orthographic:
+            hx, hy = self.half_extent(aspect)
+            m = np.zeros((4, 4))
+            m[0, 0] = 1.0 / hx
+            m[1, 1] = 1.0 / hy
+            m[2, 2] = -2.0 / (fa - n)
+            m[2, 3] = -(fa + n) / (fa - n)
+            m[3, 3] = 1.0
+            return m
+        tan_x, tan_y = self.tan_half(aspect)
         m = np.zeros((4, 4))
         m[0, 0] = 1.0 / tan_x
         m[1, 1] = 1.0 / tan_y
@@ -199,7 +248,55 @@ class Camera:
                "fov_y_deg": self.fov_y_deg, "near": self.near, "far": self.far}
         if self.fov_vertical:  # only then: the keys of every other camera stay as they were
             out["fov_vertical"] = True
+        if self.orthographic:  # likewise: perspective cameras keep their keys
+            out["projection"] = self.projection
+            out["ortho_half"] = self.ortho_half
         return out
+
+    def with_lens(self, projection: str | None = None, fov: float | None = None, zoom: float | None = None) -> Camera:
+        """The camera as `--camera-type`, `--fov` and `--zoom` change it. A change of type keeps what the view
+        shows in the plane through the target (`target_half`); `fov` (perspective only) sets the field of view
+        and moves the eye along the view axis so that plane keeps its extent (near and far move with it);
+        `zoom` then magnifies the view by that factor (the field of view's tangent, or the orthographic
+        extent, divided by it)."""
+        cam = self
+        if projection is not None and projection != cam.projection:
+            if projection not in PROJECTIONS:
+                raise ValueError(f"camera type must be one of {', '.join(PROJECTIONS)}, got {projection!r}")
+            half = cam.target_half()
+            if projection == "orthographic":
+                cam = replace(cam, projection="orthographic", ortho_half=half)
+            else:
+                fov_deg = math.degrees(2.0 * math.atan(half / cam.distance))
+                cam = replace(cam, projection="perspective", fov_y_deg=fov_deg, near=max(cam.near, cam.far * 1e-6))
+        if fov is not None:
+            if cam.orthographic:
+                raise ValueError("--fov sets a perspective camera's field of view; an orthographic camera is sized "
+                                 "by --zoom (or give --camera-type perspective)")
+            fov = float(fov)
+            if not 0.0 < fov < 180.0:
+                raise ValueError(f"fov must be in (0, 180) degrees, got {fov:g}")
+            half, dist = cam.target_half(), cam.distance
+            new_dist = half / math.tan(math.radians(fov) / 2.0)
+            shift = new_dist - dist
+            forward = cam.basis()[2]
+            far = cam.far + shift
+            near = max(cam.near + shift, 1e-3 * half, far * 1e-6)
+            cam = replace(cam, eye=cam.target - forward * new_dist, fov_y_deg=fov, near=near,
+                          far=max(far, near * 1.001))
+        if zoom is not None:
+            zoom = float(zoom)
+            if not (0.0 < zoom < math.inf):
+                raise ValueError(f"zoom must be a number > 0, got {zoom:g}")
+            if cam.orthographic:
+                cam = replace(cam, ortho_half=cam.ortho_half / zoom)
+            else:
+                t = math.tan(math.radians(cam.fov_y_deg) / 2.0) / zoom
+                cam = replace(cam, fov_y_deg=math.degrees(2.0 * math.atan(t)))
+        return cam
+
+
+PROJECTIONS = ("perspective", "orthographic")
 
 
 def near_far_for(eye: Any, center: Any, radius: float) -> tuple[float, float]:
@@ -307,6 +404,10 @@ class Scene:
     # a posed scene: the animated scene's bounds, which sizes relative to the scene (`scale_bounds`) use, so
     # they stay fixed over the animation; None: `bounds()`
     extent: tuple[np.ndarray, np.ndarray] | None = None
+    # punctual lights (nodegraph/scene/lights.py): where there are any they shade instead of the scene light,
+    # their irradiance times `exposure`
+    lights: tuple[Light, ...] = ()
+    exposure: float = 1.0
     _cache: dict[str, Any] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -397,6 +498,9 @@ class Scene:
                 doc["animation"] = self.animation.digest()
             if self.extent is not None:
                 doc["extent"] = [_floats(b) for b in self.extent]
+            if self.lights:  # scenes without lights keep their keys
+                doc["lights"] = [lt.params() for lt in self.lights]
+                doc["exposure"] = float(self.exposure)
             text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
             self._cache["hash"] = hashlib.sha256(text.encode()).hexdigest()
         return self._cache["hash"]
@@ -499,8 +603,12 @@ class ObjectSpec(_Spec):
                              "mesh), relative to the scene file. Give this, 'primitive' or 'gltf'.")
     gltf: str | None = Field(None, description="A glTF 2.0 file (.gltf, .glb), relative to the scene file: its "
                              "objects, skins, morph targets and animation, placed by 'transform'.")
-    animation: str | int | None = Field(None, description="With 'gltf': the animation to play, by name or index "
-                                        "(default: the first).")
+    animation: str | int | None = Field(None, description="With 'gltf': the animation to play, by name or index, or "
+                                        "all (default: all, together, as glTF viewers play them; the command "
+                                        "line's --animation wins).")
+    animation_end: Literal["hold", "loop"] | None = Field(None, description="With 'gltf': what a clip shorter than "
+                                                          "the longest does after its last key: hold its last pose "
+                                                          "(default) or loop.")
     animate: keyframes.ObjectAnimateSpec | None = Field(None, description="Keyframes of translate, rotate and "
                                                         "scale (each replaces that part of 'transform').")
     primitive: dict[str, Any] | None = Field(None, description="A procedural mesh: {type: NAME, ...params}; "
@@ -518,8 +626,8 @@ class ObjectSpec(_Spec):
     def _one_source(self) -> ObjectSpec:
         if sum(x is not None for x in (self.mesh, self.primitive, self.gltf)) != 1:
             raise ValueError("give exactly one of 'mesh' (a file), 'primitive' ({type: ...}) or 'gltf' (a glTF file)")
-        if self.gltf is None and self.animation is not None:
-            raise ValueError("'animation' picks an animation of a 'gltf' file")
+        if self.gltf is None and (self.animation is not None or self.animation_end is not None):
+            raise ValueError("'animation' and 'animation_end' are for a 'gltf' file's animations")
         if self.gltf is not None and self.animate is not None:
             raise ValueError("'animate' keyframes are for meshes and primitives; a glTF file plays its own animation")
         if self.up is not None and self.mesh is None:
@@ -535,7 +643,13 @@ class CameraSpec(_Spec):
         None, description="Instead of eye and target: frame the scene's bounding box from this side, the "
         "front being +Z (three-quarter: from [0.55, 0.45, 1.0]).")
     up: Dir3 = Field((0.0, 1.0, 0.0), description="Up direction; must not be parallel to target - eye.")
-    fov: float = Field(35.0, gt=0.0, lt=180.0, description="Vertical field of view in degrees.")
+    type: Literal["perspective", "orthographic"] = Field("perspective", description="Projection: perspective, "
+                                                         "or orthographic (parallel lines stay parallel).")
+    fov: float = Field(35.0, gt=0.0, lt=180.0, description="Perspective: field of view in degrees across the "
+                       "image's shorter side.")
+    height: float | None = Field(None, gt=0.0, allow_inf_nan=False, description="Orthographic: the extent of "
+                                 "the image's height in world units (default: what a 35-degree view shows in "
+                                 "the plane through the target).")
     near: float | None = Field(None, gt=0.0, description="Near plane distance (default: hug the scene's "
                                "bounding sphere).")
     far: float | None = Field(None, gt=0.0, description="Far plane distance (default: hug the scene's "
@@ -549,13 +663,58 @@ class CameraSpec(_Spec):
             raise ValueError("give 'eye' and 'target', or a 'view' (front, back, left, right, top, three-quarter)")
         if self.view is not None and (self.eye is not None or self.target is not None):
             raise ValueError("'view' frames the scene itself: give it or 'eye' and 'target', not both")
+        if self.type == "perspective" and self.height is not None:
+            raise ValueError("'height' sizes an orthographic camera: add type: orthographic, or give 'fov'")
+        if self.type == "orthographic" and "fov" in self.model_fields_set:
+            raise ValueError("'fov' is a perspective camera's: an orthographic camera takes 'height'")
         return self
+
+    def lens(self, camera: Camera) -> Camera:
+        """`camera` (placed and framed as a perspective one) with this spec's type and height."""
+        if self.type == "perspective":
+            return camera
+        camera = camera.with_lens("orthographic")
+        if self.height is not None:
+            camera = replace(camera, ortho_half=self.height / 2.0, fov_vertical=True)
+        return camera
 
 
 class LightSpec(_Spec):
     direction: Dir3 = Field(DEFAULT_LIGHT, description="Direction toward the light (normalised on load).")
     space: Literal["view", "world"] = Field("view", description="Space of 'direction': 'view' moves with the "
                                             "camera, 'world' stays fixed in the scene.")
+
+
+class PunctualLightSpec(_Spec):
+    type: Literal["directional", "point", "spot"] = Field(description="directional (intensity in lux), point or "
+                                                          "spot (candela), as KHR_lights_punctual defines them.")
+    name: str | None = Field(None, description="Light name (for messages).")
+    position: Vec3 = Field((0.0, 0.0, 0.0), description="World position [x, y, z] of a point or spot light.")
+    direction: Dir3 = Field((0.0, 0.0, -1.0), description="World direction a directional or spot light shines "
+                            "along (from the light towards what it lights).")
+    color: Color = Field((1.0, 1.0, 1.0), description="Linear RGB colour [r, g, b] in [0, 1].")
+    intensity: float = Field(1.0, ge=0.0, description="Lux (directional) or candela (point, spot).")
+    range: float | None = Field(None, gt=0.0, description="Point and spot: distance at which the light has faded "
+                                "to 0 (window clamp(1 - (d/range)^4, 0, 1)); default: infinite.")
+    inner_cone: float = Field(0.0, ge=0.0, lt=90.0, description="Spot: full-strength half angle in degrees.")
+    outer_cone: float = Field(45.0, gt=0.0, le=90.0, description="Spot: half angle in degrees beyond which it "
+                              "is dark; more than inner_cone.")
+
+    @model_validator(mode="after")
+    def _cone(self) -> PunctualLightSpec:
+        if self.type == "spot" and not self.inner_cone < self.outer_cone:
+            raise ValueError(f"spot: inner_cone ({self.inner_cone}) must be less than outer_cone ({self.outer_cone})")
+        return self
+
+    def light(self, index: int) -> Light:
+        d = _unit(self.direction, "light direction")
+        helper = np.array([0.0, 1.0, 0.0]) if abs(d[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        z = -d  # the light shines down its local -Z
+        x = _unit(_cross3(helper, z))
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, _cross3(z, x), z, self.position
+        return Light(self.type, self.color, self.intensity, None if self.type == "directional" else self.range,
+                     math.radians(self.inner_cone), math.radians(self.outer_cone), m, self.name or f"light{index}")
 
 
 class OrbitSpec(_Spec):
@@ -571,7 +730,13 @@ class SceneSpec(_Spec):
     camera: CameraSpec | None = Field(None, description="Camera; framed from the scene's bounding box when "
                                       "omitted; a name or index picks a camera of the scene's glTF objects.")
     fps: float = Field(24.0, gt=0, le=1000, description="Frames per second: frame f shows time f / fps.")
-    light: LightSpec = Field(default_factory=LightSpec, description="Directional light for shading nodes.")
+    light: LightSpec = Field(default_factory=LightSpec, description="Directional light for shading nodes (where "
+                             "the scene has no punctual lights).")
+    lights: list[PunctualLightSpec] = Field(default_factory=list, description="Punctual lights (with those of the "
+                                            "scene's glTF objects): where there are any, shading follows their "
+                                            "irradiance instead of 'light' (docs/scenes.md, Lights).")
+    exposure: float | None = Field(None, gt=0.0, description="Factor on the punctual lights' irradiance; default: "
+                                   "1 / the brightest point of the surface at the first frame.")
     orbit: OrbitSpec | None = Field(None, description="Turn the camera per frame (for frame sequences).")
     background: Color = Field((1.0, 1.0, 1.0), description="Background (paper) color [r, g, b].")
 
@@ -801,6 +966,7 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
             if c.near is not None or c.far is not None:
                 near = c.near if c.near is not None else camera.near
                 camera = replace(camera, near=near, far=c.far if c.far is not None else max(camera.far, near * 1.001))
+            camera = c.lens(camera)
             if c.animate is not None:
                 moving.add_camera_keyframes(camera, c.animate)
         except ValueError as exc:
@@ -812,6 +978,7 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
             camera = Camera(eye=c.eye, target=c.target, up=c.up, fov_y_deg=c.fov,
                             near=c.near if c.near is not None else near,
                             far=c.far if c.far is not None else max(far, (c.near or 0.0) * 1.001))
+            camera = c.lens(camera)
             if c.animate is not None:
                 moving.add_camera_keyframes(camera, c.animate)
         except ValueError as exc:
@@ -820,9 +987,11 @@ def scene_from_yaml(path: str | Path, camera_choice: str | int | None = None, vi
     if spec.orbit is not None:
         orbit = Orbit(axis=spec.orbit.axis, degrees_per_frame=spec.orbit.degrees_per_frame,
                       center=spec.orbit.center)
+    moving.fixed_lights = [lt.light(k) for k, lt in enumerate(spec.lights)]
     return Scene(name=spec.scene or p.stem, objects=tuple(objects), camera=camera,
                  light_direction=spec.light.direction, light_space=spec.light.space, orbit=orbit,
-                 background=spec.background, source=file, animation=moving.animator())
+                 background=spec.background, source=file, animation=moving.animator(),
+                 **moving.lit(objects, spec.exposure))
 
 
 def _resolve(base: Path, name: str) -> Path:
@@ -906,6 +1075,18 @@ def fit_camera(points: Any, direction: Any, up: Any = (0.0, 1.0, 0.0), fill: flo
     lo, hi = p.min(axis=0), p.max(axis=0)
     radius = float(np.linalg.norm(hi - lo)) / 2.0
     near, far = near_far_for(eye, (lo + hi) / 2.0, radius)
+    return Camera(eye=eye, target=target, up=cam_up, fov_y_deg=fov_y_deg, near=near, far=far)
+
+
+def motion_camera(first: Any, motion: Any, lo: Any, hi: Any, direction: Any, up: Any = (0.0, 1.0, 0.0),
+                  fill: float | None = None, fov_y_deg: float = 35.0) -> Camera:
+    """A camera for a moving subject without one (framing.motion_view): `first`, the points its faces use at
+    the first frame; `motion`, points of it over the animation; `lo`, `hi`, its bounds over the whole
+    animation (near and far hug them)."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    fill = framing.check_fill(fill) or framing.DEFAULT_FILL
+    eye, target, cam_up = framing.motion_view(first, motion, direction, up, fov_y_deg, fill)
+    near, far = near_far_for(eye, (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0)
     return Camera(eye=eye, target=target, up=cam_up, fov_y_deg=fov_y_deg, near=near, far=far)
 
 
@@ -1139,6 +1320,35 @@ def builtin_scene(name: str) -> Scene:
 
 def load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None,
                allow_outside: bool = False, fill: float | None = None) -> Scene:
+    """`_load_scene`, then the lens of the command line (`--camera-type`, `--fov`, `--zoom`: views.LENS) applied
+    to its camera (`with_lens`)."""
+    return with_lens(_load_scene(spec, base_dir, view, up, allow_outside, fill), *views.LENS.get())
+
+
+def with_lens(scene: Scene, camera_type: str | None = None, fov: float | None = None,
+              zoom: float | None = None) -> Scene:
+    """The scene seen through its camera changed by `Camera.with_lens` at every frame (an animated camera
+    too); itself when all three are None. A bad value is one PipelineError line."""
+    if camera_type is None and fov is None and zoom is None:
+        return scene
+    try:
+        camera = scene.camera.with_lens(camera_type, fov, zoom)
+    except ValueError as exc:
+        raise PipelineError(str(exc)) from None
+    anim = scene.animation
+    if anim is not None and anim.camera is not None:
+        moving = anim.camera
+
+        def at(t: float) -> Camera:
+            return moving.at(t).with_lens(camera_type, fov, zoom)
+
+        lens = json.dumps([camera_type, fov, zoom])
+        anim = replace(anim, camera=CameraAnim(at, f"{moving.digest}|lens:{lens}"))
+    return replace(scene, camera=camera, animation=anim)
+
+
+def _load_scene(spec: str, base_dir: Path | None = None, view: str | None = None, up: str | None = None,
+                allow_outside: bool = False, fill: float | None = None) -> Scene:
     """`builtin:NAME`, a scene YAML (.yaml/.yml) or a mesh file (.obj/.ply/.off/.stl); relative paths
     start at `base_dir` (default: the current directory). `view` and `up` (`--view`, `--up`; see
     nodegraph/scene/framing.py) frame a mesh file or a still glTF file; `view` also a scene file without a camera.
@@ -1195,13 +1405,21 @@ class _Moving:
         self.camera: CameraAnim | None = None
         self.instances: list[GltfInstance] = []
         self.ranges: list[tuple[float, float]] = []
+        self.fixed_lights: list[Light] = []  # `lights:` of a scene YAML
 
     def add_gltf(self, objects: list[SceneObject], spec: Any, path: Path, root: np.ndarray, color_given: bool,
-                 prefix: bool = True, allow_outside: bool = False) -> None:
+                 prefix: bool = True, allow_outside: bool = False, command_line: bool = True) -> None:
+        """The file's objects, playing `spec.animation` with `spec.animation_end` (default: all clips, held);
+        `command_line`: --animation and --animation-end (`views.ANIMATION`, `views.ANIMATION_END`) win."""
         from .gltf import GltfInstance, load_asset
 
         asset = load_asset(path, allow_outside)
-        inst = GltfInstance(asset, np.asarray(root, dtype=np.float64), asset.animation(spec.animation))
+        which, end = spec.animation, spec.animation_end
+        if command_line:
+            which = views.ANIMATION.get() if views.ANIMATION.get() is not None else which
+            end = views.ANIMATION_END.get() or end
+        end = end or "hold"
+        inst = GltfInstance(asset, np.asarray(root, dtype=np.float64), asset.animation(which, end))
         first = len(objects)
         head = spec.name or path.stem
         for name, mesh, matrix, color in inst.objects_at(0.0):
@@ -1233,6 +1451,8 @@ class _Moving:
         found = keyframes.tracks(spec, self.fps, {"eye": 3, "target": 3, "up": 3, "fov": 1})
         if not found:
             return
+        if "fov" in found and camera.orthographic:
+            raise ValueError("fov: an orthographic camera has no field of view (animate eye, target or up)")
 
         def at(t: float) -> Camera:
             kw = {k: found[k].sample(t) for k in ("eye", "target", "up") if k in found}
@@ -1274,14 +1494,44 @@ class _Moving:
             raise error
         raise PipelineError(f"camera {choice!r}: the scene has no glTF object with cameras")
 
+    def lights_at(self, t: float) -> tuple[Light, ...]:
+        """The scene's punctual lights at time t: the glTF files' (in file order), then the scene file's."""
+        from . import lights
+
+        found = [lt for inst in self.instances for lt in inst.lights_at(t)] + self.fixed_lights
+        return tuple(found[: lights.MAX_LIGHTS])  # `lit` says what is dropped
+
+    def lit(self, objects: list[SceneObject], exposure: float | None = None) -> dict[str, Any]:
+        """Scene(...) keywords for the lights at t = 0 and their exposure (None: lights.auto_exposure over
+        `objects`, the scene at t = 0)."""
+        from . import lights
+
+        found = lights.drawn([lt for inst in self.instances for lt in inst.lights_at(0.0)] + self.fixed_lights,
+                             ", ".join(inst.asset.path.name for inst in self.instances))
+        if not found:
+            if exposure is not None:
+                warnings.warn("exposure: the scene has no punctual lights (`lights:` or a glTF file's), so it has no "
+                              "effect; the scene light shades it", lights.LightWarning, stacklevel=2)
+            return {}
+        return {"lights": found, "exposure": lights.auto_exposure(found, objects) if exposure is None else exposure}
+
     def animator(self) -> Animator | None:
-        if not self.objects and self.camera is None:
+        from .animation import LightsAnim
+
+        moving = [inst for inst in self.instances if inst.lights_move()]
+        lights_anim = None
+        if moving:
+            lights_anim = LightsAnim(self.lights_at, "|".join(f"{inst.digest()}|lights" for inst in self.instances))
+        if not self.objects and self.camera is None and lights_anim is None:
             return None
-        return Animator(objects=dict(self.objects), camera=self.camera, fps=self.fps,
+        return Animator(objects=dict(self.objects), camera=self.camera, fps=self.fps, lights=lights_anim,
                         start=min([0.0] + [a for a, _ in self.ranges]), end=max([0.0] + [b for _, b in self.ranges]))
 
-    def bounds(self, objects: list[SceneObject], samples: int = 9) -> tuple[np.ndarray, np.ndarray]:
-        """World bounds over the animation (sampled at `samples` times), for framing and near/far."""
+    def bounds(self, objects: list[SceneObject], samples: int = 9, points: list[np.ndarray] | None = None,
+               most: int = 2048) -> tuple[np.ndarray, np.ndarray]:
+        """World bounds over the animation (sampled at `samples` times), for framing and near/far. `points`: a
+        list that gets, per sample and moving object, up to about `most` of its world vertices (every k-th,
+        and the extreme one along each axis), for framing the motion (framing.motion_view)."""
         lo, hi = _bounds_of(objects)
         if not self.objects or not self.ranges:
             return lo, hi
@@ -1290,27 +1540,44 @@ class _Moving:
             for i, anim in self.objects.items():
                 mesh, matrix = anim.pose(float(t))
                 o = SceneObject(mesh=objects[i].mesh if mesh is None else mesh, transform=matrix)
-                olo, ohi = o.world_bounds()
+                if points is not None and o.mesh.n_vertices:
+                    w = o.world_vertices()
+                    extreme = np.r_[w.argmin(axis=0), w.argmax(axis=0)]
+                    points.append(np.vstack([w[:: max(1, len(w) // most)], w[extreme]]))
+                    olo, ohi = w.min(axis=0), w.max(axis=0)
+                else:
+                    olo, ohi = o.world_bounds()
                 lo, hi = np.minimum(lo, olo), np.maximum(hi, ohi)
         return lo, hi
 
 
 def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation: str | int | None = None,
                     fps: float = DEFAULT_FPS, view: str | None = None, up: str | None = None,
-                    allow_outside: bool = False, fill: float | None = None) -> Scene:
+                    allow_outside: bool = False, fill: float | None = None,
+                    animation_end: str | None = None) -> Scene:
     """A glTF file as a scene: its objects (colour from the material), seen through its first perspective
-    camera (or `camera`, by name or index), playing its first animation (or `animation`). Without a camera
-    the scene is framed over the whole animation; a still file without a camera gets a mesh file's view and
-    orbit. `up` (x, y, z) turns the file so that axis is +Y (glTF is Y-up: nothing is guessed); `view`
-    (framing.VIEWS) picks the side a still file without a camera is seen from, the front being +Z as glTF
-    has it, framed so that it spans `fill` of the picture's shorter side (framing.fit_view)."""
+    camera (or `camera`, by name or index), playing all its animations together (or `animation`: one by name or
+    index, or "all"; None: --animation, else all), a shorter clip holding its last pose or looping
+    (`animation_end`: hold, loop; None: --animation-end, else hold). Without a camera, a file whose objects move
+    is framed by framing.motion_view (readable at the first frame, the motion kept in view as far as that
+    allows); a file whose objects do not move gets a mesh file's view (and orbit when nothing is animated).
+    `up` (x, y, z) turns the file so that axis is +Y (glTF is Y-up: nothing is guessed); `view`
+    (framing.VIEWS) picks the side a file without a camera is seen from, the front being +Z as glTF has it,
+    framed so that it spans `fill` of the picture's shorter side (framing.fit_view)."""
     p = Path(path).expanduser().absolute()
-    spec = ObjectSpec(gltf=str(p), animation=animation)
+    if animation is None:
+        animation = views.ANIMATION.get()
+    if animation_end is None:
+        animation_end = views.ANIMATION_END.get()
+    if animation_end not in (None, *views.ANIMATION_ENDS):
+        raise PipelineError(f"animation end {animation_end!r}: expected one of {', '.join(views.ANIMATION_ENDS)}")
+    spec = ObjectSpec(gltf=str(p), animation=animation, animation_end=animation_end)
     moving = _Moving(fps)
     objects: list[SceneObject] = []
     moving.add_gltf(objects, spec, p, framing.up_rotation(framing.check_up(up) or "y"), False, prefix=False,
-                    allow_outside=allow_outside)
-    lo, hi = moving.bounds(objects)
+                    allow_outside=allow_outside, command_line=False)
+    motion: list[np.ndarray] = []
+    lo, hi = moving.bounds(objects, points=motion)
     center, radius = (lo + hi) / 2.0, float(np.linalg.norm(hi - lo)) / 2.0
     cam = moving.gltf_camera(camera, center, radius)
     if cam is not None and view is not None:
@@ -1318,34 +1585,37 @@ def scene_from_gltf(path: str | Path, camera: str | int | None = None, animation
     anim = moving.animator()
     orbit = None
     if cam is None:
-        still = anim is None
-        if still:  # framed on the vertices faces use, to span `fill`
-            merged = merge_meshes([o.mesh.transformed(o.transform) for o in objects], p.stem)
-            points = framing.used_vertices(merged.vertices, merged.faces)
+        still = not moving.objects  # nothing drawn moves (a clip may still turn a light)
+        # framed on the vertices faces use (at the first frame), to span `fill`
+        merged = merge_meshes([o.mesh.transformed(o.transform) for o in objects], p.stem)
+        points = framing.used_vertices(merged.vertices, merged.faces)
         if view is not None and view != "widest":
             direction, cam_up = framing.view_direction(view, (0.0, 0.0, 1.0))
-            cam = fit_camera(points, direction, cam_up, fill) if still else frame_camera(lo, hi, direction=direction,
-                                                                                          up=cam_up)
-        elif still:
-            cam = fit_camera(points, best_view_direction(merged), fill=fill)
         else:
-            cam = frame_camera(lo, hi, direction=(0.55, 0.45, 1.0))
-        orbit = Orbit() if still else None
-    return Scene(name=p.stem, objects=tuple(objects), camera=cam, orbit=orbit, source=str(p), animation=anim)
+            direction = best_view_direction(merged) if still else np.array(framing.THREE_QUARTER)
+            cam_up = np.array([0.0, 1.0, 0.0])
+        if still:
+            cam = fit_camera(points, direction, cam_up, fill)
+        else:
+            cam = motion_camera(points, np.vstack(motion) if motion else points, lo, hi, direction, cam_up, fill)
+        orbit = Orbit() if anim is None else None
+    return Scene(name=p.stem, objects=tuple(objects), camera=cam, orbit=orbit, source=str(p), animation=anim,
+                 **moving.lit(objects))
 
 
 def select_camera(scene: Scene, which: str | int | None) -> Scene:
-    """The scene reloaded to look through one of its glTF cameras, by name or index (`--camera`)."""
+    """The scene reloaded to look through one of its glTF cameras, by name or index (`--camera`), with the
+    command line's lens (views.LENS)."""
     if which is None:
         return scene
     src = scene.source or ""
     ext = Path(src).suffix.lower()
     if ext in GLTF_EXTENSIONS:
         try:
-            return scene_from_gltf(src, camera=which)
+            return with_lens(scene_from_gltf(src, camera=which), *views.LENS.get())
         except MeshError as exc:
             raise PipelineError(str(exc)) from None
     if ext in SCENE_EXTENSIONS:
-        return scene_from_yaml(src, camera_choice=which)
+        return with_lens(scene_from_yaml(src, camera_choice=which), *views.LENS.get())
     raise PipelineError(f"--camera {which}: picks a camera of a glTF file (.gltf, .glb, or a scene YAML with "
                         f"'gltf:' objects); the scene is {src or scene.name}")

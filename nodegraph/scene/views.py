@@ -1,11 +1,18 @@
-"""The framing choices (`--up`, `--view`, `--fill`, scene `up:`/`view:`), without NumPy: the command line
-builds its options from them before anything heavy is imported (`sketchgraph --help`). The geometry that
-uses them is `nodegraph.scene.framing`."""
+"""The framing choices (`--up`, `--view`, `--fill`, scene `up:`/`view:`) and the lens (`--camera-type`, `--fov`,
+`--zoom`), without NumPy: the command line builds its options from them before anything heavy is imported
+(`sketchgraph --help`). The geometry that uses them is `nodegraph.scene.framing` and `Camera.with_lens`."""
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from contextvars import ContextVar
+
+from .timeline import ANIMATION_ENDS
+
 UP_AXES = ("x", "y", "z", "-x", "-y", "-z")
 VIEWS = ("three-quarter", "front", "back", "left", "right", "top", "widest")
+CAMERA_TYPES = ("perspective", "orthographic")
 
 
 def _trust_scene_files(ctx: object, param: object, value: bool) -> None:
@@ -16,11 +23,88 @@ def _trust_scene_files(ctx: object, param: object, value: bool) -> None:
         OUTSIDE_ALLOWED.set(True)
 
 
+ANIMATION: ContextVar[str | None] = ContextVar("scene_animation", default=None)
+"""`--animation`: the clips glTF files play (NAME, INDEX or all; None: all), for every scene this process loads."""
+ANIMATION_END: ContextVar[str | None] = ContextVar("scene_animation_end", default=None)
+"""`--animation-end`: hold or loop (None: hold, or what a scene YAML object says)."""
+
+
+def _scoped(var: ContextVar[str | None]) -> object:
+    """A click callback that sets `var` for the command's run: it runs whether or not the option is given, and
+    the value before it comes back when the command's context closes (tests and tools run many commands)."""
+
+    def callback(ctx: object, param: object, value: str | None) -> None:
+        token = var.set(value)
+        ctx.call_on_close(lambda: var.reset(token))  # type: ignore[attr-defined]
+
+    return callback
+
+
+_set_animation = _scoped(ANIMATION)
+_set_animation_end = _scoped(ANIMATION_END)
+
+
+@contextlib.contextmanager
+def playing(animation: str | int | None, end: str | None) -> Iterator[None]:
+    """`--animation` and `--animation-end` in effect inside the block (for the Python API)."""
+    a = ANIMATION.set(None if animation is None else str(animation))
+    e = ANIMATION_END.set(end)
+    try:
+        yield
+    finally:
+        ANIMATION_END.reset(e)
+        ANIMATION.reset(a)
+
+
+LENS: ContextVar[tuple[str | None, float | None, float | None]] = ContextVar("scene_lens",
+                                                                          default=(None, None, None))
+"""`--camera-type`, `--fov`, `--zoom` (None: not given), applied by `scene.load_scene` to every scene this process
+loads (`Camera.with_lens`)."""
+
+
+def _set_lens(index: int) -> object:
+    def callback(ctx: object, param: object, value: object) -> None:
+        lens = list(LENS.get())
+        lens[index] = value  # runs whether or not the option is given: an earlier value never leaks
+        token = LENS.set((lens[0], lens[1], lens[2]))
+        ctx.call_on_close(lambda: LENS.reset(token))  # type: ignore[attr-defined]  # and none outlives the command
+
+    return callback
+
+
+@contextlib.contextmanager
+def lens(camera_type: str | None = None, fov: float | None = None, zoom: float | None = None) -> Iterator[None]:
+    """`--camera-type`, `--fov` and `--zoom` in effect inside the block (for the Python API)."""
+    token = LENS.set((camera_type, fov, zoom))
+    try:
+        yield
+    finally:
+        LENS.reset(token)
+
+
 def click_options(f: object) -> object:
     """`--view`, `--up` and `--fill` for a click command (run, inspect, bench, ...): keyword args `view`, `up`,
-    `fill`; and `--allow-outside-scene-dir`, which takes effect as it is parsed (no keyword arg)."""
+    `fill`; and `--allow-outside-scene-dir`, `--animation`, `--animation-end`, `--camera-type`, `--fov` and
+    `--zoom`, which take effect as they are parsed (no keyword arg; `ANIMATION`, `ANIMATION_END`, `LENS`)."""
     import click
 
+    f = click.option("--zoom", type=click.FloatRange(0.0, 1e6, min_open=True), default=None, metavar="F",
+                     expose_value=False, callback=_set_lens(2),
+                     help="Magnify the view by F (2: the subject twice as large, 0.5: half), perspective or "
+                     "orthographic, framed or a file's own camera.")(f)
+    f = click.option("--fov", type=click.FloatRange(0.0, 180.0, min_open=True, max_open=True), default=None,
+                     metavar="DEG", expose_value=False, callback=_set_lens(1),
+                     help="Perspective field of view in degrees (across the picture's shorter side; a glTF "
+                     "camera's: its height); the camera moves along its axis so the subject keeps its size.")(f)
+    f = click.option("--camera-type", type=click.Choice(CAMERA_TYPES), default=None, expose_value=False,
+                     callback=_set_lens(0), help="Perspective or orthographic (parallel lines stay parallel); "
+                     "the view keeps what it shows in the plane through the camera's target.")(f)
+    f = click.option("--animation-end", type=click.Choice(ANIMATION_ENDS), default=None, expose_value=False,
+                     callback=_set_animation_end, help="What a glTF clip shorter than the longest does after its "
+                     "last key: hold its last pose or loop (default hold).")(f)
+    f = click.option("--animation", metavar="NAME|INDEX|all", default=None, expose_value=False,
+                     callback=_set_animation, help="Which animations of a glTF file play (default all, together, "
+                     "as glTF viewers play them; NAME or INDEX: that clip alone).")(f)
     f = click.option("--allow-outside-scene-dir", is_flag=True, expose_value=False, callback=_trust_scene_files,
                      help="Let glTF files read buffers and images outside their own folder (trusted files only; "
                      "by default such a URI is refused).")(f)

@@ -9,6 +9,7 @@ from pydantic import Field
 
 from nodegraph.gpu import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
+from nodegraph.scene import lights
 from nodegraph.types import Texture, TextureArray
 
 from .._shared.pencil import GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, screen_bounds, view_light
@@ -74,6 +75,13 @@ class Contour(Node):
         paper = inputs.get("paper")
         defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
         defines.update(LAYERS=layers, PAPER=int(paper is not None))
+        scene = ctx.scene
+        punctual: dict[str, Any] = {}
+        if scene is not None and scene.lights:  # punctual lights: sqrt(brightness) instead of the half-Lambert term
+            nd_w, nd_h = inputs["normal_depth"].size
+            punctual = {**lights.view_uniforms(scene.lights, ctx.camera.view_matrix(), scene.exposure),
+                        "u_inv_proj": np.linalg.inv(ctx.camera.projection_matrix(nd_w / nd_h))}
+            defines["LIGHTS"] = len(punctual["u_light_pos"])
         prog = ctx.program("contour.glsl", defines)
         size = inputs["edges"].size
         targets = {port: ctx.target(port, size) for port in ports}
@@ -83,7 +91,8 @@ class Contour(Node):
         light = view_light(ctx.scene, ctx.camera) if ctx.scene is not None else np.array([0.0, 0.0, 1.0])
         uniforms = {"u_light": tuple(float(c) for c in light), "u_tone": p.tone, "u_light_weight": p.light_weight,
                     "u_grain": p.grain, "u_pressure": self.pressures(ctx.seed, layers).astype(np.float32),
-                    "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint}
+                    "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint,
+                    **punctual}
         fbo = ctx.gl.framebuffer([targets[port] for port in ports])
         rect = self._rect(inputs["edges"], dist, size)
         if rect is not None and "color" not in targets:  # the value alone: 1 outside, a footprint

@@ -18,6 +18,20 @@ uniform float u_pressure[LAYERS];     // per-attempt pressure in (0, 1]
 uniform vec3 u_paper_color;           // paper colour
 uniform vec3 u_graphite_color;        // graphite colour
 uniform float u_paper_tint;           // visibility of the paper relief on bare paper
+#ifdef LIGHTS
+// the scene's punctual lights replace u_light (nodegraph/scene/lights.py): the line's light term is
+// sqrt(brightness) at the view-space point under the pixel, rebuilt from its linear depth
+#include "lights.glsl"
+uniform mat4 u_inv_proj;              // clip -> view space, the camera's at the normal_depth buffer's aspect
+vec3 view_point(ivec2 q, float depth) {
+    vec2 ndc = (vec2(q) + 0.5) / vec2(textureSize(t_normal_depth, 0)) * 2.0 - 1.0;
+    vec4 a = u_inv_proj * vec4(ndc, -1.0, 1.0);
+    vec4 b = u_inv_proj * vec4(ndc, 1.0, 1.0);
+    a.xyz /= a.w;
+    b.xyz /= b.w;
+    return mix(a.xyz, b.xyz, (depth + a.z) / (a.z - b.z));  // the point of the pixel's ray at -z = depth
+}
+#endif
 #ifdef LOC_OUT
 layout(location = LOC_OUT) out float o_out;
 #endif
@@ -52,9 +66,17 @@ void main() {
     vec2 p0 = gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, 0), 0).xy;
     vec4 nd = texelFetch(t_normal_depth, px, 0);
     vec4 there = texelFetch(t_normal_depth, clamp(ivec2(floor(p0)), ivec2(0), maxpx), 0);
+#ifdef LIGHTS
+    ivec2 q = nd.w > 0.0 ? px : clamp(ivec2(floor(p0)), ivec2(0), maxpx);
+#endif
     nd = nd.w > 0.0 ? nd : there;
+#ifdef LIGHTS
+    float light = nd.w > 0.0 ? sqrt(clamp(light_brightness(view_point(q, nd.w), normalize(nd.xyz)), 0.0, 1.0))
+                             : sqrt(0.5);
+#else
     // light contribution sqrt((N.L) * 0.5 + 0.5) (the report's); background reads as half lit
     float light = nd.w > 0.0 ? sqrt(clamp(dot(normalize(nd.xyz), u_light) * 0.5 + 0.5, 0.0, 1.0)) : sqrt(0.5);
+#endif
     float stroke = u_tone * (1.0 - u_light_weight * light);
 #if PAPER
     // a contour runs across the projected normal; graphite catches on the side of the paper tooth the

@@ -83,7 +83,8 @@ class FeatureLines(Node):
 
     def segments(self, ctx: RunContext, curv: Any, index: int, mesh: Any, eye_object: np.ndarray,
                  kinds: set[str]) -> dict[str, lines.Segments]:
-        """The segments of each kind in `kinds` for one object, seen from `eye_object` (object space)."""
+        """The segments of each kind in `kinds` for one object, seen from `eye_object` (object space; a
+        homogeneous (4,) direction at infinity for an orthographic camera, lines.towards_eye)."""
         p = self.params
         name = object_field(index, "kmin")
         if name not in curv.data:
@@ -139,7 +140,9 @@ class FeatureLines(Node):
         cam = scene.camera_at(ctx.frame)
         view = cam.view_matrix()
         proj = cam.projection_matrix(w / h)
-        eye = np.linalg.inv(view)[:3, 3]
+        # the eye in homogeneous coordinates: a point, or (for an orthographic camera) the direction towards the
+        # viewer at infinity (w = 0), which inverse model matrices carry into object space all the same
+        eye = np.r_[np.linalg.inv(view)[:3, 3], 1.0] if not cam.orthographic else cam.toward_eye()
         world = origin.world_origin(scene, cam)
         kinds = {k for k in _KINDS if k in needed} | (set(_KINDS) if "out" in needed else set())
         weights = {"suggestive": p.suggestive_intensity, "ridges": p.ridge_intensity, "valleys": p.valley_intensity}
@@ -150,7 +153,9 @@ class FeatureLines(Node):
             if obj.mesh.n_faces == 0:
                 continue
             model = np.asarray(obj.transform, dtype=np.float64)
-            eye_obj = (np.linalg.inv(model) @ np.r_[eye, 1.0])[:3]
+            eye_obj = np.linalg.inv(model) @ eye
+            if not cam.orthographic:
+                eye_obj = eye_obj[:3]
             per_object.append((obj, model, self.segments(ctx, inputs["curvature"], index, obj.mesh, eye_obj, kinds)))
         line_width, line_scale = self.drawn_width(ctx.px_scale)
         targets = {port: ctx.target(port, nd.size) for port in ("out", *_KINDS) if port in needed}

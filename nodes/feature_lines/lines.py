@@ -295,10 +295,21 @@ def ridges(ops: MeshOps, ext: ExtremaData, threshold: float, kind: str = "ridge"
     return Segments(pts[keep], strength[keep], faces[keep], _edge_vertices(ops.F, faces, edges)[keep])
 
 
+def towards_eye(eye: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(k, 3) vectors from `points` towards the eye: `eye` a point (3,), or homogeneous (4,) (x, y, z, w), the
+    eye at infinity in direction (x, y, z) when w = 0 (an orthographic camera: one view vector for all)."""
+    eye = np.asarray(eye, dtype=np.float64)
+    if eye.shape == (4,):
+        if eye[3] == 0.0:
+            return np.broadcast_to(eye[:3], points.shape).copy()
+        eye = eye[:3] / eye[3]
+    return eye[None, :] - points
+
+
 def radial(ops: MeshOps, eye: np.ndarray) -> np.ndarray:
     """kappa_r x sin^2(theta) per vertex (the same zeros as kappa_r, defined where w = 0): with w the
     projection of the unit view vector into the tangent plane, k1 (w.e1)^2 + k2 (w.e2)^2."""
-    v = eye[None, :] - ops.V
+    v = towards_eye(eye, ops.V)
     v /= np.maximum(np.linalg.norm(v, axis=1), 1e-300)[:, None]
     w = v - np.sum(v * ops.normal, axis=1, keepdims=True) * ops.normal
     return ops.k1 * np.sum(w * ops.e1, axis=1) ** 2 + ops.k2 * np.sum(w * ops.e2, axis=1) ** 2
@@ -306,8 +317,8 @@ def radial(ops: MeshOps, eye: np.ndarray) -> np.ndarray:
 
 def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: float,
                         angle_threshold_deg: float) -> Segments:
-    """Suggestive contours seen from `eye` (object space). Kept where theta > theta_c and
-    D_w kappa_r / |w| x diag^2 > t_d; intensity ramps up to 1 at 2 t_d and theta_c + 10 degrees."""
+    """Suggestive contours seen from `eye` (object space; a point, or homogeneous: `towards_eye`). Kept where
+    theta > theta_c and D_w kappa_r / |w| x diag^2 > t_d; intensity ramps up to 1 at 2 t_d and theta_c + 10 degrees."""
     if len(ops.F) == 0:
         return Segments.empty()
     f = radial(ops, np.asarray(eye, dtype=np.float64))
@@ -315,7 +326,7 @@ def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: flo
     if faces.size == 0:
         return Segments.empty()
     nf, cen = ops.face_normal[faces], ops.centroid[faces]
-    v = eye[None, :] - cen
+    v = towards_eye(eye, cen)
     v /= np.maximum(np.linalg.norm(v, axis=1), 1e-300)[:, None]
     cos_t = np.sum(nf * v, axis=1)
     w = v - cos_t[:, None] * nf
@@ -332,5 +343,5 @@ def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: flo
 
 
 def front_facing(ops: MeshOps, faces: np.ndarray, eye: np.ndarray) -> np.ndarray:
-    """Whether each face (index into ops.F) faces the eye."""
-    return np.sum(ops.face_normal[faces] * (eye[None, :] - ops.centroid[faces]), axis=1) > 0.0
+    """Whether each face (index into ops.F) faces the eye (a point, or homogeneous: `towards_eye`)."""
+    return np.sum(ops.face_normal[faces] * towards_eye(eye, ops.centroid[faces]), axis=1) > 0.0

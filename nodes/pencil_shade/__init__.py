@@ -12,7 +12,8 @@ from pydantic import Field, model_validator
 from nodegraph.errors import NodeError
 from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.scene import meshes, meshstore, origin
+from nodegraph.scene import lights, meshes, meshstore, origin
+from nodegraph.scene.scene import DEFAULT_MESH_COLOR
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
 from .._shared.culling import HOLE_SHARE_CULL
@@ -24,7 +25,8 @@ _LOCATIONS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND", "color": "LOC_COLOR"}
 
 
 class PencilShade(Node):
-    """Shades the scene's objects with the tonal art map. Brightness b = max(N.L, 0) from the scene light,
+    """Shades the scene's objects with the tonal art map. Brightness b = max(N.L, 0) from the scene light (where
+    the scene has punctual lights, the luminance of their irradiance instead: docs/scenes.md, Lights),
     and no less than grazing_floor x (1 - N.V / sin grazing_angle) (N.V: the normal against the ray to the eye)
     where a surface is seen within `grazing_angle` of edge-on: seen at a grazing angle from the side the light
     does not reach, a surface keeps a readable mid tone (a sheet at 10 degrees: brightness 0.25, darkness 0.5)
@@ -51,6 +53,8 @@ class PencilShade(Node):
                        optional=True),
         "contour": Input(Texture("R16F"), "Contour drawing, 1 = paper (contour.out), multiplied into `color`.",
                          optional=True),
+        "albedo": Input(Texture("RGBA8"), "Surface colour (rasterize.color): darker materials hatch darker "
+                        "(`albedo_weight`); N.L alone when not connected.", optional=True),
         "scene": Input(SCENE, "Scene to draw; the pipeline's scene when not connected.", optional=True),
     }
     outputs = {
@@ -95,6 +99,11 @@ class PencilShade(Node):
                                      "it is the whole floor).")
         crease_angle: float = Field(40.0, ge=0, le=180, description="Dihedral angle in degrees above which "
                                     "normals are split (sharp creases shade flat).")
+        albedo_weight: float = Field(1.0, ge=0, le=4, description="With `albedo` connected: brightness is N.L x "
+                                     "(L* / L*_ref) ^ albedo_weight, L* the albedo's CIE lightness (its value, as "
+                                     "an artist judges it), L*_ref the default mesh colour's, 81.8 (objects of that "
+                                     "colour hatch as without it; white a little lighter, pure red (L* 53) darker, "
+                                     "black darkest); 0: N.L alone.")
         paper_tint: float = Field(0.05, ge=0, le=1, description="How much the paper relief shows on bare paper.")
         paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
         graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")
@@ -131,10 +140,16 @@ class PencilShade(Node):
         tam = inputs["tam"]
         paper = inputs.get("paper")
         contour = inputs.get("contour")
+        albedo = inputs.get("albedo") if p.albedo_weight > 0 else None
         w, h = ctx.size
         # 1. geometry: per pixel the three corner angles, darkness, blending weights and anchor (G-buffer)
         face_order = "blend" in needed  # weights in the triangles' corner order: one lookup per fragment more
-        prog = ctx.program("pencil_shade.glsl", {"FACE_ORDER": int(face_order), "SLOT_ROW": SLOT_ROW})
+        # punctual lights (scene.lights): their irradiance's brightness instead of the scene light's N.L
+        punctual = lights.view_uniforms(scene.lights, scene.camera_at(ctx.frame).view_matrix(), scene.exposure) \
+            if scene.lights else {}
+        prog = ctx.program("pencil_shade.glsl", {"FACE_ORDER": int(face_order), "SLOT_ROW": SLOT_ROW,
+                                                 **({"LIGHTS": len(scene.lights[:lights.MAX_LIGHTS])} if punctual
+                                                    else {})})
         gbuffer, fbo = _gbuffer(gl, (w, h))
         # only the depth is cleared (clearing RGBA32F costs about a full-screen pass here): the passes below read
         # the G-buffer only where the depth test says an object was drawn
@@ -153,8 +168,9 @@ class PencilShade(Node):
             "u_fallback_dir": (math.cos(fallback), math.sin(fallback)),
             "u_foreshortening": tuple(float(v) for v in p.foreshortening),
             "u_light": tuple(float(c) for c in light), "u_light_intensity": p.light_intensity,
-            "u_tan_half": (float(1.0 / proj[0, 0]), float(1.0 / proj[1, 1])),
-            "u_grazing": (p.grazing_floor, math.sin(math.radians(p.grazing_angle))),
+            # an orthographic camera sees every pixel along the view axis: (0, 0) makes the ray (0, 0, 1)
+            "u_tan_half": (0.0, 0.0) if cam.orthographic else (float(1.0 / proj[0, 0]), float(1.0 / proj[1, 1])),
+            "u_grazing": (p.grazing_floor, math.sin(math.radians(p.grazing_angle))), **punctual,
         })
         anchors = np.zeros((1, max(len(scene.objects), 1), 2), dtype=np.float32)  # screen anchor: the origin
         with gl.depth_test() as state:
@@ -181,7 +197,7 @@ class PencilShade(Node):
                 slot_tex = gl.upload(slots, "R8", filter="nearest") if face_order else None
                 bind(prog, {"t_slots": slot_tex} if face_order else {},
                      {"u_mvp": proj @ u_view @ u_model, "u_model3": u_model[:3, :3], "u_normal_view": normal_view,
-                      "u_object": index})
+                      "u_object": index, **({"u_model_view": u_view @ u_model} if punctual else {})})
                 vao.render(gl.ctx.TRIANGLES)
                 if slot_tex is not None:
                     gl.release(slot_tex)
@@ -192,7 +208,7 @@ class PencilShade(Node):
         same = contour is not None and contour.size == (w, h)
         defines: dict[str, Any] = {_LOCATIONS[port]: i for i, port in enumerate(ports)}
         defines.update(LAYERS=p.layers, PAPER=int(paper is not None), CONTOUR=int(contour is not None),
-                       CONTOUR_SAME_SIZE=int(same))
+                       CONTOUR_SAME_SIZE=int(same), ALBEDO=int(albedo is not None))
         targets = [ctx.target(port, filter="nearest" if port != "color" else "linear") for port in ports]
         anchor_tex = gl.upload(anchors, "RG32F", filter="nearest")
         textures: dict[str, Any] = {"t_tam": tam, "t_gbuffer": gbuffer, "t_anchors": anchor_tex}
@@ -200,12 +216,14 @@ class PencilShade(Node):
             textures["t_paper"] = paper
         if contour is not None:
             textures["t_contour"] = contour
+        if albedo is not None:
+            textures["t_albedo"] = albedo
         texel_scale = self.texel_scale(ctx.px_scale)
         uniforms = {"u_max_tone": float(p.max_darkness * (tam.layers - 1)), "u_layer_offset": p.layer_offset,
                     "u_layer_rot": self.layer_rotations(), "u_layer_shift": self.layer_shifts(),
                     "u_texel_scale": texel_scale, "u_lod": max(math.log2(texel_scale), 0.0), "u_grain": p.grain,
                     "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color,
-                    "u_paper_tint": p.paper_tint}
+                    "u_paper_tint": p.paper_tint, "u_albedo_ref": ALBEDO_REF, "u_albedo_weight": p.albedo_weight}
         shaded = gl.framebuffer(targets, gl.depth_buffer((w, h)))
         gl.fullscreen(ctx.program("hatch.glsl", {**defines, "BACKGROUND": 1}), targets, textures=textures,
                       uniforms=uniforms, fbo=shaded)
@@ -230,6 +248,18 @@ class PencilShade(Node):
             shaded.scissor = None
         gl.release(anchor_tex)
         return dict(zip(ports, targets, strict=True))
+
+
+def albedo_lightness(color: tuple[float, float, float]) -> float:
+    """CIE lightness L* (0..100) of a display colour as an RGBA8 texel holds it: Rec. 709 luminance of its linear
+    values, then L* = 116 Y^(1/3) - 16 (903.3 Y below 0.008856)."""
+    c = np.round(np.asarray(color, dtype=np.float64) * 255.0) / 255.0
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    y = float(lin @ np.array([0.2126, 0.7152, 0.0722]))
+    return 116.0 * y ** (1.0 / 3.0) - 16.0 if y > 0.008856 else 903.3 * y
+
+
+ALBEDO_REF = albedo_lightness(DEFAULT_MESH_COLOR)  # L* 81.8: the default mesh colour hatches as N.L alone
 
 
 def _gbuffer(gl: Any, size: tuple[int, int]) -> tuple[Any, Any]:
@@ -283,7 +313,8 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
         # every triangle's corners get the slots 0, 1, 2 (see pencil_shade.glsl): a vertex is copied once per slot
         # its triangles give it, about 1.5 copies a vertex, and the draw stays indexed (shared vertices)
-        slots = _mesh_corner_slots(mesh, ra, crease_angle)
+        shape = mesh.topology_mesh()  # a posed part: its rest pose's triangles, slotted once
+        slots = _mesh_corner_slots(shape, shape.render_arrays(crease_angle), crease_angle)
         keys, inverse = np.unique(np.asarray(ra.indices, dtype=np.int64) * 3 + slots, return_inverse=True)
         vertex, slot = keys // 3, (keys % 3).astype(np.float32)
         return MeshArrays({"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
@@ -292,7 +323,10 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
                            "in_trust": (trust[vertex], "1f"), "in_corner": (slot, "1f")},
                           inverse.reshape(-1, 3).astype(np.uint32), meta={"origin": local, "slots": _slot_codes(slots)})
 
-    entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build)
+    # a posed part's buffers take each frame's vertices in place (slot: its rest pose)
+    slot = ("pencil_shade.slots", mesh.rest.content_hash(), float(crease_angle), ckey) if mesh.rest is not None \
+        else None
+    entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build, slot)
     return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
 
 

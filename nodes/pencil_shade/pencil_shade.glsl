@@ -27,6 +27,10 @@ uniform vec2 u_foreshortening; // projected/true length ratio: below .x the fall
 // two vec4s rather than a vec3, a vec2 and a vec3: a few per cent less of the draw on llvmpipe
 out vec4 v_normal_b0;  // view-space normal; one-hot slot 0 (the barycentric coordinate once interpolated)
 out vec4 v_angles_b1;  // one-hot x this corner's screen angle; one-hot slot 1 (slot 2 is 1 - both)
+#ifdef LIGHTS
+uniform mat4 u_model_view;     // u_view u_model: the view-space position the punctual lights need
+out vec3 v_view_pos;
+#endif
 
 vec2 doubled(vec2 d) { return vec2(d.x * d.x - d.y * d.y, 2.0 * d.x * d.y); }
 
@@ -45,6 +49,9 @@ void main() {
     vec3 onehot = vec3(equal(vec3(in_corner), vec3(0.0, 1.0, 2.0)));
     v_normal_b0 = vec4(u_normal_view * in_normal, onehot.x);
     v_angles_b1 = vec4(onehot * angle, onehot.y);
+#ifdef LIGHTS
+    v_view_pos = (u_model_view * vec4(in_pos, 1.0)).xyz;
+#endif
     gl_Position = clip;
 }
 
@@ -53,6 +60,11 @@ in vec4 v_normal_b0;
 in vec4 v_angles_b1;
 uniform vec3 u_light;          // view-space unit direction towards the light
 uniform float u_light_intensity;
+#ifdef LIGHTS
+// the scene's punctual lights replace u_light: the luminance of their irradiance (nodegraph/scene/lights.py)
+#include "lights.glsl"
+in vec3 v_view_pos;
+#endif
 uniform vec2 u_viewport;       // pixels
 uniform vec2 u_tan_half;       // tangents of half the field of view (x, y): the view ray through a pixel
 uniform vec2 u_grazing;        // brightness a surface keeps seen edge-on; N.V where that lift has faded to 0
@@ -78,7 +90,12 @@ void main() {
     // nearly edge-on keeps some: lifted towards u_grazing.x as N.V falls from u_grazing.y to 0 (reference.py)
     vec3 to_eye = normalize(vec3((1.0 - 2.0 * gl_FragCoord.xy / u_viewport) * u_tan_half, 1.0));
     float facing = max(dot(n, to_eye), 0.0);
-    float brightness = max(max(dot(n, u_light), 0.0),
+#ifdef LIGHTS
+    float lit = light_brightness(v_view_pos, n);
+#else
+    float lit = max(dot(n, u_light), 0.0);
+#endif
+    float brightness = max(lit,
                            u_grazing.x * clamp(1.0 - facing / max(u_grazing.y, 1e-6), 0.0, 1.0));
     float darkness = 1.0 - sqrt(clamp(brightness * u_light_intensity, 0.0, 1.0));
     vec3 w = vec3(v_normal_b0.w, v_angles_b1.w, 1.0 - v_normal_b0.w - v_angles_b1.w);

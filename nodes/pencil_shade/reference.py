@@ -24,8 +24,11 @@ def project_to_pixels(point: np.ndarray, view: np.ndarray, proj: np.ndarray,
 
 def view_rays_to_eye(size: tuple[int, int], proj: np.ndarray) -> np.ndarray:
     """(H, W, 3) unit view-space directions from each pixel centre's surface point towards the eye (rows in
-    OpenGL order, row 0 at the bottom), for the perspective projection `proj`."""
+    OpenGL order, row 0 at the bottom), for the projection `proj`: the view axis everywhere for an orthographic
+    one (w = 1)."""
     w, h = size
+    if proj[3, 3] == 1.0 and proj[3, 2] == 0.0:
+        return np.broadcast_to(np.array([0.0, 0.0, 1.0]), (h, w, 3)).copy()
     x = 1.0 - 2.0 * (np.arange(w) + 0.5) / w
     y = 1.0 - 2.0 * (np.arange(h) + 0.5) / h
     d = np.stack(np.broadcast_arrays(x[None, :] / proj[0, 0], y[:, None] / proj[1, 1], np.ones((h, w))), axis=-1)

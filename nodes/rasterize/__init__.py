@@ -11,7 +11,7 @@ from pydantic import Field, model_serializer, model_validator
 from nodegraph.gpu import footprint
 from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.scene import meshes, meshstore, origin
+from nodegraph.scene import lights, meshes, meshstore, origin, posing
 from nodegraph.scene.meshes import MeshWarning
 from nodegraph.types import SCENE, Texture, components
 from nodegraph.values import Footprint
@@ -77,8 +77,10 @@ class Rasterize(Node):
     class Params(NodeParams):
         select: Literal["all", "sketchy", "non_sketchy"] = Field(
             "all", description="Which objects to draw, by their scene `sketchy` flag.")
-        lit: bool = Field(False, description="Shade the colour with the scene light (for ordinary, non-sketchy "
-                                             "geometry); unlit flat colour otherwise (the paper's shade map).")
+        lit: bool = Field(False, description="Shade the colour with the scene light, or the scene's punctual "
+                                             "lights where it has any (docs/scenes.md, Lights; for ordinary, "
+                                             "non-sketchy geometry); unlit flat colour otherwise (the paper's "
+                                             "shade map).")
         ambient: float = Field(0.45, ge=0, le=1, description="Ambient share of the lit colour.")
         enlarge: float = Field(0.0, ge=0, le=0.5, description="Shift every vertex along its welded vertex normal "
                                "by this fraction of the object's bounding-box diagonal (paper §4.2); each "
@@ -128,6 +130,9 @@ class Rasterize(Node):
         gl = ctx.gl
         scene = inputs.get("scene") or ctx.scene
         bands = self.params.tone_bands if "color" in needed else 0
+        # punctual lights (scene.lights) shade instead of the scene light; their bands are made in the main pass
+        lit_bands = bands if scene.lights else 0
+        bands = 0 if scene.lights else bands
         # bands: the colour and an exact (float32) normal go to scratch textures, then a pass bands the colour
         ports = [p for p in _OUTPUTS if p in needed or (bands and p == "normal")]
         rects: list[tuple[int, int, int, int] | None] = []  # each object's pixel box: the outputs' footprint
@@ -153,12 +158,22 @@ class Rasterize(Node):
         if scene.light_space == "world":
             light = view[:3, :3] @ light
         light = light / max(np.linalg.norm(light), 1e-12)
+        punctual: dict[str, Any] = {}
+        if scene.lights and (self.params.lit or lit_bands):
+            punctual = lights.view_uniforms(scene.lights, view, scene.exposure)
+            if lit_bands:
+                (lo_t, hi_t), factors = TONE_BANDS[lit_bands]
+                punctual.update({"u_thresholds": (lo_t, hi_t), "u_factors": factors})
         lo, hi = scene.scale_bounds()
         scene_diag = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
         if main:
             defines: dict[str, Any] = {_OUTPUTS[p][1]: i for i, p in enumerate(main)}
             defines["LIT"] = int(self.params.lit)
             defines["ENLARGE"] = int(self.params.enlarge > 0)
+            if punctual:
+                defines["LIGHTS"] = len(punctual["u_light_pos"])
+                if lit_bands:
+                    defines["BANDS"] = 1
             prog = ctx.program("rasterize.glsl", defines)
             depth_rb = gl.depth_buffer((w, h))
             fbo = gl.framebuffer([targets[p] for p in main], depth_rb)
@@ -169,7 +184,11 @@ class Rasterize(Node):
                 for obj in objects:
                     if self.params.enlarge > 0:
                         _warn_enlarge_once(obj.mesh)
-                    vao, diag, local, points = _geometry(gl, prog, obj.mesh, self.params.crease_angle)
+                    surface = _surface(obj)  # a glTF texture / vertex colours / cut-outs: a program of its own
+                    oprog = prog if surface is None else ctx.program("rasterize.glsl",
+                                                                       {**defines, **_surface_defines(surface)})
+                    vao, diag, local, points = _geometry(gl, oprog, obj.mesh, self.params.crease_angle,
+                                                         surface is not None)
                     model = np.asarray(obj.transform, dtype=np.float64)
                     u_view, u_model = origin.relative_matrices(view, model, world, local)
                     model_view = u_view @ u_model  # the origins move only its translation
@@ -177,12 +196,14 @@ class Rasterize(Node):
                     mvp = proj @ model_view
                     enlarge = self._enlarge(diag, model, scene_diag)
                     rects.append(_pixel_box(mvp, points, enlarge if self.params.enlarge > 0 else 0.0, (w, h)))
-                    bind(prog, {}, {
-                        "u_mvp": mvp, "u_view_z": tuple(float(c) for c in model_view[2]),
+                    tex, surface_uniforms = _surface_bindings(gl, surface)
+                    bind(oprog, tex, {
+                        **surface_uniforms, "u_mvp": mvp, "u_view_z": tuple(float(c) for c in model_view[2]),
                         "u_normal_view": normal_view, "u_enlarge": enlarge,
                         "u_color": tuple(float(c) for c in obj.color),
                         "u_light": tuple(float(c) for c in light), "u_object_id": float(obj.index + 1),
-                        "u_ambient": float(self.params.ambient)})
+                        "u_ambient": float(self.params.ambient), **punctual,
+                        **({"u_model_view": model_view} if punctual else {})})
                     state.cull(_cull_face(obj, self.params.backfaces))
                     vao.render(gl.ctx.TRIANGLES)
         if rest:
@@ -256,24 +277,77 @@ def _cull_face(obj: Any, backfaces: str) -> str | None:
     return "front" if bool(getattr(obj, "mirrored", False)) else "back"
 
 
-def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float
+def _surface(obj: Any) -> Any:
+    """The object's glTF surface (meshes.Surface) where it colours it: the mesh has one and the object's colour is
+    the material's own (a colour given in a scene YAML paints the object flat, as before)."""
+    surface = getattr(obj.mesh, "surface", None)
+    if surface is None or tuple(obj.color) != tuple(surface.material.flat):
+        return None
+    return surface
+
+
+def _surface_defines(surface: Any) -> dict[str, Any]:
+    m = surface.material
+    return {"SURFACE": 1, "TEXTURE": int(m.texture is not None), "VCOLOR": int(surface.colors is not None),
+            "MASK": int(m.alpha_mode == "MASK")}
+
+
+def _surface_bindings(gl: Any, surface: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Textures and uniforms of a surface's draw ({} and {} for a flat colour)."""
+    if surface is None:
+        return {}, {}
+    m, t = surface.material, surface.material.texture
+    uniforms: dict[str, Any] = {"u_factor": tuple(float(c) for c in m.factor), "u_cutoff": float(m.alpha_cutoff)}
+    if t is None:
+        return {}, uniforms
+    uniforms.update({"u_uv_row0": tuple(t.transform[:3]), "u_uv_row1": tuple(t.transform[3:]),
+                     "u_mirror": tuple(float(wr == meshes.WRAP_MIRROR) for wr in t.wrap)})
+    repeat = tuple(wr != meshes.WRAP_CLAMP for wr in t.wrap)
+    tex = gl.image_texture(("rasterize.base", t.digest, t.min_filter, t.mag_filter, repeat), t.pixels,
+                           filters=(t.min_filter, t.mag_filter), repeat=repeat)
+    return {"t_base": tex}, uniforms
+
+
+def _surface_arrays(mesh: Any, ra: Any) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, str]]]:
+    """Render vertices split again where the glTF vertices they came from differ (a texture seam, a vertex colour
+    edge): (render vertex of each new vertex, new triangles, the new vertices' surface attributes)."""
+    surface = mesh.surface
+    render = np.asarray(ra.indices, dtype=np.int64).reshape(-1)
+    source = np.asarray(mesh.faces, dtype=np.int64).reshape(-1)
+    keys, inverse = np.unique(render * max(mesh.n_vertices, 1) + source, return_inverse=True)
+    vertex, src = keys // max(mesh.n_vertices, 1), keys % max(mesh.n_vertices, 1)
+    tex = surface.material.texture
+    uv = surface.uvs[tex.texcoord][src] if tex is not None else np.zeros((len(src), 2), np.float32)
+    colors = surface.colors[src] if surface.colors is not None else np.ones((len(src), 4), np.float32)
+    return vertex, inverse.reshape(-1, 3).astype(np.uint32), {"in_uv": (uv, "2f"), "in_vcolor": (colors, "4f")}
+
+
+def _geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float, surface: bool = False
               ) -> tuple[Any, float, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """The program's vertex array over the mesh's buffers (per mesh content and crease angle), the
     mesh's bounding-box diagonal, the object-space origin its positions are relative to, and the drawn
-    positions and enlargement directions as (3, N) float32 rows (for `_pixel_box`)."""
+    positions and enlargement directions as (3, N) float32 rows (for `_pixel_box`). `surface`: with the glTF
+    surface's texture coordinates and vertex colours (`_surface_arrays`)."""
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
         bmin, bmax = mesh.bounds()
         local = origin.mesh_origin(mesh)
         pos, smooth = origin.positions(mesh, ra, local), enlarge_normals(mesh, crease_angle)
+        normals, indices, extra = ra.normals, ra.indices, {}
+        if surface:
+            vertex, indices, extra = _surface_arrays(mesh, ra)
+            pos, smooth, normals = pos[vertex], smooth[vertex], normals[vertex]
         # the drawn positions and directions as (3, N) rows, projected each frame for the outputs' footprint
         points = (np.ascontiguousarray(pos.T, dtype=np.float32), np.ascontiguousarray(smooth.T, dtype=np.float32))
-        return MeshArrays({"in_pos": (pos, "3f"), "in_normal": (ra.normals, "3f"), "in_smooth": (smooth, "3f")},
-                          ra.indices, meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin))),
-                                            "origin": local, "points": points})
+        return MeshArrays({"in_pos": (pos, "3f"), "in_normal": (normals, "3f"), "in_smooth": (smooth, "3f"), **extra},
+                          indices, meta={"diag": float(np.linalg.norm(np.asarray(bmax) - np.asarray(bmin))),
+                                         "origin": local, "points": points})
 
-    entry = gl.mesh_buffers(("rasterize.mesh", mesh.content_hash(), float(crease_angle)), build)
+    kind = "rasterize.surface" if surface else "rasterize.mesh"
+    # a posed part's buffers take each frame's vertices in place (slot: its rest pose)
+    slot = (kind, mesh.rest.content_hash(), float(crease_angle)) if mesh.rest is not None else None
+    entry = gl.mesh_buffers((kind, mesh.content_hash(), float(crease_angle)), build, slot)
     return entry.vao(prog), entry.meta["diag"], entry.meta["origin"], entry.meta["points"]
 
 
@@ -310,7 +384,8 @@ def _rest_geometry(gl: Any, prog: Any, mesh: Any, crease_angle: float) -> tuple[
                            "in_rest_smooth": (rest_smooth, "3f")}, ra.indices,
                           meta={"diag": mesh.diagonal(), "rest_diag": rest_diag, "origin": local})
 
-    entry = gl.mesh_buffers(("rasterize.rest", mesh.content_hash(), float(crease_angle)), build)
+    slot = ("rasterize.rest", mesh.rest.content_hash(), float(crease_angle)) if mesh.rest is not None else None
+    entry = gl.mesh_buffers(("rasterize.rest", mesh.content_hash(), float(crease_angle)), build, slot)
     return entry.vao(prog), entry.meta["diag"], entry.meta["rest_diag"], entry.meta["origin"]
 
 
@@ -325,8 +400,12 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = 
     directions of a large mesh are kept on disk, nodegraph/scene/meshstore.py: ogre's took 0.12 s); a posed mesh's,
     to read the directions of its rest pose (`mesh` the rest mesh, same vertices and faces).
     """
-    if render_arrays is not None:
+    if render_arrays is not None and render_arrays.source_vertex is not mesh.render_arrays(crease_angle).source_vertex:
         return _enlarge_normals(mesh, render_arrays)
+    posed = posing.enlarge_directions(mesh, crease_angle)  # a posed part: with all parts posed with it
+    if posed is not None:
+        return posed
+
     def make() -> dict[str, np.ndarray]:
         return {"value": _enlarge_normals(mesh, mesh.render_arrays(crease_angle))}
 
@@ -366,6 +445,8 @@ DEPTH_RANGE_WARN = 1e5
 
 
 def _warn_depth_range_once(cam: Any, window_depth: bool) -> None:
+    if getattr(cam, "orthographic", False):  # window depth is linear in view depth: no far/near limit (near may be 0)
+        return
     ratio = cam.far / cam.near
     key = f"depth-range:{ratio:.3g}:{window_depth}"
     if ratio <= DEPTH_RANGE_WARN or key in _WARNED:

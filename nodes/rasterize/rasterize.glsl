@@ -17,8 +17,26 @@ out vec3 v_normal;
 #ifdef LOC_POSITION
 out vec3 v_object;   // only where `position` is written: an unused varying still costs llvmpipe its setup
 #endif
+#ifdef LIGHTS
+uniform mat4 u_model_view;   // u_view u_model: view-space position, for the punctual lights
+out vec3 v_view_pos;
+#endif
 out float v_view_depth;
+#ifdef SURFACE
+// a glTF surface (nodegraph/scene/meshes.py Surface): texture coordinates through KHR_texture_transform's
+// matrix (its first two rows), and the vertex colour
+in vec2 in_uv;
+in vec4 in_vcolor;
+uniform vec3 u_uv_row0;
+uniform vec3 u_uv_row1;
+out vec2 v_uv;
+out vec4 v_vcolor;
+#endif
 void main() {
+#ifdef SURFACE
+    v_uv = vec2(dot(u_uv_row0, vec3(in_uv, 1.0)), dot(u_uv_row1, vec3(in_uv, 1.0)));
+    v_vcolor = in_vcolor;
+#endif
 #if ENLARGE
     vec3 p = in_pos + in_smooth * u_enlarge;
 #else
@@ -30,6 +48,9 @@ void main() {
     v_object = p;
 #endif
     v_view_depth = -dot(u_view_z, q);
+#ifdef LIGHTS
+    v_view_pos = (u_model_view * q).xyz;
+#endif
     gl_Position = u_mvp * q;
 }
 #elif defined FRAGMENT_SHADER
@@ -40,8 +61,46 @@ in vec3 v_object;
 in float v_view_depth;
 uniform vec3 u_color;
 uniform vec3 u_light;        // view-space unit direction towards the light
+#ifdef LIGHTS
+// the scene's punctual lights replace u_light: irradiance times exposure (nodegraph/scene/lights.py)
+#include "lights.glsl"
+in vec3 v_view_pos;
+#ifdef BANDS
+uniform vec2 u_thresholds;   // tone_bands on the lights' brightness (tone_bands.glsl does it for u_light)
+uniform vec3 u_factors;
+#endif
+#endif
 uniform float u_object_id;
 uniform float u_ambient;
+#ifdef SURFACE
+in vec2 v_uv;
+in vec4 v_vcolor;
+uniform vec4 u_factor;       // baseColorFactor, linear RGBA
+uniform sampler2D t_base;    // the base colour texture, stored sRGB: it reads (and filters) linear
+uniform vec2 u_mirror;       // 1 where the sampler's wrap mode is MIRRORED_REPEAT (s, t)
+uniform float u_cutoff;      // alphaCutoff (MASK)
+
+vec3 display(vec3 c) {       // linear -> sRGB-encoded display values, what u_color holds
+    c = clamp(c, 0.0, 1.0);
+    return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
+
+// factor x vertex colour x texture, in linear values, as display values; a MASK cut-out discards the fragment
+vec3 surface_albedo() {
+    vec4 c = u_factor;
+#if VCOLOR
+    c *= v_vcolor;
+#endif
+#if TEXTURE
+    vec2 uv = mix(v_uv, 1.0 - abs(mod(v_uv, 2.0) - 1.0), u_mirror);
+    c *= textureGrad(t_base, uv, dFdx(v_uv), dFdy(v_uv));
+#endif
+#if MASK
+    if (c.a < u_cutoff) discard;
+#endif
+    return display(c.rgb);
+}
+#endif
 #ifdef LOC_COLOR
 layout(location = LOC_COLOR) out vec4 o_color;
 #endif
@@ -66,12 +125,24 @@ layout(location = LOC_OBJECT_ID) out float o_object_id;
 void main() {
     vec3 n = normalize(v_normal);
     if (!gl_FrontFacing) n = -n;   // two-sided: open meshes show their inside
-#ifdef LOC_COLOR
-#if LIT
-    float diffuse = max(dot(n, u_light), 0.0);
-    o_color = vec4(u_color * (u_ambient + (1.0 - u_ambient) * diffuse), 1.0);
+#ifdef SURFACE
+    vec3 albedo = surface_albedo();
 #else
-    o_color = vec4(u_color, 1.0);
+    vec3 albedo = u_color;
+#endif
+#ifdef LOC_COLOR
+#if LIT && defined(LIGHTS)
+    vec3 diffuse = min(light_irradiance(v_view_pos, n), vec3(1.0));
+    o_color = vec4(albedo * (u_ambient + (1.0 - u_ambient) * diffuse), 1.0);
+#elif LIT
+    float diffuse = max(dot(n, u_light), 0.0);
+    o_color = vec4(albedo * (u_ambient + (1.0 - u_ambient) * diffuse), 1.0);
+#elif defined(LIGHTS) && defined(BANDS)
+    float d = light_brightness(v_view_pos, n);
+    o_color = vec4(albedo * (d < u_thresholds.x ? u_factors.x : (d < u_thresholds.y ? u_factors.y : u_factors.z)),
+                   1.0);
+#else
+    o_color = vec4(albedo, 1.0);
 #endif
 #endif
 #ifdef LOC_NORMAL

@@ -69,6 +69,11 @@ class Sketch(Node):
         edge_strength: float = Field(1.0, ge=0, le=4, description="Multiplier on the edge intensity.")
         use_shade: bool = Field(True, description="Include the shade map (false: edges only, on paper).")
         paper: Color = Field((0.98, 0.97, 0.94), description="Paper colour where nothing is drawn.")
+        line_contrast: float = Field(0.1, ge=0, le=1, description="Lines stay visible over dark fills (a dark "
+                                     "texture or material): where the shade under a line is less than this much "
+                                     "lighter than the line's colour (luminance of the display values), the line "
+                                     "is drawn towards the paper colour, wholly where the fill is as dark as the "
+                                     "line; 0: always the line colour. Fills lighter than that are untouched.")
 
         @model_validator(mode="after")
         def _layers(self) -> Sketch.Params:
@@ -122,7 +127,7 @@ class Sketch(Node):
                           uniforms={"u_shade_matrix": shade_matrix,
                                     "u_edge_matrix": mats, "u_edge_color": colors,
                                     "u_edge_strength": p.edge_strength, "u_use_shade": float(p.use_shade),
-                                    "u_paper": tuple(p.paper)},
+                                    "u_paper": tuple(p.paper), "u_line_contrast": p.line_contrast},
                           rect=rect, blanks=[blanks.get(port, ()) for port in ports])
         return targets
 

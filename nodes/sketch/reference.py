@@ -10,7 +10,7 @@ from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
 def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,
            layers: list[tuple[np.ndarray, tuple[float, float, float]]], edge_strength: float = 1.0,
            use_shade: bool = True, paper: tuple[float, float, float] = (0.98, 0.97, 0.94),
-           depth: np.ndarray | None = None) -> dict[str, np.ndarray]:
+           depth: np.ndarray | None = None, line_contrast: float = 0.1) -> dict[str, np.ndarray]:
     """edges (H, W), shade (H, W, 4), offset (H, W, 2); layers: [(2x2 matrix, colour)]; depth (H, W)
     optional: adds the "depth" output (minimum of the depth map over every perturbed lookup)."""
     h, w = shade.shape[:2]
@@ -21,6 +21,8 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
     sh = bilinear(shade, u + s_off[..., 0], v + s_off[..., 1]) * float(use_shade)
     color = np.asarray(paper, dtype=np.float64) * (1 - sh[..., 3:4]) + sh[..., :3] * sh[..., 3:4]
     cover = sh[..., 3]
+    luma = np.array([0.2126, 0.7152, 0.0722])
+    fill_luma = color @ luma  # the fill under the lines: an ink it comes close to turns towards the paper
     z = np.ones((h, w))
     if depth is not None and use_shade:
         z = nearest(depth, u + s_off[..., 0], v + s_off[..., 1])
@@ -29,7 +31,11 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
         e_off = off @ np.asarray(matrix, dtype=np.float64).T
         first = e_off if first is None else first
         e = np.clip(bilinear(edges, u + e_off[..., 0], v + e_off[..., 1]) * edge_strength, 0, 1)
-        color = color * (1 - e[..., None]) + np.asarray(edge_color, dtype=np.float64) * e[..., None]
+        ink = np.asarray(edge_color, dtype=np.float64)
+        light = (np.clip((ink @ luma + line_contrast - fill_luma) / line_contrast, 0, 1) if line_contrast > 0
+                 else np.zeros((h, w)))[..., None]
+        ink = ink * (1 - light) + np.asarray(paper, dtype=np.float64) * light
+        color = color * (1 - e[..., None]) + ink * e[..., None]
         cover = np.maximum(cover, e)
         if depth is not None:
             z = np.minimum(z, nearest(depth, u + e_off[..., 0], v + e_off[..., 1]))

@@ -15,6 +15,7 @@ uniform vec3 u_edge_color[LAYERS];
 uniform float u_edge_strength;
 uniform float u_use_shade;
 uniform vec3 u_paper;
+uniform float u_line_contrast;  // a line over a fill less than this much lighter than its ink turns to paper
 #ifdef LOC_COLOR
 layout(location = LOC_COLOR) out vec4 o_color;
 #endif
@@ -47,6 +48,10 @@ void main() {
     vec4 shade = texture(t_shade, v_uv + shade_off) * u_use_shade;
     vec3 color = mix(u_paper, shade.rgb, shade.a);
     float cover = shade.a;
+    // lines stay visible over dark fills: where the fill's luminance comes within u_line_contrast of an ink's
+    // (a dark texture), that ink turns towards the paper colour, fully where the fill is as dark as the ink
+    const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
+    float fill_luma = dot(color, LUMA);
     vec2 first_edge_off = u_edge_matrix[0] * off;
 #ifdef HAS_DEPTH
     float z = u_use_shade > 0.5 ? depth_at(v_uv + shade_off) : 1.0;
@@ -54,7 +59,10 @@ void main() {
     for (int i = 0; i < LAYERS; ++i) {
         vec2 edge_off = u_edge_matrix[i] * off;
         float e = clamp(texture(t_edges, v_uv + edge_off).r * u_edge_strength, 0.0, 1.0);
-        color = mix(color, u_edge_color[i], e);
+        float ink_luma = dot(u_edge_color[i], LUMA);
+        float light = u_line_contrast > 0.0
+            ? clamp((ink_luma + u_line_contrast - fill_luma) / u_line_contrast, 0.0, 1.0) : 0.0;
+        color = mix(color, mix(u_edge_color[i], u_paper, light), e);
         cover = max(cover, e);
 #ifdef HAS_DEPTH
         z = min(z, depth_at(v_uv + edge_off));

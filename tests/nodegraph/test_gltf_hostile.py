@@ -531,7 +531,7 @@ def test_limit_texture_pixels_from_the_header(tmp_path, monkeypatch, header, kin
     def no_decoding(*a, **k):
         raise AssertionError("decoded before the size check")
 
-    monkeypatch.setattr(gltf._Reader, "_decode_mean", no_decoding)
+    monkeypatch.setattr(gltf._Reader, "_decode_pixels", no_decoding)
     msg = _refused(gf.write_parts(tmp_path / "t.glb", doc, blob), "images[0]", f"{header[0]}x{header[1]} pixels",
                    "(MAX_TEXTURE_PIXELS)")
     assert str(gltf.MAX_TEXTURE_PIXELS) in msg
@@ -557,7 +557,7 @@ def test_a_broken_png_never_reaches_the_decoder(tmp_path, monkeypatch):
         def no_decoding(*a, **k):
             raise AssertionError("a broken PNG was handed to the decoder")
 
-        monkeypatch.setattr(gltf._Reader, "_decode_mean", no_decoding)
+        monkeypatch.setattr(gltf._Reader, "_decode_pixels", no_decoding)
         gltf._ASSETS.clear()
         with pytest.warns(gltf.MeshWarning, match="base colour texture 0"):
             gltf.load_asset(gf.write_parts(tmp_path / "p.glb", doc, blob))

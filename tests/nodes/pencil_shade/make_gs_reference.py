@@ -33,9 +33,11 @@ def load(scene: str, size: tuple[int, int]) -> pl.Pipeline:
     # the references were drawn before pipelines had a reference size, i.e. with every param per pixel (the
     # reference size equal to the image's shorter side gives that: px_scale 1), and before curvature's smooth
     # field became the default (the spread field at its smoothing then), and before the tone of surfaces seen
-    # nearly edge-on was lifted (shade.grazing_floor; the geometry shader never had it)
+    # nearly edge-on was lifted (shade.grazing_floor; the geometry shader never had it), and before tone took the
+    # surface colour's lightness (shade.albedo_weight)
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=size, scene=scene, reference_size=min(size),
-                   overrides=["curv.field=spread", "curv.smoothing=0.05", "shade.grazing_floor=0"])
+                   overrides=["curv.field=spread", "curv.smoothing=0.05", "shade.grazing_floor=0",
+                              "shade.albedo_weight=0"])
     return pipe
 
 

@@ -148,3 +148,27 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"image": "s.color", "offsets": "s.offsets", "depth": "s.depth"})
     assert assert_outputs_as_planned(ex, res, "s") == ["color", "depth", "offsets"]
+
+
+def test_a_line_over_a_black_fill_stays_visible(gl):
+    """A dark texture under a line: the ink turns to the paper colour where the fill is as dark as the ink, and a
+    light fill keeps the ink colour (hand-computed: contrast 0.1, ink luminance ~0.1)."""
+    h, w = 16, 32
+    edges = np.zeros((h, w, 1), np.float32)
+    edges[:, 8] = edges[:, 24] = 1.0  # one line over each half
+    shade = np.zeros((h, w, 4), np.float32)
+    shade[..., 3] = 1.0
+    shade[:, 16:, :3] = 0.8  # left half black, right half light grey
+    zero = gl.upload(np.zeros((h, w, 2), np.float32), "RG16F")
+    node = Sketch("s", Sketch.Params(edge_matrix=((0.0, 0.0), (0.0, 0.0)), shade_matrix=((0.0, 0.0), (0.0, 0.0))))
+    out = run_node(gl, node, {"edges": gl.upload(edges, "R16F"), "shade": gl.upload(shade, "RGBA8"), "offset": zero},
+                   (w, h), needed=frozenset({"color"}))["color"].read()
+    paper, ink = np.array(node.params.paper), np.array(node.params.edge_color)
+    assert np.abs(out[4, 8, :3] - paper).max() < 0.01  # over black: a light line
+    assert np.abs(out[4, 4, :3]).max() < 0.01  # the black fill beside it
+    assert np.abs(out[4, 24, :3] - ink).max() < 0.01  # over the light fill: the ink as before
+    off = run_node(gl, Sketch("s", Sketch.Params(edge_matrix=((0.0, 0.0), (0.0, 0.0)), line_contrast=0.0,
+                                                 shade_matrix=((0.0, 0.0), (0.0, 0.0)))),
+                   {"edges": gl.upload(edges, "R16F"), "shade": gl.upload(shade, "RGBA8"), "offset": zero},
+                   (w, h), needed=frozenset({"color"}))["color"].read()
+    assert np.abs(off[4, 8, :3] - ink).max() < 0.01  # line_contrast 0: the ink, lost in the black
