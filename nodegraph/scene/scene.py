@@ -429,7 +429,12 @@ class Scene:
             for k in poses[: max(0, len(poses) - 3)]:  # a few poses: keys and computes of one frame share one
                 del self._cache[k]
             hit = self._cache[key] = self.animation.pose(self, int(frame))
+            hit._cache["posed_from"] = self  # the animated scene: rasterize's `motion` poses the frame before
         return hit
+
+    def animated_source(self) -> Scene | None:
+        """The animated scene this one is a pose of (`at`), or None."""
+        return self._cache.get("posed_from")
 
     def camera_at(self, frame: int) -> Camera:
         """The camera for `frame`: eye, target and up turned rigidly about the orbit axis."""

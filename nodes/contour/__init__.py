@@ -7,19 +7,22 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
+from nodegraph.errors import NodeError
 from nodegraph.gpu import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.scene import lights
 from nodegraph.types import Texture, TextureArray
 
-from .._shared.pencil import GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, screen_bounds, view_light
+from .._shared.pencil import ALBEDO_REF, GRAPHITE_COLOR, MAX_AMPLITUDE, PAPER_COLOR, Color, screen_bounds, view_light
 
 
 class Contour(Node):
     """Draws the edge map several times, once through each distortion layer (a shaken attempt), with pencil tone:
     attempt k darkens by tone x pressure_k x edge x (1 - light_weight x l), where l = sqrt((N.L) x 0.5 + 0.5) is the
     light contribution of the surface under the pixel (as the report implementing Lee et al. computes it; off the
-    surface, under the first attempt's edge sample), so lines in shadow are darker. With a paper texture the
+    surface, under the first attempt's edge sample), so lines in shadow are darker; with `albedo` connected the
+    brightness is also scaled by the surface colour's lightness (`albedo_weight`), so lines over darker materials
+    are darker. With a paper texture the
     darkness is modulated by the dot product of the grain normal and the stroke direction (across the projected
     normal). Attempts combine as value = prod_k (1 - darkness_k): where they overlap the line darkens. Per-attempt
     pressures are drawn from the node seed in [1 - pressure_jitter, 1], the same for the whole sequence by default
@@ -34,6 +37,9 @@ class Contour(Node):
         "normal_depth": Input(Texture("RGBA16F"), "View-space normal and linear depth (rasterize.normal_depth)."),
         "paper": Input(Texture("RGBA16F"), "Paper grain normals (paper.out); no grain when not connected.",
                        optional=True),
+        "albedo": Input(Texture("RGBA8"), "Surface colour (rasterize.color), the size of normal_depth: lines over "
+                        "darker materials are darker (`albedo_weight`); the light alone when not connected.",
+                        optional=True),
     }
     outputs = {
         "out": Output(Texture("R16F"), "Contour drawing as paper value: 1 = bare paper, 0 = black."),
@@ -53,6 +59,10 @@ class Contour(Node):
                                   "in `color`.")
         paper_color: Color = Field(PAPER_COLOR, description="Paper colour (RGB, 0..1).")
         graphite_color: Color = Field(GRAPHITE_COLOR, description="Colour of fully dark graphite (RGB, 0..1).")
+        albedo_weight: float = Field(1.0, ge=0, le=4, description="With `albedo` connected: the light's brightness "
+                                     "under a line is scaled by (L* / L*_ref) ^ albedo_weight, L* the surface "
+                                     "colour's CIE lightness and L*_ref the default mesh colour's (81.8), as "
+                                     "pencil_shade's tone; 0: the light alone.")
         hold: int = Field(0, ge=0, le=100_000, description="Frames per change of the per-attempt pressures: 0 "
                           "keeps them for the whole sequence, N draws new ones every N frames.")
 
@@ -73,8 +83,9 @@ class Contour(Node):
         layers = dist.layers
         ports = [port for port in ("out", "color") if port in needed]
         paper = inputs.get("paper")
+        albedo = inputs.get("albedo") if p.albedo_weight > 0 else None
         defines = {f"LOC_{port.upper()}": i for i, port in enumerate(ports)}
-        defines.update(LAYERS=layers, PAPER=int(paper is not None))
+        defines.update(LAYERS=layers, PAPER=int(paper is not None), ALBEDO=int(albedo is not None))
         scene = ctx.scene
         punctual: dict[str, Any] = {}
         if scene is not None and scene.lights:  # punctual lights: sqrt(brightness) instead of the half-Lambert term
@@ -88,11 +99,18 @@ class Contour(Node):
         textures = {"t_edges": inputs["edges"], "t_distortion": dist, "t_normal_depth": inputs["normal_depth"]}
         if paper is not None:
             textures["t_paper"] = paper
+        if albedo is not None:
+            if albedo.size != inputs["normal_depth"].size:
+                raise NodeError(f"contour: albedo is {albedo.size[0]}x{albedo.size[1]} but normal_depth is "
+                                f"{inputs['normal_depth'].size[0]}x{inputs['normal_depth'].size[1]}: connect the "
+                                "same rasterize's color")
+            textures["t_albedo"] = albedo
         light = view_light(ctx.scene, ctx.camera) if ctx.scene is not None else np.array([0.0, 0.0, 1.0])
         uniforms = {"u_light": tuple(float(c) for c in light), "u_tone": p.tone, "u_light_weight": p.light_weight,
                     "u_grain": p.grain, "u_pressure": self.pressures(ctx.seed, layers).astype(np.float32),
                     "u_paper_color": p.paper_color, "u_graphite_color": p.graphite_color, "u_paper_tint": p.paper_tint,
-                    **punctual}
+                    **punctual, **({"u_albedo_ref": ALBEDO_REF, "u_albedo_weight": p.albedo_weight} if albedo is not
+                                   None else {})}
         fbo = ctx.gl.framebuffer([targets[port] for port in ports])
         rect = self._rect(inputs["edges"], dist, size)
         if rect is not None and "color" not in targets:  # the value alone: 1 outside, a footprint

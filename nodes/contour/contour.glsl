@@ -18,6 +18,12 @@ uniform float u_pressure[LAYERS];     // per-attempt pressure in (0, 1]
 uniform vec3 u_paper_color;           // paper colour
 uniform vec3 u_graphite_color;        // graphite colour
 uniform float u_paper_tint;           // visibility of the paper relief on bare paper
+#if ALBEDO
+uniform sampler2D t_albedo;           // the surface colour (rasterize.color, display values), as normal_depth
+uniform float u_albedo_ref;           // L* whose lines are as without albedo: the default mesh colour's
+uniform float u_albedo_weight;        // light brightness x (L* / u_albedo_ref) ^ u_albedo_weight
+#include "albedo.glsl"
+#endif
 #ifdef LIGHTS
 // the scene's punctual lights replace u_light (nodegraph/scene/lights.py): the line's light term is
 // sqrt(brightness) at the view-space point under the pixel, rebuilt from its linear depth
@@ -66,7 +72,7 @@ void main() {
     vec2 p0 = gl_FragCoord.xy + texelFetch(t_distortion, ivec3(px, 0), 0).xy;
     vec4 nd = texelFetch(t_normal_depth, px, 0);
     vec4 there = texelFetch(t_normal_depth, clamp(ivec2(floor(p0)), ivec2(0), maxpx), 0);
-#ifdef LIGHTS
+#if defined(LIGHTS) || ALBEDO
     ivec2 q = nd.w > 0.0 ? px : clamp(ivec2(floor(p0)), ivec2(0), maxpx);
 #endif
     nd = nd.w > 0.0 ? nd : there;
@@ -76,6 +82,11 @@ void main() {
 #else
     // light contribution sqrt((N.L) * 0.5 + 0.5) (the report's); background reads as half lit
     float light = nd.w > 0.0 ? sqrt(clamp(dot(normalize(nd.xyz), u_light) * 0.5 + 0.5, 0.0, 1.0)) : sqrt(0.5);
+#endif
+#if ALBEDO
+    // a darker material: less light, a darker line (brightness x (L* / ref)^weight; the light is its sqrt)
+    if (nd.w > 0.0)
+        light = min(light * sqrt(albedo_factor(texelFetch(t_albedo, q, 0).rgb, u_albedo_ref, u_albedo_weight)), 1.0);
 #endif
     float stroke = u_tone * (1.0 - u_light_weight * light);
 #if PAPER

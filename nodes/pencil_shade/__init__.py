@@ -13,12 +13,11 @@ from nodegraph.errors import NodeError
 from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.scene import lights, meshes, meshstore, origin
-from nodegraph.scene.scene import DEFAULT_MESH_COLOR
 from nodegraph.types import ARRAYS, SCENE, Texture, TextureArray
 
 from .._shared.culling import HOLE_SHARE_CULL
 from .._shared.curvature import DirectionSource, object_field
-from .._shared.pencil import GRAPHITE_COLOR, PAPER_COLOR, Color, screen_bounds, view_light
+from .._shared.pencil import ALBEDO_REF, GRAPHITE_COLOR, PAPER_COLOR, Color, screen_bounds, view_light
 from . import reference
 
 _LOCATIONS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND", "color": "LOC_COLOR"}
@@ -248,18 +247,6 @@ class PencilShade(Node):
             shaded.scissor = None
         gl.release(anchor_tex)
         return dict(zip(ports, targets, strict=True))
-
-
-def albedo_lightness(color: tuple[float, float, float]) -> float:
-    """CIE lightness L* (0..100) of a display colour as an RGBA8 texel holds it: Rec. 709 luminance of its linear
-    values, then L* = 116 Y^(1/3) - 16 (903.3 Y below 0.008856)."""
-    c = np.round(np.asarray(color, dtype=np.float64) * 255.0) / 255.0
-    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    y = float(lin @ np.array([0.2126, 0.7152, 0.0722]))
-    return 116.0 * y ** (1.0 / 3.0) - 16.0 if y > 0.008856 else 903.3 * y
-
-
-ALBEDO_REF = albedo_lightness(DEFAULT_MESH_COLOR)  # L* 81.8: the default mesh colour hatches as N.L alone
 
 
 def _gbuffer(gl: Any, size: tuple[int, int]) -> tuple[Any, Any]:

@@ -28,6 +28,7 @@ uniform sampler2D t_paper;     // grain normal (xyz), height (w)
 uniform sampler2D t_albedo;      // the surface colour (rasterize.color, display values)
 uniform float u_albedo_ref;      // CIE lightness L* that hatches as N.L alone: the default mesh colour's
 uniform float u_albedo_weight;   // brightness x (L* / u_albedo_ref) ^ u_albedo_weight
+#include "albedo.glsl"
 #endif
 #if CONTOUR
 uniform sampler2D t_contour;   // contours, 1 = paper
@@ -80,13 +81,9 @@ void main() {
     float darkness = a2d.y;
 #if ALBEDO
     // tone from the lit albedo: brightness (1 - darkness)^2 scaled by the albedo's lightness (CIE L*, the value
-    // an artist judges) against the reference's (within 0.1% of it: unchanged), so darker materials hatch darker
-    vec3 alb = clamp(texture(t_albedo, v_uv).rgb, 0.0, 1.0);
-    alb = mix(alb / 12.92, pow((alb + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), alb));
-    float lum = dot(alb, vec3(0.2126, 0.7152, 0.0722));
-    float lstar = lum > 0.008856 ? 116.0 * pow(lum, 1.0 / 3.0) - 16.0 : 903.3 * lum;
-    if (abs(lstar - u_albedo_ref) > 1e-3 * u_albedo_ref)
-        darkness = 1.0 - min((1.0 - darkness) * sqrt(pow(max(lstar, 0.1) / u_albedo_ref, u_albedo_weight)), 1.0);
+    // an artist judges) against the reference's, so darker materials hatch darker (albedo.glsl)
+    darkness = 1.0 - min((1.0 - darkness)
+                         * sqrt(albedo_factor(texture(t_albedo, v_uv).rgb, u_albedo_ref, u_albedo_weight)), 1.0);
 #endif
     vec3 w = vec3(w01, 1.0 - w01.x - w01.y);
     vec2 dir0 = vec2(cos(angle.x), sin(angle.x));
