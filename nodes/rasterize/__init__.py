@@ -57,7 +57,7 @@ class Rasterize(Node):
     that cannot be represented even so gets one `PrecisionWarning`."""
 
     version = "3"
-    shaders = ("rasterize.glsl",)
+    shaders = ("rasterize.glsl", "motion.glsl")
     context_keys = frozenset({"size", "frame", "scene", "camera"})
     persist = "auto"
     inputs = {"scene": Input(SCENE, "Scene to draw; the pipeline's scene when not connected.", optional=True)}
@@ -72,6 +72,11 @@ class Rasterize(Node):
                            "a mesh whose box centre lies over 64 box radii from its origin, relative to that "
                            "centre (nodegraph/scene/origin.py)."),
         "object_id": Output(Texture("R32F"), "Index of the object + 1; 0 = background."),
+        "motion": Output(Texture("RGBA32F"), "Where each covered pixel's surface point was in the previous frame "
+                         "(frame - 1; frame 0: the pixel itself): xy its window position in pixels (gl_FragCoord "
+                         "convention: origin lower-left, pixel centres at +0.5), z its window depth [0, 1] then "
+                         "(2 where it was behind the camera), w = 1 where covered, 0 background. From the camera's "
+                         "motion, object animation, skinning and morphs (nodegraph/output/motion.py warps with it)."),
     }
 
     class Params(NodeParams):
@@ -119,6 +124,9 @@ class Rasterize(Node):
 
     def hash_extra(self, ctx: HashContext) -> Any:
         extra = origin.hash_extra(ctx.scene, ctx.frame)
+        source = getattr(ctx.scene, "animated_source", lambda: None)()
+        if source is not None:  # `motion` reads the frame before, which the pose alone does not name
+            extra = {"origin": extra, "animation": source.animation.digest()}
         if ctx.scene is not None and any(o.mesh.rest is not None for o in ctx.scene.objects):
             from nodegraph.gpu.glsl import source_digest
 
@@ -208,6 +216,8 @@ class Rasterize(Node):
                     vao.render(gl.ctx.TRIANGLES)
         if rest:
             self._rest_pass(ctx, targets["position"], objects, view, world, proj, scene_diag)
+        if "motion" in needed:
+            targets["motion"] = self._motion_pass(ctx, scene, objects, (view, world, proj), scene_diag)
         if bands:
             (lo_t, hi_t), factors = TONE_BANDS[bands]
             banded = ctx.target("color")
@@ -262,7 +272,84 @@ class Rasterize(Node):
                 vao.render(gl.ctx.TRIANGLES)
 
 
+    def _motion_pass(self, ctx: RunContext, scene: Any, objects: list[Any], now: tuple[np.ndarray, ...],
+                     scene_diag: float) -> Any:
+        """`motion`: the geometry drawn again as the main pass draws it (own depth buffer, the same enlargement
+        and culling), each fragment writing the previous frame's window position and depth of its surface point.
+        Alpha cut-outs (glTF MASK) are not cut here: motion covers the whole triangles."""
+        gl = ctx.gl
+        w, h = ctx.size
+        view, world, proj = now
+        prev_scene, prev_frame = previous_scene(scene, ctx.frame)
+        prev_cam = prev_scene.camera_at(prev_frame)
+        prev_view, prev_proj = prev_cam.view_matrix(), prev_cam.projection_matrix(w / h)
+        prev_world = origin.world_origin(prev_scene, prev_cam)
+        target = ctx.target("motion", filter="nearest")
+        prog = ctx.program(MOTION_SHADER)
+        fbo = gl.framebuffer([target], gl.depth_buffer((w, h)))
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        fbo.use()
+        gl.ctx.viewport = (0, 0, w, h)
+        crease = self.params.crease_angle
+        enlarging = self.params.enlarge > 0
+        with gl.depth_test() as state:
+            for obj in objects:
+                prev = prev_scene.objects[obj.index] if obj.index < len(prev_scene.objects) else obj
+                prev_mesh = prev.mesh if prev.mesh.n_vertices == obj.mesh.n_vertices else obj.mesh
+                vao, diag, prev_diag, local = _motion_geometry(gl, prog, obj.mesh, prev_mesh, crease, enlarging)
+                model = np.asarray(obj.transform, dtype=np.float64)
+                prev_model = np.asarray(prev.transform, dtype=np.float64)
+                u_view, u_model = origin.relative_matrices(view, model, world, local)
+                p_view, p_model = origin.relative_matrices(prev_view, prev_model, prev_world, local)
+                bind(prog, {}, {"u_mvp": proj @ (u_view @ u_model), "u_prev_mvp": prev_proj @ (p_view @ p_model),
+                                "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0,
+                                "u_prev_enlarge": self._enlarge(prev_diag, prev_model, scene_diag) if enlarging
+                                else 0.0, "u_size": (float(w), float(h))})
+                state.cull(_cull_face(obj, self.params.backfaces))
+                vao.render(gl.ctx.TRIANGLES)
+        return target
+
+
 REST_SHADER = "rest_position.glsl"
+MOTION_SHADER = "motion.glsl"
+
+
+def previous_scene(scene: Any, frame: int) -> tuple[Any, int]:
+    """The scene as it was one frame before `frame`, and that frame: the animated scene's pose at frame - 1
+    where `scene` is a pose (`Scene.at`), else the scene itself (its orbit turns the camera back); at frame 0
+    the scene itself at frame 0 (no motion)."""
+    if frame == 0:
+        return scene, 0
+    source = scene.animated_source() if hasattr(scene, "animated_source") else None
+    if source is None:
+        return scene, frame - 1
+    return source.at(frame - 1), frame - 1
+
+
+def _motion_geometry(gl: Any, prog: Any, mesh: Any, prev_mesh: Any, crease_angle: float, enlarging: bool
+                     ) -> tuple[Any, float, float, np.ndarray]:
+    """The motion pass's vertex array over a mesh and its previous frame's pose (same faces), the two
+    diagonals, and the positions' origin (both poses relative to the current one's)."""
+
+    def build() -> MeshArrays:
+        ra = mesh.render_arrays(crease_angle)
+        local = origin.mesh_origin(mesh)
+        pos = origin.positions(mesh, ra, local)
+        prev_pos = (np.asarray(prev_mesh.vertices, dtype=np.float64)[ra.source_vertex] - local).astype(np.float32)
+        if enlarging:
+            smooth = enlarge_normals(mesh, crease_angle)
+            prev_smooth = smooth if prev_mesh is mesh else enlarge_normals(prev_mesh, crease_angle)
+        else:
+            smooth = prev_smooth = np.zeros_like(pos)
+        return MeshArrays({"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f"), "in_prev": (prev_pos, "3f"),
+                           "in_prev_smooth": (prev_smooth, "3f")}, ra.indices,
+                          meta={"diag": mesh.diagonal(), "prev_diag": prev_mesh.diagonal(), "origin": local})
+
+    key = ("rasterize.motion", mesh.content_hash(), prev_mesh.content_hash(), float(crease_angle), enlarging)
+    slot = ("rasterize.motion", mesh.rest.content_hash(), float(crease_angle), enlarging) \
+        if mesh.rest is not None else None
+    entry = gl.mesh_buffers(key, build, slot)
+    return entry.vao(prog), entry.meta["diag"], entry.meta["prev_diag"], entry.meta["origin"]
 
 
 def _cull_face(obj: Any, backfaces: str) -> str | None:

@@ -49,6 +49,8 @@ NAMED: dict[str, str] = {
     "checksum": "nodegraph.tools.bench.checksum:command",
     "orientation": "nodegraph.tools.bench.orientation:command",
     "posing": "nodegraph.tools.bench.posing:command",
+    "flicker": "nodegraph.tools.bench.flicker:command",
+    "coherence": "nodegraph.tools.bench.coherence:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

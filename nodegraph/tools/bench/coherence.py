@@ -1,0 +1,550 @@
+"""`sketchgraph bench coherence`: how much each shipped pipeline flickers or swims in a film, as the warping
+error between consecutive frames along the exact screen-space motion (`rasterize.motion`).
+
+For each pair of consecutive frames (t - 1, t) of a shot,
+
+    E_t = mean over the pixels visible in both frames of |L_t - warp(L_{t-1}, motion_t)|
+
+where L is the luminance (Rec. 709 weights, the image composited over white where it has alpha, values 0..1),
+`warp` reads the previous frame bilinearly where the pixel's surface point was then and `visible_both` keeps
+the pixels whose point was not hidden and stayed in the picture, plus the background that stayed background
+(nodegraph/output/motion.py; after Lai et al. 2018 and Bonneel et al. 2015, with the exact motion instead of
+optical flow). A shot's E is the mean of E_t over its pairs. Three figures are measured the same way:
+
+- `e_pipeline`: the pipeline's `image` as configured;
+- `e_plain`: the plain lit render (`rasterize` with lit: true): the floor, shading change and aliasing only;
+- `e_reseed`: the pipeline with every stochastic node re-seeded each frame (the pipeline seed changes every
+  frame, so every seeded node draws new noise): boiling at its worst.
+
+Beside them, not part of the index, `e_no_uncertainty`: the pipeline with its SWEEP params (how far marks stray)
+at 0: what is left is the drawing's own change (lines sliding over the surface at silhouettes, edge aliasing,
+hatching), the most a film setting that keeps the look can expect to remove.
+
+    coherence_index = 1 - (e_pipeline - e_plain) / (e_reseed - e_plain), clipped to [0, 1]
+
+1 = as coherent as the plain render, 0 = as incoherent as re-seeding every frame (None where re-seeding does not
+raise the error above the floor). Paper grain is measured off (`grain` and `paper_tint` 0 on the nodes reading
+a `paper` input): it stays fixed on the sheet by design and would count as error wherever a surface moves.
+
+`sketchiness_px`: the mean distance in pixels (at the bench size) from each drawn pixel (a thin dark mark: at
+least 0.1 darker in luminance than the image's 5x5 grey closing there, whatever the fill around it) of the first
+frame of the `turn` shot to the nearest true feature line of the mesh (silhouettes, creases and boundaries,
+visible by depth: nodegraph/tools/bench/groundtruth.py, as the accuracy charts use); hatching counts as drawn
+marks too.
+
+The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
+camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
+like an elbow). `film`: each pipeline's film setting (FILM: overrides as `--set` takes them; empty = the default).
+`hold`: the index with `hold: N` on every node that has one. `sweep`: the pipeline's main parameters (SWEEP) scaled
+by 0.5 and 2 on the `turn` shot, for the chart of coherence against sketchiness.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ...fsio import atomic_write_text
+from ...output import motion as mo
+
+FPS = 24.0
+SHOTS = ("turn", "orbit", "bend")
+HOLDS = (1, 2, 4)
+RESEED_STRIDE = 7919  # pipeline seed of frame t in the re-seeded baseline: the pipeline's + 7919 (t + 1)
+DARK = 0.1  # a pixel counts as drawn where it is this much darker than its 5x5 grey closing (sketchiness)
+# each pipeline's film setting: overrides as `--set NODE.PARAM=VALUE` takes them ({} = the default)
+FILM: dict[str, dict[str, Any]] = {
+    "chalk": {},
+    "loose_and_sketchy": {},
+    "loose_and_sketchy_shaded": {},
+    "nienhaus_sketchy": {},
+    "object_space_uncertainty": {},
+    "pencil": {},
+    "pencil_contours": {},
+    "repeated_edges": {},
+    "sketchy_composite": {},
+    "sketchy_lines": {},
+}
+# node type -> the params that set how far drawn marks stray (scaled together by SWEEP_FACTORS)
+SWEEP: dict[str, tuple[str, ...]] = {
+    "sketch": ("edge_matrix", "shade_matrix"),
+    "distortion_map": ("amplitude",),
+    "particle_sketch": ("randomness",),
+}
+SWEEP_FACTORS = (0.5, 2.0)
+
+PLAIN_YAML = """pipeline: coherence-plain
+size: [256, 256]
+scene: builtin:box
+nodes:
+  gbuf: {type: rasterize, params: {lit: true}}
+outputs:
+  image: gbuf.color
+"""
+
+
+# -- the shots ---------------------------------------------------------------------------------------------
+
+
+class _Gltf:
+    """A small glTF document written with pygltflib: meshes, nodes, cameras and LINEAR animation channels."""
+
+    def __init__(self) -> None:
+        import pygltflib as g
+
+        self.g = g
+        self.doc = g.GLTF2(scene=0, scenes=[g.Scene(nodes=[])], animations=[g.Animation(name="shot")])
+        self.blob = bytearray()
+
+    def data(self, array: np.ndarray, kind: str, ctype: int = 5126, bounds: bool = False) -> int:
+        a = np.ascontiguousarray(array)
+        self.blob += b"\0" * (-len(self.blob) % 4)
+        self.doc.bufferViews.append(self.g.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=a.nbytes))
+        self.blob += a.tobytes()
+        acc = self.g.Accessor(bufferView=len(self.doc.bufferViews) - 1, componentType=ctype, count=len(a), type=kind)
+        if bounds:
+            flat = a.reshape(len(a), -1).astype(np.float64)
+            acc.min, acc.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
+        self.doc.accessors.append(acc)
+        return len(self.doc.accessors) - 1
+
+    def mesh(self, vertices: np.ndarray, faces: np.ndarray, color: tuple[float, float, float],
+             skin: tuple[np.ndarray, np.ndarray] | None = None) -> int:
+        g = self.g
+        attrs = {"POSITION": self.data(vertices.astype(np.float32), "VEC3", bounds=True)}
+        if skin is not None:
+            attrs["JOINTS_0"] = self.data(skin[0].astype(np.uint8), "VEC4", 5121)
+            attrs["WEIGHTS_0"] = self.data(skin[1].astype(np.float32), "VEC4")
+        self.doc.materials.append(g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(
+            baseColorFactor=[*color, 1.0])))
+        prim = g.Primitive(attributes=g.Attributes(**attrs), indices=self.data(faces.astype(np.uint32).ravel(),
+                                                                                "SCALAR", 5125),
+                           material=len(self.doc.materials) - 1)
+        self.doc.meshes.append(g.Mesh(primitives=[prim]))
+        return len(self.doc.meshes) - 1
+
+    def node(self, root: bool = True, **kw: Any) -> int:
+        self.doc.nodes.append(self.g.Node(**kw))
+        if root:
+            self.doc.scenes[0].nodes.append(len(self.doc.nodes) - 1)
+        return len(self.doc.nodes) - 1
+
+    def camera(self, eye: Any, target: Any) -> int:
+        self.doc.cameras.append(self.g.Camera(type="perspective", perspective=self.g.Perspective(
+            yfov=0.6, znear=0.1, zfar=50.0)))
+        return self.node(camera=len(self.doc.cameras) - 1, translation=list(map(float, eye)),
+                         rotation=look_rotation(eye, target))
+
+    def animate(self, node: int, path: str, times: np.ndarray, values: np.ndarray) -> None:
+        g = self.g
+        kind = "VEC4" if path == "rotation" else "VEC3"
+        an = self.doc.animations[0]
+        an.samplers.append(g.AnimationSampler(input=self.data(np.asarray(times, np.float32), "SCALAR", bounds=True),
+                                              output=self.data(np.asarray(values, np.float32), kind)))
+        an.channels.append(g.AnimationChannel(sampler=len(an.samplers) - 1,
+                                              target=g.AnimationChannelTarget(node=node, path=path)))
+
+    def save(self, path: Path) -> Path:
+        if not self.doc.animations[0].channels:
+            self.doc.animations = []
+        self.doc.buffers = [self.g.Buffer(byteLength=len(self.blob))]
+        self.doc.set_binary_blob(bytes(self.blob))
+        self.doc.save_binary(str(path))
+        return path
+
+
+def quaternion(axis: Any, degrees: float) -> list[float]:
+    a = np.asarray(axis, np.float64)
+    a = a / np.linalg.norm(a)
+    h = math.radians(degrees) / 2.0
+    return [*(a * math.sin(h)).tolist(), math.cos(h)]
+
+
+def look_rotation(eye: Any, target: Any) -> list[float]:
+    """The (x, y, z, w) rotation of a glTF camera node at `eye` looking at `target` (up +Y): -Z towards it."""
+    back = np.asarray(eye, np.float64) - np.asarray(target, np.float64)
+    z = back / np.linalg.norm(back)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    m = np.stack([x, np.cross(z, x), z], axis=1)  # columns: the camera's axes in the world
+    w = math.sqrt(max(1.0 + m[0, 0] + m[1, 1] + m[2, 2], 1e-12)) / 2.0
+    return [(m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w), w]
+
+
+def torus(major: float = 0.7, minor: float = 0.28, n_major: int = 48, n_minor: int = 20
+          ) -> tuple[np.ndarray, np.ndarray]:
+    u = np.linspace(0, 2 * math.pi, n_major, endpoint=False)
+    v = np.linspace(0, 2 * math.pi, n_minor, endpoint=False)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    r = major + minor * np.cos(vv)
+    verts = np.stack([r * np.cos(uu), minor * np.sin(vv), r * np.sin(uu)], axis=-1).reshape(-1, 3)
+    i, k = np.meshgrid(np.arange(n_major), np.arange(n_minor), indexing="ij")
+    a, b = i * n_minor + k, ((i + 1) % n_major) * n_minor + k
+    c, d = ((i + 1) % n_major) * n_minor + (k + 1) % n_minor, i * n_minor + (k + 1) % n_minor
+    faces = np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
+    return verts, faces
+
+
+def box(size: Any) -> tuple[np.ndarray, np.ndarray]:
+    corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]) * size
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
+                      [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return corners, faces
+
+
+def tube(rings: int = 40, segments: int = 20, radius: float = 0.22) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A capped tube along +x from -1 to 1 and its joint-1 weight (smooth over -0.35 < x < 0.35)."""
+    xs = np.linspace(-1.0, 1.0, rings)
+    ang = np.linspace(0, 2 * math.pi, segments, endpoint=False)
+    ring = np.stack([np.cos(ang), np.sin(ang)], axis=1) * radius
+    verts = np.concatenate([np.c_[np.full(segments, x), ring] for x in xs] + [[[-1.0, 0, 0], [1.0, 0, 0]]])
+    faces = []
+    for i in range(rings - 1):
+        for k in range(segments):
+            k1 = (k + 1) % segments
+            a, b, c, d = i * segments + k, i * segments + k1, (i + 1) * segments + k1, (i + 1) * segments + k
+            faces += [[a, b, c], [a, c, d]]
+    c0, c1, last = rings * segments, rings * segments + 1, (rings - 1) * segments
+    faces += [[c0, (k + 1) % segments, k] for k in range(segments)]
+    faces += [[c1, last + k, last + (k + 1) % segments] for k in range(segments)]
+    s = np.clip((verts[:, 0] + 0.35) / 0.7, 0.0, 1.0)
+    return verts, np.array(faces), s * s * (3 - 2 * s)
+
+
+def write_shots(folder: Path, frames: int) -> dict[str, Path]:
+    """The three shots as .glb files in `folder`, each animated over `frames` frames at 24 fps."""
+    seconds = (frames - 1) / FPS
+    keys = np.arange(frames) / FPS
+    out = {}
+    # turn: the torus turns 60 degrees about a tilted axis; a box stands beside it
+    f = _Gltf()
+    ring = f.node(mesh=f.mesh(*torus(), color=(0.85, 0.6, 0.45)), name="torus")
+    f.node(mesh=f.mesh(*box([0.5, 0.9, 0.5]), color=(0.55, 0.65, 0.85)), name="box", translation=[1.25, -0.05, -0.3])
+    f.camera([1.6, 1.9, 4.6], [0.45, 0.0, 0.0])
+    f.animate(ring, "rotation", np.array([0.0, seconds]),
+              np.array([quaternion((0.3, 1.0, 0.4), 0.0), quaternion((0.3, 1.0, 0.4), 60.0)]))
+    out["turn"] = f.save(folder / "turn.glb")
+    # orbit: the camera moves 40 degrees around the still torus and box and comes in from 5.2 to 4.4
+    f = _Gltf()
+    f.node(mesh=f.mesh(*torus(), color=(0.85, 0.6, 0.45)), name="torus", rotation=quaternion((1, 0, 0), 30.0))
+    f.node(mesh=f.mesh(*box([0.5, 0.9, 0.5]), color=(0.55, 0.65, 0.85)), name="box", translation=[1.25, -0.05, -0.3])
+    s = np.linspace(0.0, 1.0, frames)
+    ang = np.radians(-20.0 + 40.0 * s)
+    dist = 5.2 - 0.8 * s
+    eyes = np.stack([dist * np.sin(ang) + 0.45, 1.6 + 0 * s, dist * np.cos(ang)], axis=1)
+    cam = f.camera(eyes[0], [0.45, 0.0, 0.0])
+    f.animate(cam, "translation", keys, eyes)
+    f.animate(cam, "rotation", keys, np.array([look_rotation(e, [0.45, 0.0, 0.0]) for e in eyes]))
+    out["orbit"] = f.save(folder / "orbit.glb")
+    # bend: a skinned tube; joint 1 (at the middle) turns 70 degrees about +Z
+    f = _Gltf()
+    verts, faces, w1 = tube()
+    weights = np.stack([1 - w1, w1, 0 * w1, 0 * w1], axis=1)
+    joints = np.tile([0, 1, 0, 0], (len(verts), 1))
+    mesh = f.mesh(verts, faces, color=(0.6, 0.7, 0.85), skin=(joints, weights))
+    j1 = len(f.doc.nodes) + 1
+    j0 = f.node(name="j0", translation=[-1.0, 0.0, 0.0], children=[j1])
+    f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.eye(4)])
+    ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0  # inverse bind: joint 0 at x = -1, joint 1 at x = 0
+    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.data(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    f.node(mesh=mesh, skin=0, name="tube")
+    f.camera([0.3, 1.0, 4.6], [0.2, 0.4, 0.0])
+    f.animate(j1, "rotation", np.array([0.0, seconds]),
+              np.array([quaternion((0, 0, 1), 0.0), quaternion((0, 0, 1), 70.0)]))
+    out["bend"] = f.save(folder / "bend.glb")
+    return out
+
+
+# -- measuring ---------------------------------------------------------------------------------------------
+
+
+def luminance(img: np.ndarray) -> np.ndarray:
+    """(H, W) float64 luminance (Rec. 709) of an image, composited over white where it has alpha."""
+    a = np.asarray(img, np.float64)
+    if a.ndim == 2:
+        return a
+    if a.shape[2] == 1:
+        return a[..., 0]
+    rgb = a[..., :3] if a.shape[2] >= 3 else np.repeat(a[..., :1], 3, axis=2)
+    if a.shape[2] == 4:
+        rgb = rgb * a[..., 3:] + (1.0 - a[..., 3:])
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+
+
+class Shot:
+    """One shot's motion fields and previous depths (from a plain G-buffer), and its plain floor."""
+
+    def __init__(self, session: Any, plain: Path, scene: Path, size: tuple[int, int], frames: int) -> None:
+        self.scene, self.frames = scene, frames
+        pipe = session.load(plain, scene=str(scene), size=size)
+        self.motion = [pipe.inspect("gbuf.motion", frame=t) for t in range(frames)]
+        self.depth = [pipe.inspect("gbuf.depth", frame=t)[..., 0] for t in range(frames)]
+        self.e_plain = self.error([luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
+
+    def error(self, lum: list[np.ndarray]) -> float:
+        """Mean warping error over the consecutive pairs of frames."""
+        errs = [mo.warping_error(lum[t], lum[t - 1], self.motion[t], self.depth[t - 1]) for t in range(1, len(lum))]
+        return float(np.nanmean(errs))
+
+
+def coherence_index(e_pipe: float, e_plain: float, e_reseed: float) -> float | None:
+    span = e_reseed - e_plain
+    if not span > 1e-6:
+        return None
+    return float(min(max(1.0 - (e_pipe - e_plain) / span, 0.0), 1.0))
+
+
+def grain_off(pipe: Any) -> dict[str, Any]:
+    """Overrides that take paper grain and tint off the nodes that read a `paper` input."""
+    out: dict[str, Any] = {}
+    for nid, node in pipe.pipeline.nodes.items():
+        fields = type(node.params).model_fields
+        if "paper" in pipe.pipeline.connections.get(nid, {}):
+            out.update({f"{nid}.{p}": 0.0 for p in ("grain", "paper_tint") if p in fields})
+    return out
+
+
+def held_nodes(pipe: Any) -> list[str]:
+    from ...node import HOLD_PARAM
+
+    return [nid for nid, node in pipe.pipeline.nodes.items() if HOLD_PARAM in type(node.params).model_fields]
+
+
+def sweep_overrides(pipe: Any, factor: float) -> dict[str, Any]:
+    """The pipeline's SWEEP params scaled by `factor` (matrices entry by entry)."""
+    out: dict[str, Any] = {}
+    for nid, node in pipe.pipeline.nodes.items():
+        for p in SWEEP.get(node.type_name, ()):
+            value = getattr(node.params, p)
+            out[f"{nid}.{p}"] = (np.asarray(value, np.float64) * factor).tolist()
+    return out
+
+
+def styled(session: Any, name: str, shot: Shot, size: tuple[int, int], overrides: dict[str, Any],
+           reseed: bool = False) -> list[np.ndarray]:
+    pipe = session.load(name, scene=str(shot.scene), size=size, set=overrides)
+    if not reseed:
+        return [luminance(img) for _, img in pipe.frames(range(shot.frames), output="image", dtype="float32")]
+    base = pipe.pipeline.seed
+    out = []
+    for t in range(shot.frames):
+        pipe.pipeline.seed = base + RESEED_STRIDE * (t + 1)
+        out.append(luminance(pipe.render("image", frame=t, dtype="float32")))
+    pipe.pipeline.seed = base
+    return out
+
+
+def sketchiness(session: Any, name: str, shot: Shot, size: tuple[int, int], overrides: dict[str, Any],
+                first: np.ndarray | None = None) -> float:
+    """Mean distance (px) of the dark pixels of frame 0 to the nearest true feature line."""
+    from scipy.ndimage import distance_transform_edt, grey_closing
+
+    from .groundtruth import line_drawing
+
+    pipe = session.load(name, scene=str(shot.scene), size=size, set=overrides)
+    lum = first if first is not None else luminance(pipe.render("image", frame=0, dtype="float32"))
+    linear = pipe.inspect(_linear_depth_ref(pipe), frame=0)[..., 0][::-1]  # row 0 = bottom, as line_drawing takes
+    truth = line_drawing(pipe.pipeline.scene.at(0), size, linear).lines[::-1]
+    dark = grey_closing(lum, size=(5, 5)) - lum > DARK
+    if not dark.any() or not truth.any():
+        return float("nan")
+    return float(distance_transform_edt(~truth)[dark].mean())
+
+
+def _linear_depth_ref(pipe: Any) -> str:
+    for nid, node in pipe.pipeline.nodes.items():
+        if node.type_name == "rasterize" and not getattr(node.params, "enlarge", 0.0):
+            return f"{nid}.linear_depth"
+    raise click.UsageError(f"{pipe.pipeline.name}: no rasterize node without enlargement to read depth from")
+
+
+def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, int], do_hold: bool = True,
+            do_sweep: bool = True, echo: Any = click.echo) -> dict[str, Any]:
+    """One pipeline's figures (module docstring)."""
+    t0 = time.perf_counter()
+    probe = session.load(name, size=size)
+    base = grain_off(probe)
+
+    def shot_figures(shot: Shot, overrides: dict[str, Any], reseed_e: float | None = None) -> dict[str, Any]:
+        e_pipe = shot.error(styled(session, name, shot, size, {**base, **overrides}))
+        e_reseed = reseed_e if reseed_e is not None else \
+            shot.error(styled(session, name, shot, size, {**base, **overrides}, reseed=True))
+        return {"coherence_index": coherence_index(e_pipe, shot.e_plain, e_reseed), "e_pipeline": e_pipe,
+                "e_plain": shot.e_plain, "e_reseed": e_reseed}
+
+    result: dict[str, Any] = {"grain_off": base}
+    default = {s: shot_figures(shot, {}) for s, shot in shots.items()}
+    still = sweep_overrides(probe, 0.0)
+    if still:  # beside the index: the error left with the strays set to 0 (lines moving over the surface, aliasing)
+        for s, shot in shots.items():
+            default[s]["e_no_uncertainty"] = shot.error(styled(session, name, shot, size, {**base, **still}))
+    result["default"] = {"overrides": {}, "shots": default}
+    echo(f"  {name}: default {_indices(default)} ({time.perf_counter() - t0:.0f} s)")
+    film = FILM.get(name, {})
+    if film:
+        result["film"] = {"overrides": film, "shots": {s: shot_figures(shot, film) for s, shot in shots.items()}}
+        echo(f"  {name}: film {_indices(result['film']['shots'])}")
+    else:
+        result["film"] = {"overrides": {}, "same_as": "default", "shots": default}
+    held = held_nodes(probe)
+    if do_hold and held:
+        result["hold"] = {}
+        for n in HOLDS:
+            ov = {f"{nid}.hold": n for nid in held}
+            result["hold"][str(n)] = {s: shot_figures(shot, ov, default[s]["e_reseed"]) for s, shot in shots.items()}
+        echo(f"  {name}: hold " + ", ".join(f"{n}: {_indices(result['hold'][str(n)])}" for n in HOLDS))
+    turn = shots.get("turn") or next(iter(shots.values()))
+    result["sketchiness_px"] = sketchiness(session, name, turn, size, base)
+    if do_sweep:
+        points = [{"factor": 1.0, "sketchiness_px": result["sketchiness_px"],
+                   "coherence_index": default[_key(shots, turn)]["coherence_index"]}]
+        for factor in SWEEP_FACTORS:
+            ov = sweep_overrides(probe, factor)
+            if not ov:
+                break
+            fig = shot_figures(turn, ov)
+            points.append({"factor": factor, "sketchiness_px": sketchiness(session, name, turn, size, {**base, **ov}),
+                           **fig})
+        result["sweep"] = {"params": sorted({k for k in sweep_overrides(probe, 1.0)}), "shot": _key(shots, turn),
+                           "points": sorted(points, key=lambda p: p["factor"])}
+    echo(f"  {name}: sketchiness {result['sketchiness_px']:.2f} px; {time.perf_counter() - t0:.0f} s")
+    return result
+
+
+def _key(shots: dict[str, Shot], shot: Shot) -> str:
+    return next(k for k, v in shots.items() if v is shot)
+
+
+def _indices(figures: dict[str, Any]) -> str:
+    return " ".join(f"{s} {_fmt(f['coherence_index'])}" for s, f in figures.items())
+
+
+def _fmt(v: float | None) -> str:
+    return "-" if v is None else f"{v:.2f}"
+
+
+def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool = True, do_sweep: bool = True,
+        echo: Any = click.echo) -> dict[str, Any]:
+    import nodegraph as ng
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="coherence-") as tmp, ng.Session(cache=False) as session:
+        folder = Path(tmp)
+        plain = folder / "plain.yaml"
+        plain.write_text(PLAIN_YAML)
+        scenes = write_shots(folder, frames)
+        shots = {}
+        for s, path in scenes.items():
+            shots[s] = Shot(session, plain, path, size, frames)
+            echo(f"shot {s}: plain floor E = {shots[s].e_plain:.4f}")
+        out: dict[str, Any] = {
+            "size": list(size), "frames": frames, "fps": FPS,
+            "measure": "mean |L_t - warp(L_t-1, motion_t)| of luminance (0..1) over pixels visible in both frames, "
+                       "mean over consecutive pairs; paper grain off",
+            "pipelines": {}}
+        for name in pipelines:
+            echo(f"{name} ...")
+            out["pipelines"][name] = measure(name, session, shots, size, do_hold, do_sweep, echo)
+        out["seconds"] = round(time.perf_counter() - t0, 1)
+    return out
+
+
+def chart(result: dict[str, Any], path: Path) -> Path:
+    """Coherence index (turn shot) against sketchiness for each pipeline's sweep."""
+    from .accuracy_charts import _plt
+
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8.0, 4.6))
+    for name, r in result["pipelines"].items():
+        turn = r["default"]["shots"].get("turn") or next(iter(r["default"]["shots"].values()))
+        pts = r.get("sweep", {}).get("points") or [{"factor": 1.0, "sketchiness_px": r["sketchiness_px"],
+                                                    "coherence_index": turn["coherence_index"]}]
+        pts = [p for p in pts if p["coherence_index"] is not None and math.isfinite(p["sketchiness_px"])]
+        if not pts:
+            continue
+        line = ax.plot([p["sketchiness_px"] for p in pts], [p["coherence_index"] for p in pts], "-", lw=1,
+                       label=name)[0]
+        for p in pts:
+            ax.scatter([p["sketchiness_px"]], [p["coherence_index"]], color=line.get_color(), zorder=3,
+                       s=40 if p["factor"] == 1.0 else 14, marker="o" if p["factor"] == 1.0 else "s")
+    ax.set_xlabel("sketchiness: mean distance of drawn pixels from the true lines (px at "
+                  f"{result['size'][0]}x{result['size'][1]})")
+    ax.set_ylabel("coherence index, turn shot\n(1 = plain render, 0 = re-seeded every frame)")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title("Coherence against sketchiness (dot: default; squares: main params x0.5 and x2)", fontsize=9)
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    from ...fsio import atomic_output
+
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", metadata={"Software": None}, format="png")
+    plt.close(fig)
+    return path
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"expected WxH such as 256x256, got {text!r}") from None
+    if not (16 <= w <= 4096 and 16 <= h <= 4096):
+        raise click.BadParameter(f"expected each side between 16 and 4096, got {text!r}")
+    return w, h
+
+
+@click.command(help="Temporal coherence of every shipped pipeline: the warping error of consecutive styled frames "
+                    "along the exact motion, against the plain lit render and per-frame re-seeding, on three shots "
+                    "made in code (turn, orbit, bend); coherence index 1 = plain, 0 = re-seeded.")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+@click.option("--pipelines", default=None, help="Comma-separated shipped pipelines (default: all).")
+@click.option("--size", default="256x256", show_default=True, help="WxH of the frames.")
+@click.option("--frames", default=12, show_default=True, type=click.IntRange(3, 240), help="Frames per shot.")
+@click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
+@click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
+@click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
+              help="Write the chart of coherence against sketchiness (PNG), e.g. docs/charts/coherence.png.")
+def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, no_hold: bool, no_sweep: bool,
+            chart_path: Path | None) -> None:
+    from ... import shipped
+
+    known = shipped.names()
+    names = [p.strip() for p in pipelines.split(",") if p.strip()] if pipelines else known
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise click.BadParameter(f"unknown pipeline(s) {', '.join(unknown)}; shipped: {', '.join(known)}",
+                                 param_hint="--pipelines")
+    result = run(names, _size(size), frames, not no_hold, not no_sweep)
+    click.echo(summary(result))
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(json_path, json.dumps(result, indent=2) + "\n")
+        click.echo(f"wrote {json_path}")
+    if chart_path:
+        click.echo(f"wrote {chart(result, chart_path)}")
+
+
+def summary(result: dict[str, Any]) -> str:
+    """A table: per pipeline, the index per shot (default), with hold 1/2/4 where measured, and sketchiness."""
+    lines = [f"{'pipeline':26s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   hold1/2/4 (mean)  sketch px"]
+    for name, r in result["pipelines"].items():
+        d = r["default"]["shots"]
+        holds = ""
+        if "hold" in r:
+            holds = "/".join(_fmt(_mean([f["coherence_index"] for f in r["hold"][str(n)].values()])) for n in HOLDS)
+        lines.append(f"{name:26s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
+                                               for s in SHOTS) + f"   {holds:17s} {r['sketchiness_px']:.2f}")
+    return "\n".join(lines)
+
+
+def _mean(values: list[float | None]) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None

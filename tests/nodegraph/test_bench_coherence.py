@@ -1,0 +1,65 @@
+"""`sketchgraph bench coherence` (nodegraph/tools/bench/coherence.py): its pieces by hand, and a small run."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nodegraph.scene import scene as sc
+from nodegraph.scene.animation import quat_matrix
+from nodegraph.tools.bench import coherence as co
+
+
+def test_coherence_index_maps_plain_to_one_and_reseed_to_zero():
+    assert co.coherence_index(0.01, 0.01, 0.05) == 1.0
+    assert co.coherence_index(0.05, 0.01, 0.05) == 0.0
+    assert co.coherence_index(0.02, 0.01, 0.05) == pytest.approx(0.75)
+    assert co.coherence_index(0.002, 0.01, 0.05) == 1.0 and co.coherence_index(0.09, 0.01, 0.05) == 0.0  # clipped
+    assert co.coherence_index(0.02, 0.01, 0.01) is None  # re-seeding changes nothing: no scale
+
+
+def test_luminance_composites_over_white():
+    img = np.zeros((1, 3, 4))
+    img[0, 0] = [1.0, 0.0, 0.0, 1.0]  # opaque red
+    img[0, 1] = [0.0, 0.0, 0.0, 0.0]  # transparent: the white sheet
+    img[0, 2] = [0.0, 0.0, 0.0, 0.5]  # half-covered black
+    np.testing.assert_allclose(co.luminance(img)[0], [0.2126, 1.0, 0.5])
+
+
+def test_look_rotation_points_the_camera_at_the_target():
+    eye, target = np.array([1.0, 2.0, 3.0]), np.array([0.2, -0.1, 0.4])
+    r = quat_matrix(np.array(co.look_rotation(eye, target)))[:3, :3]
+    want = (target - eye) / np.linalg.norm(target - eye)
+    np.testing.assert_allclose(r @ [0.0, 0.0, -1.0], want, atol=1e-12)
+    assert abs((r @ [1.0, 0.0, 0.0])[1]) < 1e-12  # no roll: the image's x axis stays level
+
+
+def test_shots_move_as_written(tmp_path):
+    paths = co.write_shots(tmp_path, 5)
+    turn = sc.load_scene(str(paths["turn"]))
+    axis = np.array([0.3, 1.0, 0.4]) / np.linalg.norm([0.3, 1.0, 0.4])
+    m = np.asarray(turn.at(4).objects[0].transform)[:3, :3]  # the last frame: 60 degrees about the axis
+    assert math.degrees(math.acos((np.trace(m) - 1) / 2)) == pytest.approx(60.0, abs=1e-3)
+    np.testing.assert_allclose(m @ axis, axis, atol=1e-6)
+    orbit = sc.load_scene(str(paths["orbit"]))
+    e0, e4 = orbit.camera_at(0).eye, orbit.camera_at(4).eye
+    assert np.linalg.norm(e0[[0, 2]] - [0.45, 0]) == pytest.approx(5.2, abs=1e-5)
+    assert np.linalg.norm(e4[[0, 2]] - [0.45, 0]) == pytest.approx(4.4, abs=1e-5)
+    bend = sc.load_scene(str(paths["bend"]))
+    tip = bend.at(4).objects[0].mesh.vertices[-1]  # the cap centre at x = 1, turned 70 degrees about the middle
+    np.testing.assert_allclose(tip, [math.cos(math.radians(70)), math.sin(math.radians(70)), 0.0], atol=1e-5)
+
+
+def test_a_small_run_reports_every_shot(gl):
+    result = co.run(["nienhaus_sketchy"], (96, 96), 4, do_hold=True, do_sweep=False, echo=lambda _msg: None)
+    r = result["pipelines"]["nienhaus_sketchy"]
+    assert set(r["default"]["shots"]) == set(co.SHOTS) and r["film"]["shots"] == r["default"]["shots"]
+    for f in r["default"]["shots"].values():
+        assert f["e_pipeline"] < f["e_reseed"]  # the default holds its noise: less change than new noise a frame
+        assert f["coherence_index"] is None or 0.0 <= f["coherence_index"] <= 1.0
+    assert set(r["hold"]) == {"1", "2", "4"}
+    for shot, f in r["hold"]["1"].items():  # boiling every frame: about as much change as re-seeding
+        assert f["e_pipeline"] > 0.8 * f["e_reseed"] > r["default"]["shots"][shot]["e_pipeline"] * 0.8
+    assert math.isfinite(r["sketchiness_px"])
