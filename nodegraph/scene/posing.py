@@ -5,8 +5,8 @@ topology: welding, connected components, edges and the smoothing groups of its r
 where the rest pose has them, so a crease does not come and go as a joint bends). `Mesh` asks its rest pose for
 these (`Mesh.topology_mesh`). What does change, the float data drawn (render positions, split and smooth normals,
 enlargement directions, bounds), is computed here for every posed part of a file at once: a `PoseBatch` lays the
-parts end to end, vertex and index arrays offset, and runs one NumPy pass over all of them, then hands each part
-its slices. The maths is that of `Mesh` (`_face_geometry`, `vertex_normals`, `_render_arrays`) and of rasterize's
+parts end to end, vertex and index arrays offset, and runs one pass over all of them (compiled by Numba in
+posing_jit.py; the NumPy code here where Numba cannot be imported), then hands each part its slices. The maths is that of `Mesh` (`_face_geometry`, `vertex_normals`, `_render_arrays`) and of rasterize's
 enlargement directions, row for row, so a part's arrays are the ones it would get alone.
 """
 
@@ -56,6 +56,7 @@ def skin(weights: Any, joint_matrices: np.ndarray, vertices: np.ndarray,
     linear = np.empty((len(vertices), 3, 3))
     jit.skin(weights.indptr, weights.indices, np.asarray(weights.data, np.float64), mats,
              np.ascontiguousarray(vertices, dtype=np.float64), out, linear)
+    out.flags.writeable = linear.flags.writeable = False  # a posed Mesh then shares its rows (no copy)
     return out, linear
 
 
@@ -141,6 +142,27 @@ def _lay_out(rests: list[Mesh], crease: float) -> _Topology:
         v_at=v_at, f_at=f_at, k_at=k_at, parts=[p["ra"] for p in parts])
 
 
+def _end_to_end(arrays: list[np.ndarray]) -> np.ndarray:
+    """The (n, 3) float64 arrays one after the other: a view where they already lie so in memory (the parts of
+    one skin, rows of one skinning output), else a concatenation."""
+    first = arrays[0] if arrays else None
+    if first is not None and all(a.dtype == np.float64 and a.flags.c_contiguous for a in arrays):
+        at = first.__array_interface__["data"][0]
+        base = first.base
+        contiguous = True
+        for a in arrays:
+            if a.__array_interface__["data"][0] != at or (a.size and a.base is not base):
+                contiguous = False
+                break
+            at += a.nbytes
+        if contiguous and isinstance(base, np.ndarray) and base.flags.c_contiguous:
+            start = first.__array_interface__["data"][0] - base.__array_interface__["data"][0]
+            stop = start + sum(a.nbytes for a in arrays)
+            if start >= 0 and stop <= base.nbytes:
+                return base.reshape(-1).view(np.uint8)[start:stop].view(np.float64).reshape(-1, 3)
+    return np.concatenate(arrays)
+
+
 def _bincount3(ids: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.bincount(ids, values[:, k], minlength=n) for k in range(3)], axis=1)
 
@@ -159,9 +181,17 @@ class PoseBatch:
     def _vertices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(all posed vertices, per-part bounding-box diagonal, its lows and highs), parts end to end."""
         if "v" not in self._done:
-            v = np.concatenate([m.vertices for m in self.meshes])
-            lo = np.stack([m.vertices.min(axis=0) if m.n_vertices else np.zeros(3) for m in self.meshes])
-            hi = np.stack([m.vertices.max(axis=0) if m.n_vertices else np.zeros(3) for m in self.meshes])
+            v = _end_to_end([m.vertices for m in self.meshes])
+            jit = _jit() if self.engine == "auto" else None
+            if jit is not None:
+                at = np.concatenate([[0], np.cumsum([m.n_vertices for m in self.meshes])]).astype(np.int64)
+                lo, hi = np.empty((len(self.meshes), 3)), np.empty((len(self.meshes), 3))
+                jit.bounds(v, at, lo, hi)
+                empty = np.diff(at) == 0
+                lo[empty] = hi[empty] = 0.0
+            else:
+                lo = np.stack([m.vertices.min(axis=0) if m.n_vertices else np.zeros(3) for m in self.meshes])
+                hi = np.stack([m.vertices.max(axis=0) if m.n_vertices else np.zeros(3) for m in self.meshes])
             for m, a, b in zip(self.meshes, lo, hi, strict=True):
                 m._cache.setdefault("bounds", (a, b))
                 a.flags.writeable = b.flags.writeable = False

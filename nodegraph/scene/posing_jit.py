@@ -1,8 +1,10 @@
-"""The per-frame passes of nodegraph/scene/posing.py compiled with Numba: linear blend skinning and the derived
-arrays of all posed parts, one loop over vertices or faces each, no temporaries.
+"""The per-frame passes of nodegraph/scene/posing.py compiled with Numba: linear blend skinning, per-part bounds
+and the derived arrays of all posed parts, one loop over vertices or faces each, no temporaries.
 
 They do what the NumPy code in posing.py (the reference, used where Numba cannot be imported) does, statement for
-statement and in the same operation order (Numba keeps IEEE semantics without fastmath); tests compare the two.
+statement and in the same operation order (Numba keeps IEEE semantics without fastmath), except a face's third
+corner angle: pi less the other two instead of its own atan2 (within 2e-15 radians); tests compare the two. They
+run on one thread: in a pipeline, threads (OpenMP, `prange`) contend with llvmpipe's and made a frame slower.
 Compiled on first use and cached on disk (`cache=True`, in `__pycache__` beside this file).
 """
 
@@ -56,6 +58,7 @@ def arrays(v, faces, diag_f, welded_bad, wf, wid, n_welded, gid, rep, key_of_cor
     acc_g = np.zeros((rep.shape[0], 3))
     acc_k = np.zeros((n_keys, 3))
     e = np.empty((3, 3))
+    angles = np.empty(3)
     for f in range(faces.shape[0]):
         for i in range(3):
             a, b = faces[f, i], faces[f, (i + 1) % 3]
@@ -74,7 +77,10 @@ def arrays(v, faces, diag_f, welded_bad, wf, wid, n_welded, gid, rep, key_of_cor
         for i in range(3):
             p = (i + 2) % 3
             cos = -(e[i, 0] * e[p, 0] + e[i, 1] * e[p, 1] + e[i, 2] * e[p, 2])
-            angle = math.atan2(area2, cos)
+            # the angles sum to pi: the third is pi less the other two (within 2e-15 of its own atan2, which
+            # would be a third of the pass's time)
+            angle = math.atan2(area2, cos) if i < 2 else math.pi - angles[0] - angles[1]
+            angles[i] = angle
             k = key_of_corner[3 * f + i]
             acc_k[k, 0] += n0 * angle
             acc_k[k, 1] += n1 * angle
@@ -115,3 +121,20 @@ def arrays(v, faces, diag_f, welded_bad, wf, wid, n_welded, gid, rep, key_of_cor
         use = n_keys > 0 and key_found[r] and ok_k[s]
         for c in range(3):
             enlarge[r, c] = unit_k[s, c] if use else smooth[r, c]
+
+
+@njit(cache=True, nogil=True)
+def bounds(v, at, lo, hi):  # pragma: no cover - compiled
+    """lo[p], hi[p] = the componentwise min and max of v[at[p]:at[p + 1]] (NaN where any is NaN, as NumPy's)."""
+    for p in range(at.shape[0] - 1):
+        for c in range(3):
+            a = np.inf
+            b = -np.inf
+            for i in range(at[p], at[p + 1]):
+                x = v[i, c]
+                if x < a or math.isnan(x):
+                    a = x if not math.isnan(a) else a
+                if x > b or math.isnan(x):
+                    b = x if not math.isnan(b) else b
+            lo[p, c] = a
+            hi[p, c] = b

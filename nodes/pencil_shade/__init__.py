@@ -297,24 +297,39 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         ra = mesh.render_arrays(crease_angle)
         src = ra.source_vertex
         local = origin.mesh_origin(mesh)
-        trust = (curv.data[object_field(index, "source")][src] != DirectionSource.FIXED_FRAME).astype(np.float32)
-        # every triangle's corners get the slots 0, 1, 2 (see pencil_shade.glsl): a vertex is copied once per slot
-        # its triangles give it, about 1.5 copies a vertex, and the draw stays indexed (shared vertices)
-        shape = mesh.topology_mesh()  # a posed part: its rest pose's triangles, slotted once
-        slots = _mesh_corner_slots(shape, shape.render_arrays(crease_angle), crease_angle)
-        keys, inverse = np.unique(np.asarray(ra.indices, dtype=np.int64) * 3 + slots, return_inverse=True)
-        vertex, slot = keys // 3, (keys % 3).astype(np.float32)
+        sv = _slotted(mesh.topology_mesh(), crease_angle)  # a posed part: its rest pose's, made once
+        vertex = sv["vertex"]
+        trust = (curv.data[object_field(index, "source")][src[vertex]] != DirectionSource.FIXED_FRAME)
         return MeshArrays({"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
                            "in_normal": (ra.normals[vertex], "3f"),
-                           "in_dir": (skinned_directions(mesh, dmin, src)[vertex], "3f"),
-                           "in_trust": (trust[vertex], "1f"), "in_corner": (slot, "1f")},
-                          inverse.reshape(-1, 3).astype(np.uint32), meta={"origin": local, "slots": _slot_codes(slots)})
+                           "in_dir": (skinned_directions(mesh, dmin, src[vertex]), "3f"),
+                           "in_trust": (trust.astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")},
+                          sv["indices"], meta={"origin": local, "slots": sv["codes"]})
 
     # a posed part's buffers take each frame's vertices in place (slot: its rest pose)
     slot = ("pencil_shade.slots", mesh.rest.content_hash(), float(crease_angle), ckey) if mesh.rest is not None \
         else None
     entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build, slot)
     return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
+
+
+def _slotted(shape: Any, crease_angle: float) -> dict[str, np.ndarray]:
+    """The slotted vertices of a mesh's render triangles, topology alone (made once per rest pose and crease
+    angle, not per frame): every triangle's corners get the slots 0, 1, 2 (see pencil_shade.glsl), a render
+    vertex is copied once per slot its triangles give it (about 1.5 copies a vertex) and the draw stays indexed.
+    "vertex": the render vertex of each copy; "corner": its slot (float32); "indices": the triangles over the
+    copies (uint32); "codes": `_slot_codes`."""
+    def make() -> dict[str, np.ndarray]:
+        ra = shape.render_arrays(crease_angle)
+        slots = _mesh_corner_slots(shape, ra, crease_angle)
+        keys, inverse = np.unique(np.asarray(ra.indices, dtype=np.int64) * 3 + slots, return_inverse=True)
+        out = {"vertex": keys // 3, "corner": (keys % 3).astype(np.float32),
+               "indices": inverse.reshape(-1, 3).astype(np.uint32), "codes": _slot_codes(slots)}
+        for a in out.values():
+            a.flags.writeable = False
+        return out
+
+    return shape._cached(("pencil_shade.slotted", float(crease_angle)), make)
 
 
 def _mesh_corner_slots(mesh: Any, ra: Any, crease_angle: float) -> np.ndarray:
@@ -370,8 +385,13 @@ def skinned_directions(mesh: Any, directions: np.ndarray, src: np.ndarray) -> np
     linear = getattr(mesh, "skin_linear", None)
     if linear is None:
         return d
-    out = np.einsum("nij,nj->ni", linear[src], d.astype(np.float64))
-    length = np.linalg.norm(out, axis=1, keepdims=True)
+    lin = linear[src]
+    d = d.astype(np.float64)
+    # B d, row by row, the terms added in the order einsum("nij,nj->ni") adds them, without its per-row loop
+    out = lin[:, :, 0] * d[:, 0:1]
+    out += lin[:, :, 1] * d[:, 1:2]
+    out += lin[:, :, 2] * d[:, 2:3]
+    length = np.sqrt(np.einsum("ij,ij->i", out, out))[:, None]
     return np.divide(out, length, out=np.zeros_like(out), where=length > 1e-12).astype(np.float32)
 
 

@@ -136,3 +136,56 @@ def test_mesh_buffers_rewrite_a_slot_in_place(gl):
     assert third is not first
     # the rewritten key answers; the old one no longer does
     assert gl.mesh_buffers(("test.posing", "b"), lambda: arrays(5.0)) is first
+
+
+def test_compiled_arrays_equal_the_numpy_reference(asset):
+    """The compiled pass (one loop over faces, the third corner angle as pi less the other two) against the NumPy
+    reference (three atan2 a face), the same posed vertices: equal to float32 rounding, bounds exactly."""
+    if posing._jit() is None:
+        pytest.skip("Numba not importable")
+    world, weights = asset.pose(0.45, asset.animations[0])
+    posed = [m for m, _ in asset._posed_all(world, weights).values()]
+    made = {}
+    for engine in ("auto", "numpy"):
+        copies = [Mesh(m.name, m.vertices, m.faces, rest=m.rest) for m in posed]
+        posing.PoseBatch(copies, engine=engine)
+        made[engine] = [(m.render_arrays(40.0), posing.enlarge_directions(m, 40.0), m.vertex_normals(), m.bounds())
+                        for m in copies]
+    for (ra, en, vn, (lo, hi)), (ra0, en0, vn0, (lo0, hi0)) in zip(made["auto"], made["numpy"], strict=True):
+        np.testing.assert_array_equal(ra.positions, ra0.positions)
+        for got, want in ((ra.normals, ra0.normals), (ra.smooth_normals, ra0.smooth_normals), (en, en0),
+                          (vn, vn0)):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1.2e-7)  # one float32 ulp at 1
+        np.testing.assert_array_equal(lo, lo0)
+        np.testing.assert_array_equal(hi, hi0)
+
+
+def test_third_corner_angle_is_pi_less_the_others():
+    """The identity the compiled pass uses, on slivers and near-flat triangles, in float64 against atan2."""
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(2000, 3, 3))
+    p[:500, 2] = p[:500, 0] + 1e-6 * rng.normal(size=(500, 3))  # slivers
+    p[500:1000, 2] = 0.5 * (p[500:1000, 0] + p[500:1000, 1]) + 1e-7 * rng.normal(size=(500, 3))  # near flat
+    e = np.roll(p, -1, axis=1) - p
+    area2 = np.linalg.norm(np.cross(e[:, 0], -e[:, 2]), axis=1)
+    cos = -np.einsum("mij,mij->mi", e, np.roll(e, 1, axis=1))
+    angles = np.arctan2(area2[:, None], cos)
+    np.testing.assert_allclose(math.pi - angles[:, 0] - angles[:, 1], angles[:, 2], rtol=0, atol=2e-15)
+
+
+def test_posed_vertices_are_shared_not_copied(asset):
+    """The parts of one skin keep their rows of the skinning output (read-only), and the batch reads them in
+    place: no copy per part, no concatenation."""
+    world, weights = asset.pose(0.3, asset.animations[0])
+    posed = [m for m, _ in asset._posed_all(world, weights).values()]
+    base = posed[0].vertices.base
+    assert base is not None and all(m.vertices.base is base for m in posed)
+    v, _, _ = posing.batched(posed[0])[0]._vertices()
+    assert np.shares_memory(v, base)
+    np.testing.assert_array_equal(v, np.concatenate([m.vertices for m in posed]))
+    # arrays that do not lie end to end are concatenated
+    a, b = np.zeros((4, 3)), np.ones((2, 3))
+    np.testing.assert_array_equal(posing._end_to_end([a, b]), np.concatenate([a, b]))
+    whole = np.arange(30.0).reshape(10, 3)
+    np.testing.assert_array_equal(posing._end_to_end([whole[4:], whole[:4]]), np.concatenate([whole[4:], whole[:4]]))
+    assert np.shares_memory(posing._end_to_end([whole[:4], whole[4:7], whole[7:]]), whole)

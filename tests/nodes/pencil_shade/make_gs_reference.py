@@ -37,7 +37,7 @@ def load(scene: str, size: tuple[int, int]) -> pl.Pipeline:
     # surface colour's lightness (shade.albedo_weight)
     pipe = pl.load(ROOT / "pipelines" / "pencil.yaml", size=size, scene=scene, reference_size=min(size),
                    overrides=["curv.field=spread", "curv.smoothing=0.05", "shade.grazing_floor=0",
-                              "shade.albedo_weight=0"])
+                              "shade.albedo_weight=0", "contour.albedo_weight=0"])
     return pipe
 
 
