@@ -1,13 +1,14 @@
 """Posed meshes drawn frame after frame: what does not change between frames is prepared once.
 
 A posed (skinned or morphed) mesh has its rest pose's faces, vertex for vertex, so it shares the rest pose's
-topology: welding, connected components, edges and the smoothing groups of its render vertices (creases are
-where the rest pose has them, so a crease does not come and go as a joint bends). `Mesh` asks its rest pose for
-these (`Mesh.topology_mesh`). What does change, the float data drawn (render positions, split and smooth normals,
+topology: welding, connected components, edges and the smoothing groups of its render vertices (creases are where
+the rest pose has them, so a crease does not come and go as a joint bends). `Mesh` asks its rest pose for these
+(`Mesh.topology_mesh`). What does change, the float data drawn (render positions, split and smooth normals,
 enlargement directions, bounds), is computed here for every posed part of a file at once: a `PoseBatch` lays the
 parts end to end, vertex and index arrays offset, and runs one pass over all of them (compiled by Numba in
-posing_jit.py; the NumPy code here where Numba cannot be imported), then hands each part its slices. The maths is that of `Mesh` (`_face_geometry`, `vertex_normals`, `_render_arrays`) and of rasterize's
-enlargement directions, row for row, so a part's arrays are the ones it would get alone.
+posing_jit.py; the NumPy code here where Numba cannot be imported), then hands each part its slices. The maths is
+that of `Mesh` (`_face_geometry`, `vertex_normals`, `_render_arrays`) and of rasterize's enlargement directions, row
+for row, so a part's arrays are the ones it would get alone.
 """
 
 from __future__ import annotations
