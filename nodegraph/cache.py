@@ -1007,12 +1007,12 @@ def _write_npz(path: str, kind: str, data: Any, key: str, port: str, meta: dict[
         header.update(w=int(w), h=int(h), layers=int(layers))
     elif kind == "strokes":
         s: Strokes = data
-        lengths = np.array([len(p) for p in s.polylines], dtype=np.int64)
-        payload["points"] = (np.concatenate(s.polylines).astype(np.float32) if s.polylines
-                             else np.zeros((0, 2), np.float32))
-        payload["lengths"] = lengths
+        payload["points"] = s.xy.astype(np.float32)
+        payload["lengths"] = np.diff(s.starts).astype(np.int64)
         payload["size"] = np.array(s.size)
         payload["style"] = np.array([s.width, *s.color], dtype=np.float64)
+        for name, value in s.attrs.items():  # the per-vertex attributes (values.STROKE_ATTRS)
+            payload[f"v_{name}"] = value
     elif kind == "arrays":
         a: Arrays = data
         for name, value in a.data.items():
@@ -1071,13 +1071,13 @@ def _read_npz(path: Path, key: str, port: str = "", expect: Expect | None = None
         if pts.ndim != 2 or pts.shape[1] != 2 or lengths.ndim != 1 or (lengths < 0).any() \
                 or int(lengths.sum()) != len(pts):
             raise ValueError(f"strokes of {pts.shape} points and {lengths.shape} lengths do not fit together")
-        splits = np.cumsum(lengths)[:-1]
-        polys = np.split(pts, splits) if len(lengths) else []
         style = z_arrays["style"]
         size = tuple(int(v) for v in z_arrays["size"])
         if len(size) != 2 or len(style) != 4:
             raise ValueError("strokes size or style malformed")
-        return Loaded(kind, Strokes(list(polys), size, float(style[0]), tuple(float(c) for c in style[1:4])))
+        attrs = {k[2:]: v for k, v in z_arrays.items() if k.startswith("v_")}  # absent in older entries: defaults
+        return Loaded(kind, Strokes.from_arrays(pts, np.r_[0, np.cumsum(lengths)], size, float(style[0]),
+                                                tuple(float(c) for c in style[1:4]), attrs))
     if kind == "arrays":
         verified()
         return Loaded(kind, Arrays({k[2:]: v for k, v in z_arrays.items() if k.startswith("a_")}))

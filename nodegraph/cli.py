@@ -99,13 +99,15 @@ def cache_options(f: Any) -> Any:
               "sidecar manifest beside the pattern says which, checked against keys and file hashes.")
 @click.option("--png-level", type=click.IntRange(0, 9), default=None, metavar="0-9", help="zlib level of the PNGs "
               "written (default 1: fastest measured at nearly the size of 6; docs/performance.md).")
+@click.option("--page", metavar="A4|A3|letter|WxHmm", help="SVG output: the page's physical size in mm, the drawing "
+              "fitted inside a 10 mm margin, stroke widths in mm (docs/strokes.md). Default: pixels.")
 @pipeline_options
 @cache_options
 @out_dir_options
 @scheduler_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
-        png_level: int | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
+        png_level: int | None, page: str | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
         no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
         chunk: int | None, view: str | None = None, up: str | None = None, fill: float | None = None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
@@ -148,6 +150,9 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         click.echo(f"watching {pipeline} (Ctrl-C stops)", err=True)
         watchmod.watch(watcher, interval, echo=click.echo)
         return
+    from .output.svg import parse_page
+
+    svg_page = parse_page(page)
     cache = open_cache(no_cache, cache_dir)  # first: a mesh file parsed in an earlier run is read from its root
     pipe = open_pipeline(pipeline, overrides, size, scene, out_dir=out_dir, allow_outside=allow_outside, view=view,
                          up=up, fill=fill)
@@ -173,7 +178,8 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     if film.is_film(pattern) or many:
         try:
             done = film.render_frames(ex, ref, frame_list, pattern, fps=fps, crf=crf, resume=resume,
-                                      bar=lambda fl: _progress(fl, quiet, "frames"), png_level=png_level)
+                                      bar=lambda fl: _progress(fl, quiet, "frames"), png_level=png_level,
+                                      page=svg_page)
         finally:
             ex.close()
         if not quiet:
@@ -186,7 +192,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     try:
         with _node_progress(quiet):
             result = ex.run(frame)
-        path = write_frame(result.values[ref], target, lambda: ex.gl, png_level)
+        path = write_frame(result.values[ref], target, lambda: ex.gl, png_level, svg_page)
         if not quiet:
             click.echo(f"wrote {path}  ({summary(result)})")
     finally:
@@ -409,6 +415,28 @@ def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: st
 
     pipe = open_pipeline(pipeline, overrides, size, scene, load_scene=False)
     click.echo(to_dot(pipe))
+
+
+@main.command()
+@click.argument("pipeline", type=click.Path())
+@pipeline_options
+@click.option("--out-dir", type=click.Path(path_type=Path), help="Folder the pipeline's own file paths (write, "
+              "strokes_svg) resolve against and must stay in (default: the current directory).")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on (anything but "
+              "127.0.0.1 lets other machines reach the page; they still need the token).")
+@click.option("--port", default=8765, show_default=True, help="Port to listen on (0: any free port).")
+@click.option("--frame", default=0, show_default=True, help="Frame shown first.")
+@cache_options
+def serve(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None, out_dir: Path | None,
+          host: str, port: int, frame: int, no_cache: bool, cache_dir: Path | None, view: str | None = None,
+          up: str | None = None, fill: float | None = None) -> None:
+    """A live authoring view in the browser: the graph, every buffer, parameters that re-render as you drag
+    (docs/serve.md). Prints the page's address with its token."""
+    from .tools.serve import serve as run_server
+
+    run_server(pipeline, overrides=overrides, size=size, scene=scene, out_dir=out_dir, view=view, up=up, fill=fill,
+               cache=open_cache(no_cache, cache_dir), host=host, port=port, frame=frame,
+               echo=click.echo)
 
 
 @main.command()

@@ -336,7 +336,7 @@ class SequenceWriter:
     file hash as it is written, so a later `--resume` skips what is done. PNG frames read back as PNG rows
     (`PngRows`, laid out on the GPU) are compressed at `png_level`."""
 
-    def __init__(self, pattern: str, resume: bool, png_level: int | None = None):
+    def __init__(self, pattern: str, resume: bool, png_level: int | None = None, page: Any = None):
         from .frames_manifest import FramesManifest
         from .imageio import PNG_LEVEL
         from .write import frame_name_re
@@ -347,6 +347,7 @@ class SequenceWriter:
                 names.pattern + "|" + re.escape(f".{Path(pattern).name}.frames.json")))
         self.manifest = FramesManifest.load(pattern) if resume else None
         self.png_level = PNG_LEVEL if png_level is None else png_level
+        self.page = page  # svg.Page for SVG frames (physical size), or None
         self._lock = threading.Lock()
         self._unsynced: list[Path] = []  # PNG frames written unsynced, synced together at `close`
         self._rows = threading.local()  # each writer thread's `gl.PngRowsBuffer`
@@ -367,7 +368,7 @@ class SequenceWriter:
             with self._lock:
                 self._unsynced.append(written)
         else:
-            written = write_value(value, path)
+            written = write_value(value, path, page=self.page)
         if self.manifest is not None:
             # a frame the manifest records may still be unsynced: after a machine crash `--resume` finds its
             # file's hash changed (empty, cut short) and renders it again
@@ -405,7 +406,7 @@ class SequenceWriter:
 
 def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern: str, *, fps: float = 24.0,
                   crf: int | None = None, resume: bool = False, bar: Callable[[list[int]], Any] | None = None,
-                  png_level: int | None = None) -> dict[str, Any]:
+                  png_level: int | None = None, page: Any = None) -> dict[str, Any]:
     """Render `frames` of `ref` with executor `ex` into a film or an image sequence (by `pattern`'s extension).
     Returns {"path", "frames", "skipped", "total"}: `frames` the frames this call wrote, `skipped` those an
     earlier run had written (`resume`), `total` the frames asked for. The output key per frame is the node's key
@@ -455,7 +456,7 @@ def render_frames(ex: Any, ref: tuple[str, str], frames: Iterable[int], pattern:
     many = len(frame_list) > 1
     from .frames_manifest import frame_digest
 
-    seq = SequenceWriter(pattern, resume and many, png_level)
+    seq = SequenceWriter(pattern, resume and many, png_level, page)
     skipped = 0
     pending: list[tuple[Path, Any, int, str]] = []  # the last frame rendered, until the next run hands it over
     packed: list[tuple[Path, Any, int, str]] = []  # PNG frames whose pack pass is issued, until the next hand-over

@@ -76,7 +76,9 @@ def to_image(value: Any) -> Any:
     raise SketchgraphError(f"cannot write a {type(value).__name__} as an image")
 
 
-def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> Path:
+def write_value(value: Any, path: Path, meta: dict[str, str] | None = None, page: Any = None) -> Path:
+    """`page`: an `svg.Page` for an SVG (physical size in mm); strokes that carry line kinds (mesh_lines) or a
+    page are written as a layered SVG (`svg.layered_svg`), plain strokes (particle_sketch) as before."""
     from ..values import Strokes
     from . import imageio
 
@@ -87,6 +89,11 @@ def write_value(value: Any, path: Path, meta: dict[str, str] | None = None) -> P
         if not isinstance(value, Strokes):
             raise SketchgraphError(f"{path}: only Strokes can be written as SVG")
         from ..fsio import atomic_write_text
+
+        if page is not None or bool(value.attrs["kind"].any()):
+            from .svg import layered_svg
+
+            return atomic_write_text(path, layered_svg(value, page))
         from .strokes import to_svg
 
         return atomic_write_text(path, to_svg(value))
@@ -136,7 +143,7 @@ class PngRows:
                                       imageio.PNG_LEVEL if level is None else level, sync)
 
 
-def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -> Path:
+def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None, page: Any = None) -> Path:
     """A rendered image, alone or one frame of a sequence: a texture bound for a PNG is converted to 8 bits and
     laid out as PNG rows on the GPU (`PngRows`), then compressed by `imageio.write_png_rows` at `png_level`
     (as `film.SequenceWriter` does); anything else goes to `write_value`. The same pixels as `write_value`
@@ -147,4 +154,4 @@ def write_frame(value: Any, path: Path, gl: Any, png_level: int | None = None) -
 
     if isinstance(value, Tex) and path.suffix.lower() == ".png":
         return PngRows.of(value, gl() if callable(gl) else gl).write(path, png_level)
-    return write_value(value, path)
+    return write_value(value, path, page=page)

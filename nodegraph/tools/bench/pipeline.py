@@ -51,6 +51,8 @@ NAMED: dict[str, str] = {
     "posing": "nodegraph.tools.bench.posing:command",
     "flicker": "nodegraph.tools.bench.flicker:command",
     "coherence": "nodegraph.tools.bench.coherence:command",
+    "strokes": "nodegraph_nodes.mesh_lines.bench:command",
+    "serve": "nodegraph.tools.bench.serve:command",
 }
 
 IMAGE_SPACE_TYPES = ("edge_detect", "sketch", "depth_sprite")

@@ -1,0 +1,225 @@
+"""mesh_lines: the lines of the posed meshes as vector strokes (contours, creases, boundaries, borders and, with
+curvature, suggestive contours, ridges and valleys), chained across faces, visible parts apart from hidden."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+
+from nodegraph.errors import NodeError
+from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
+from nodegraph.scene import origin
+from nodegraph.types import ARRAYS, SCENE, STROKES, Texture
+
+from . import extract
+
+_FEATURES = ("suggestive", "ridges", "valleys")
+_TOPOLOGY: dict[str, tuple[np.ndarray, int, extract.EdgeFaces]] = {}  # mesh topology hash -> (weld, n, edges)
+_FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
+
+
+class _FeatureDefaults:
+    """feature_lines' default thresholds (nodes/feature_lines: its Params), used for mesh_lines' feature kinds."""
+
+    derivative_threshold = 2.0
+    angle_threshold = 25.0
+    ridge_threshold = 20.0
+    curvature_smoothing = 0.01
+    min_length = 0.03
+    chain_strength = 0.5
+
+
+FEATURE_DEFAULTS = _FeatureDefaults()
+
+
+class MeshLines(Node):
+    """Lines found on every object's posed mesh in object space, each frame, as `Strokes` (nodegraph/values.py;
+    docs/strokes.md): occluding contours (interpolated zero crossings of n . v inside faces, n the smooth vertex
+    normal, v towards the eye, or the constant view direction of an orthographic camera), creases (welded
+    edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
+    (boundaries another object shares: object and material borders) and, where a curvature node is connected,
+    feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
+    chained across faces (through points two segments of one kind share), sampled every `spacing` pixels, and
+    each sample is tested against the linear depth buffer: visible where a pixel within one pixel of it is
+    background or no nearer than its depth x (1 - `depth_tolerance`). Strokes are split where visibility
+    changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
+    dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
+
+    version = "1"
+    context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
+    inputs = {
+        "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
+                              "canvas size."),
+        "curvature": Input(ARRAYS, "Per-object curvature (curvature.out, smoothing: 0) for suggestive contours, "
+                           "ridges and valleys.", optional=True),
+        "scene": Input(SCENE, "Scene to draw; the pipeline's scene when not connected.", optional=True),
+    }
+    outputs = {"strokes": Output(STROKES, "The lines as strokes, in pixels, y up, with their surface points.")}
+
+    class Params(NodeParams):
+        contours: bool = Field(True, description="Occluding contours.")
+        creases: bool = Field(True, description="Creases (edges sharper than crease_angle).")
+        boundaries: bool = Field(True, description="Boundaries (edges of one face) and borders between objects.")
+        suggestive: bool = Field(False, description="Suggestive contours (needs the curvature input).")
+        ridges: bool = Field(False, description="Ridges (needs the curvature input).")
+        valleys: bool = Field(False, description="Valleys (needs the curvature input).")
+        crease_angle: float = Field(60.0, gt=0, lt=180, description="Dihedral angle in degrees (between the two "
+                                    "faces' normals) above which an edge is a crease.")
+        split_angle: float = Field(100.0, gt=0, le=180, description="A stroke is split where it turns by more "
+                                   "than this many degrees on the screen (180: never).")
+        min_length: float = Field(3.0, ge=0, le=1e4, description="Strokes shorter than this many pixels (at the "
+                                  "reference size, times px_scale) are dropped.")
+        spacing: float = Field(1.0, gt=0.05, le=64, description="Stroke samples are at most this many pixels "
+                               "apart (visibility is tested at each).")
+        depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A sample is hidden where every pixel "
+                                       "within one pixel of it is nearer by more than this fraction of its depth.")
+        hidden: bool = Field(False, description="Keep hidden strokes (visible = False: their own layers).")
+        width: float = Field(1.0, gt=0, le=64, description="Stroke width in pixels at the reference size (times "
+                             "px_scale).")
+        color: tuple[float, float, float] = Field((0.1, 0.1, 0.1), description="Stroke colour (RGB, 0..1).")
+
+    def hash_extra(self, ctx: HashContext) -> Any:
+        return origin.hash_extra(ctx.scene, ctx.frame)
+
+    def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
+        p = self.params
+        scene = ctx.input_scene(inputs)
+        zb = inputs["linear_depth"]
+        w, h = zb.size
+        zbuf = zb.read()[:, :, 0].astype(np.float64)
+        features = {k for k in _FEATURES if getattr(p, k)}
+        curv = inputs.get("curvature")
+        if features and curv is None:
+            raise NodeError(f"{', '.join(sorted(features))} need the curvature input: connect a curvature node "
+                            "(smoothing: 0)", self.id, self.type_name)
+        cam = scene.camera_at(ctx.frame)
+        view = cam.view_matrix()
+        proj = cam.projection_matrix(w / h)
+        eye = np.r_[np.linalg.inv(view)[:3, 3], 1.0] if not cam.orthographic else cam.toward_eye()
+        objs, segs, transforms = [], [], []
+        for index, obj in enumerate(scene.objects):
+            if obj.mesh.n_faces == 0:
+                continue
+            model = np.asarray(obj.transform, dtype=np.float64)
+            eye_obj = np.linalg.inv(model) @ eye
+            s = object_segments(obj.mesh, eye_obj, p.contours, p.creases, p.boundaries, p.crease_angle)
+            if features:
+                s = extract.Segs.concat([s, self.feature_segments(curv, index, obj.mesh, eye_obj, features)])
+            objs.append((index, model))
+            segs.append(s)
+            transforms.append(model)
+        if p.boundaries and len(segs) > 1:
+            lo, hi = scene.bounds()
+            segs = extract.mark_borders(segs, transforms, 1e-6 * max(float(np.linalg.norm(hi - lo)), 1e-12))
+        parts = []
+        for (index, model), s in zip(objs, segs, strict=True):
+            mv = view @ model
+            parts.append(strokes_of(index, s, extract.View(proj @ mv, mv, (w, h)), zbuf, p.spacing * ctx.px_scale,
+                                    p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden))
+        return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
+
+    def feature_segments(self, curv: Any, index: int, mesh: Any, eye_obj: np.ndarray, kinds: set[str]) -> Any:
+        """feature_lines' segments (its CPU code in nodes/_shared/feature_lines.py, FEATURE_DEFAULTS: its
+        parameters' defaults) as `extract.Segs`."""
+        from .._shared import feature_lines as fl
+        from .._shared.curvature import object_field
+
+        name = object_field(index, "kmin")
+        if name not in curv.data or curv.data[name].shape != (mesh.n_vertices,):
+            raise NodeError(f"the curvature input has no arrays for object {index} of this mesh; connect the "
+                            "curvature node of the same scene", self.id, self.type_name)
+        d = FEATURE_DEFAULTS
+        ckey = str(curv.data.get(object_field(index, "key"), ""))
+        base = (mesh.content_hash(), ckey)
+        entry = _FEATURE_OPS.get(base)
+        weld, nw = mesh.weld()
+        if entry is None:
+            if len(_FEATURE_OPS) >= 4:
+                _FEATURE_OPS.pop(next(iter(_FEATURE_OPS)))
+            arr = {k: curv.data[object_field(index, k)] for k in ("kmin", "kmax", "dmin", "dmax", "normal",
+                                                                  "confidence")}
+            ops = fl.mesh_ops(mesh.vertices, mesh.faces, **arr)
+            ops = fl.smooth_curvature(ops, d.curvature_smoothing * ops.diag, weld)
+            entry = _FEATURE_OPS[base] = {"ops": ops, "ext": fl.extrema_data(ops, weld)}
+        ops = entry["ops"]
+        min_len = d.min_length * ops.diag
+        eye_fl = eye_obj[:3] if eye_obj[3] != 0.0 else eye_obj
+        parts = []
+        for kind, label in (("suggestive", "suggestive"), ("ridges", "ridge"), ("valleys", "valley")):
+            if kind not in kinds:
+                continue
+            if kind == "suggestive":
+                seg = fl.suggestive_contours(ops, eye_fl, d.derivative_threshold, d.angle_threshold)
+                seg = fl.filter_chains(seg, min_len, weld, d.chain_strength)
+            else:
+                if kind not in entry:
+                    entry[kind] = fl.filter_chains(fl.ridges(ops, entry["ext"], d.ridge_threshold, label), min_len,
+                                                   weld, d.chain_strength)
+                seg = entry[kind]
+                seg = seg.select(fl.front_facing(ops, seg.face, eye_fl))
+            if not len(seg):
+                continue
+            face = ops.face_index[seg.face].astype(np.int64)
+            tri = mesh.vertices[mesh.faces[face]]  # (s, 3, 3)
+            bary = np.stack([barycentric(tri, seg.points[:, k]) for k in range(2)], axis=1)
+            e = seg.edge
+            key = extract.edge_key(weld[e[..., 0]], weld[e[..., 1]], nw)
+            parts.append(extract.Segs(seg.points, bary, face, key, np.full(len(seg), extract.KIND[label], np.uint8),
+                                      np.ones(len(seg), bool)))
+        return extract.Segs.concat(parts)
+
+
+def barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (k, 3) of points p (k, 3) in triangles tri (k, 3, 3) (projected onto the plane)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+    den = np.where(np.abs(d00 * d11 - d01 * d01) > 1e-300, d00 * d11 - d01 * d01, 1e-300)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.stack([1.0 - v - w, v, w], axis=1)
+
+
+def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
+    """(weld ids, welded count, welded edges and their faces) of a mesh's topology, kept for a few meshes: a
+    posed mesh shares its rest pose's."""
+    shape = mesh.topology_mesh()
+    key = shape.content_hash()
+    got = _TOPOLOGY.get(key)
+    if got is None:
+        if len(_TOPOLOGY) >= 8:
+            _TOPOLOGY.pop(next(iter(_TOPOLOGY)))
+        weld, nw = shape.weld()
+        got = _TOPOLOGY[key] = (weld, nw, extract.edge_faces(weld[shape.faces], nw))
+    return got
+
+
+def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
+                    boundaries: bool = True, crease_angle: float = 60.0) -> extract.Segs:
+    """Contour, crease and boundary segments of one mesh seen from `eye_obj` (homogeneous, object space)."""
+    weld, nw, ef = topology(mesh)
+    V, F = mesh.vertices, mesh.faces
+    parts = []
+    if contours:
+        parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj))
+    if creases or boundaries:
+        parts.append(extract.creases_and_boundaries(V, F, mesh.face_normals(), weld, ef, eye_obj, crease_angle,
+                                                    creases, boundaries))
+    return extract.Segs.concat(parts)
+
+
+def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float,
+               tolerance: float, split_angle: float, min_length: float, hidden: bool) -> tuple[Any, ...]:
+    """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`."""
+    half, offsets = extract.chain(segs.key, segs.kind)
+    sm = extract.sample(segs, half, offsets, view, spacing)
+    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance)
+    state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
+    idx, off = extract.split(sm, state, split_angle, min_length, hidden)
+    return (index, sm, state, idx, off)
+
+
+NODE = MeshLines

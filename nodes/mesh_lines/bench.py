@@ -1,0 +1,184 @@
+"""`sketchgraph bench strokes`: mesh_lines' vector lines per mesh: strokes (visible, hidden), samples, the
+length distribution of visible strokes, and the time of each CPU stage of a frame: extraction (contour, crease
+and boundary segments on the mesh), chaining, sampling + visibility (against the G-buffer's linear depth,
+rendered once beforehand and not timed), splitting into strokes, and writing the layered SVG text. Meshes: the
+built-in torus, the shared meshes that exist (spot, bunny, ogre) and a bumpy torus of about 1M triangles made
+here. Each stage's median over `--repeats` runs of the same frame (the first run, which builds the per-mesh
+topology cache, is reported apart as `first_ms`)."""
+
+from __future__ import annotations
+
+import json
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from nodegraph.fsio import atomic_write_text
+
+SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "meshes"
+MESHES = ("builtin:torus", "spot.obj", "stanford-bunny.obj", "ogre.obj", "made:1M")
+
+
+def bumpy_torus(n_major: int = 1000, n_minor: int = 500) -> Any:
+    """A torus of 2 x n_major x n_minor triangles (1M by default) with bumps (a sum of sines) on its tube."""
+    from nodegraph.scene.meshes import Mesh
+
+    u = 2 * np.pi * np.arange(n_major) / n_major
+    v = 2 * np.pi * np.arange(n_minor) / n_minor
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    r = 0.35 * (1.0 + 0.08 * np.sin(7 * uu) * np.sin(5 * vv) + 0.04 * np.sin(23 * uu + 3 * vv))
+    ring = 1.0 + r * np.cos(vv)
+    V = np.stack([ring * np.cos(uu), r * np.sin(vv), ring * np.sin(uu)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n_major), np.arange(n_minor), indexing="ij")
+
+    def idx(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return (a % n_major) * n_minor + b % n_minor
+
+    a, b, c, d = idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)
+    F = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3), np.stack([a, d, c], -1).reshape(-1, 3)])
+    return Mesh("bumpy_torus_1M", V, F)
+
+
+def _scene(name: str) -> Any | None:
+    from nodegraph.scene.scene import load_scene, scene_for_mesh
+
+    if name == "made:1M":
+        return scene_for_mesh(bumpy_torus())
+    if name.startswith("builtin:"):
+        return load_scene(name)
+    path = SHARED / name
+    return load_scene(str(path)) if path.exists() else None
+
+
+def picture(svg_text: str, png: Path, title: str = "") -> None:
+    """The layered SVG drawn with matplotlib (visible layers black, hidden ones grey dashed) as a PNG."""
+    import xml.etree.ElementTree as ET
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from nodegraph.output.svg import read_layers
+
+    vb = [float(v) for v in ET.fromstring(svg_text).get("viewBox", "0 0 1 1").split()]
+    fig, ax = plt.subplots(figsize=(5, 5 * vb[3] / vb[2]), dpi=120)
+    for name, polys in read_layers(svg_text).items():
+        hidden = name.endswith("hidden")
+        for poly in polys:
+            ax.plot(poly[:, 0], poly[:, 1], color="0.6" if hidden else "0.05", lw=0.4 if hidden else 0.7,
+                    ls=(0, (3, 2)) if hidden else "-")
+    ax.set_xlim(0, vb[2])
+    ax.set_ylim(vb[3], 0)
+    ax.set_aspect("equal")
+    ax.axis("off")
+    if title:
+        ax.set_title(title, fontsize=8)
+    fig.savefig(png, bbox_inches="tight")
+    plt.close(fig)
+
+
+def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, name: str = "") -> dict[str, Any]:
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+    from nodegraph.output.svg import layered_svg
+
+    from . import MeshLines, extract, object_segments
+
+    text = (f"pipeline: b\nsize: [{size}, {size}]\nreference_size: {size}\nscene: builtin:box\nnodes:\n"
+            "  gbuf:\n    type: rasterize\noutputs:\n  z: gbuf.linear_depth\n")
+    pipe = pl.loads(text, "b.yaml")
+    pipe.scene = scene
+    ex = Executor(pipe, None)
+    try:
+        zbuf = ex.run(0).values[("gbuf", "linear_depth")].read()[:, :, 0].astype(np.float64)
+    finally:
+        ex.close()
+    p = MeshLines.Params()
+    cam = scene.camera_at(0)
+    view, proj = cam.view_matrix(), cam.projection_matrix(1.0)
+    eye = np.r_[np.linalg.inv(view)[:3, 3], 1.0] if not cam.orthographic else cam.toward_eye()
+    times: dict[str, list[float]] = {k: [] for k in ("extract", "chain", "sample_visibility", "split", "svg")}
+    first = 0.0
+    strokes = None
+    for rep in range(repeats + 1):
+        t = {k: 0.0 for k in times}
+        parts = []
+        t_all = time.perf_counter()
+        for index, obj in enumerate(scene.objects):
+            model = np.asarray(obj.transform, np.float64)
+            eye_obj = np.linalg.inv(model) @ eye
+            t0 = time.perf_counter()
+            segs = object_segments(obj.mesh, eye_obj, True, True, True, p.crease_angle)
+            t1 = time.perf_counter()
+            half, off = extract.chain(segs.key, segs.kind)
+            t2 = time.perf_counter()
+            mv = view @ model
+            sm = extract.sample(segs, half, off, extract.View(proj @ mv, mv, (size, size)), p.spacing)
+            state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance)
+            state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
+            t3 = time.perf_counter()
+            idx, soff = extract.split(sm, state, p.split_angle, p.min_length, True)
+            parts.append((index, sm, state, idx, soff))
+            t4 = time.perf_counter()
+            t["extract"] += t1 - t0
+            t["chain"] += t2 - t1
+            t["sample_visibility"] += t3 - t2
+            t["split"] += t4 - t3
+        strokes = extract.to_strokes(parts, (size, size), p.width, p.color)
+        t5 = time.perf_counter()
+        visible = strokes.subset(strokes.stroke_attr("visible"))
+        layered_svg(visible)
+        t["svg"] = time.perf_counter() - t5
+        if rep == 0:
+            first = (time.perf_counter() - t_all) * 1e3
+            continue
+        for k in times:
+            times[k].append(t[k] * 1e3)
+    assert strokes is not None
+    if pictures is not None:
+        pictures.mkdir(parents=True, exist_ok=True)
+        stem = Path(name.replace("builtin:", "")).stem.replace(":", "_")
+        svg = layered_svg(strokes)
+        atomic_write_text(pictures / f"{stem}.svg", svg)
+        picture(svg, pictures / f"{stem}.png", f"{name}: visible (black) and hidden (grey) lines")
+    vis = strokes.stroke_attr("visible")
+    lens = strokes.lengths()[vis]
+    med = {k: round(statistics.median(v), 2) for k, v in times.items()}
+    return {"triangles": int(sum(o.mesh.n_faces for o in scene.objects)), "size": size,
+            "strokes_visible": int(vis.sum()), "strokes_hidden": int((~vis).sum()),
+            "samples": int(strokes.n_vertices),
+            "kinds_visible": {name: int(((strokes.stroke_attr("kind") == i) & vis).sum())
+                              for i, name in enumerate(extract.LINE_KINDS) if ((strokes.stroke_attr("kind") == i)
+                                                                              & vis).any()},
+            "length_px": {"total": round(float(lens.sum()), 1), **{f"p{q}": round(float(np.percentile(lens, q)), 1)
+                                                                  for q in (10, 50, 90)}} if len(lens) else {},
+            "ms": med, "total_ms": round(sum(med.values()), 2), "first_ms": round(first, 2)}
+
+
+@click.command(help=__doc__.split("\n\n")[0].replace("`sketchgraph bench strokes`: ", ""))
+@click.option("--size", default=800, show_default=True, help="Square canvas in pixels.")
+@click.option("--repeats", default=3, show_default=True, help="Timed runs per mesh (after one untimed).")
+@click.option("--mesh", "meshes", multiple=True, help=f"Meshes to measure (default: {', '.join(MESHES)}).")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+@click.option("--pictures", type=click.Path(path_type=Path), help="Write each mesh's layered SVG (hidden lines "
+              "too) and a PNG of it into this folder.")
+def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | None, pictures: Path | None) -> None:
+    out: dict[str, Any] = {}
+    for name in meshes or MESHES:
+        scene = _scene(name)
+        if scene is None:
+            click.echo(f"{name}: skipped (not found in {SHARED})")
+            continue
+        m = out[name] = measure(scene, size, repeats, pictures, name)
+        lp = m["length_px"]
+        click.echo(f"{name}: {m['triangles']} triangles, {m['strokes_visible']} visible strokes "
+                   f"({m['strokes_hidden']} hidden), lengths px p10/p50/p90 {lp.get('p10')}/{lp.get('p50')}/"
+                   f"{lp.get('p90')}, total {lp.get('total')}; ms: "
+                   + ", ".join(f"{k} {v}" for k, v in m["ms"].items()) + f"; total {m['total_ms']} ms")
+    if json_path is not None:
+        atomic_write_text(json_path, json.dumps(out, indent=1) + "\n")

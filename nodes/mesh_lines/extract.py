@@ -1,0 +1,405 @@
+"""Vector lines of a triangle mesh (float64 NumPy, no GL): segments on the surface, chained into strokes,
+sampled on the screen, tested for visibility against a linear depth buffer and split into `Strokes`.
+
+Segments (`Segs`) lie inside one face each; each endpoint carries a key shared by the segments of other faces
+that end at the same surface point (a welded vertex id, or a welded mesh edge for a point inside an edge), so
+chaining follows the surface across faces:
+
+* occluding contours: the zero set of g = n . (e - e_w p), n the (welded, angle-weighted) vertex normal and
+  e the eye in homogeneous object coordinates (a direction for an orthographic camera), linearly interpolated
+  inside each face: one segment between the zero crossings on the two edges whose ends differ in sign;
+* creases: welded edges between two faces whose normals differ by more than the crease angle;
+* boundaries: welded edges of one face only; `mark_borders` turns those that another object shares (the same
+  world position) into borders (object and material borders: glTF primitives are separate objects);
+* any other segments with surface keys (feature_lines' suggestive contours, ridges and valleys).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodegraph.values import LINE_KINDS, Strokes
+
+KIND = {name: i for i, name in enumerate(LINE_KINDS)}
+
+
+@dataclass(frozen=True, eq=False)
+class Segs:
+    """Segments in object space: endpoints p (s, 2, 3), their barycentric coordinates in `face` (s, 2, 3), the
+    face (s,), the endpoint keys (s, 2) int64 and the line kind (s,) (index into LINE_KINDS); `front` (s,) is
+    False for segments known to lie on faces turned away (creases between two back faces)."""
+
+    p: np.ndarray
+    bary: np.ndarray
+    face: np.ndarray
+    key: np.ndarray
+    kind: np.ndarray
+    front: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.face)
+
+    @staticmethod
+    def empty() -> Segs:
+        return Segs(np.zeros((0, 2, 3)), np.zeros((0, 2, 3)), np.zeros(0, np.int64), np.zeros((0, 2), np.int64),
+                    np.zeros(0, np.uint8), np.zeros(0, bool))
+
+    def select(self, keep: np.ndarray) -> Segs:
+        return Segs(self.p[keep], self.bary[keep], self.face[keep], self.key[keep], self.kind[keep],
+                    self.front[keep])
+
+    @staticmethod
+    def concat(parts: list[Segs]) -> Segs:
+        parts = [s for s in parts if len(s)]
+        if not parts:
+            return Segs.empty()
+        return Segs(*(np.concatenate([getattr(s, f) for s in parts]) for f in ("p", "bary", "face", "key", "kind",
+                                                                                "front")))
+
+
+def edge_key(wa: np.ndarray, wb: np.ndarray, nw: int) -> np.ndarray:
+    """Key of a point inside the welded edge (wa, wb): beyond every vertex key, the same for (wb, wa)."""
+    lo, hi = np.minimum(wa, wb).astype(np.int64), np.maximum(wa, wb).astype(np.int64)
+    return nw + lo * nw + hi
+
+
+def facing(V: np.ndarray, N: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """g = N . (e[:3] - e[3] V) per row: > 0 where the surface faces the viewer."""
+    return np.einsum("ij,ij->i", N, eye[None, :3] - eye[3] * V)
+
+
+def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray) -> Segs:
+    """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring)."""
+    g = facing(V, N, eye)
+    pos = g >= 0.0
+    s = pos[F]
+    cnt = s.sum(axis=1)
+    fi = np.flatnonzero((cnt == 1) | (cnt == 2))
+    if not len(fi):
+        return Segs.empty()
+    sf = s[fi]
+    lone = np.where(cnt[fi] == 1, np.argmax(sf, axis=1), np.argmin(sf, axis=1))
+    pts, bary, keys = [], [], []
+    rows = np.arange(len(fi))
+    va = F[fi, lone]
+    for step in (1, 2):
+        other = (lone + step) % 3
+        vx = F[fi, other]
+        ga, gx = g[va], g[vx]
+        t = ga / (ga - gx)
+        pts.append(V[va] + t[:, None] * (V[vx] - V[va]))
+        b = np.zeros((len(fi), 3))
+        b[rows, lone] = 1.0 - t
+        b[rows, other] = t
+        bary.append(b)
+        keys.append(edge_key(wid[va], wid[vx], nw))
+    return Segs(np.stack(pts, axis=1), np.stack(bary, axis=1), fi.astype(np.int64), np.stack(keys, axis=1),
+                np.full(len(fi), KIND["contour"], np.uint8), np.ones(len(fi), bool))
+
+
+@dataclass(frozen=True, eq=False)
+class EdgeFaces:
+    """The welded edges of a mesh (topology only: the same for every pose): for each edge its first
+    occurrence (face * 3 + corner, the edge running from that corner to the next) and, for an edge of two
+    faces, the second (-1 otherwise); edges of three or more faces are left out (non-manifold)."""
+
+    first: np.ndarray
+    second: np.ndarray
+
+
+def edge_faces(wF: np.ndarray, nw: int) -> EdgeFaces:
+    a = wF.astype(np.int64)
+    b = np.roll(a, -1, axis=1)
+    key = (np.minimum(a, b) * nw + np.maximum(a, b)).ravel()
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    new = np.r_[True, k[1:] != k[:-1]]
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.r_[starts, len(k)])
+    one = counts <= 2
+    first = order[starts[one]]
+    second = np.where(counts[one] == 2, order[np.minimum(starts[one] + 1, len(k) - 1)], -1)
+    return EdgeFaces(first, second)
+
+
+def _edge_segs(V: np.ndarray, F: np.ndarray, wid: np.ndarray, occ: np.ndarray, kind: int,
+               front: np.ndarray) -> Segs:
+    f, c = occ // 3, occ % 3
+    c2 = (c + 1) % 3
+    va, vb = F[f, c], F[f, c2]
+    bary = np.zeros((len(occ), 2, 3))
+    rows = np.arange(len(occ))
+    bary[rows, 0, c] = 1.0
+    bary[rows, 1, c2] = 1.0
+    return Segs(np.stack([V[va], V[vb]], axis=1), bary, f.astype(np.int64),
+                np.stack([wid[va], wid[vb]], axis=1).astype(np.int64), np.full(len(occ), kind, np.uint8), front)
+
+
+def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,
+                           ef: EdgeFaces, eye: np.ndarray, crease_angle: float, creases: bool = True,
+                           boundaries: bool = True) -> Segs:
+    """Creases (dihedral angle above `crease_angle` degrees, on the face of the pair nearer facing the viewer;
+    `front` False where both faces turn away) and boundaries (edges of one face)."""
+    parts = []
+    centroid = V[F].mean(axis=1)
+    face_g = facing(centroid, face_normals, eye)
+    if creases:
+        two = ef.second >= 0
+        o1, o2 = ef.first[two], ef.second[two]
+        n1, n2 = face_normals[o1 // 3], face_normals[o2 // 3]
+        cos = np.einsum("ij,ij->i", n1, n2)
+        sharp = cos < np.cos(np.radians(crease_angle))
+        o1, o2 = o1[sharp], o2[sharp]
+        g1, g2 = face_g[o1 // 3], face_g[o2 // 3]
+        occ = np.where(g1 >= g2, o1, o2)
+        parts.append(_edge_segs(V, F, wid, occ, KIND["crease"], np.maximum(g1, g2) > 0.0))
+    if boundaries:
+        occ = ef.first[ef.second < 0]
+        parts.append(_edge_segs(V, F, wid, occ, KIND["boundary"], np.ones(len(occ), bool)))
+    return Segs.concat(parts)
+
+
+def mark_borders(per_object: list[Segs], transforms: list[np.ndarray], quantum: float) -> list[Segs]:
+    """Boundary segments that another object also has at the same world position (within `quantum`) become
+    borders, kept on the first object that has them only."""
+    rows, owner, index = [], [], []
+    for i, (s, t) in enumerate(zip(per_object, transforms, strict=True)):
+        b = np.flatnonzero(s.kind == KIND["boundary"])
+        if not len(b):
+            continue
+        w = s.p[b] @ t[:3, :3].T + t[:3, 3]
+        q = np.rint(w / quantum).astype(np.int64)  # (k, 2, 3)
+        a, c = q[:, 0], q[:, 1]
+        first_a = (a[:, 0] < c[:, 0]) | ((a[:, 0] == c[:, 0]) & ((a[:, 1] < c[:, 1]) | ((a[:, 1] == c[:, 1])
+                                                                                       & (a[:, 2] <= c[:, 2]))))
+        lo = np.where(first_a[:, None], a, c)
+        hi = np.where(first_a[:, None], c, a)
+        rows.append(np.concatenate([lo, hi], axis=1))
+        owner.append(np.full(len(b), i))
+        index.append(b)
+    if len(rows) < 2:
+        return per_object
+    allrows, allown, allidx = np.concatenate(rows), np.concatenate(owner), np.concatenate(index)
+    _, inv, counts = np.unique(allrows, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    first_owner = np.full(len(counts), np.iinfo(np.int64).max)
+    np.minimum.at(first_owner, inv, allown)
+    shared = counts[inv] > 1
+    out = []
+    for i, s in enumerate(per_object):
+        mine = allown == i
+        if not mine.any():
+            out.append(s)
+            continue
+        kind = s.kind.copy()
+        keep = np.ones(len(s), bool)
+        sh = shared[mine]
+        idx = allidx[mine]
+        kind[idx[sh]] = KIND["border"]
+        keep[idx[sh & (first_owner[inv[mine]] != i)]] = False
+        out.append(Segs(s.p, s.bary, s.face, s.key, kind, s.front).select(keep))
+    return out
+
+
+def chain(key: np.ndarray, kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Chains of segments of one kind that share endpoints, continued through endpoints two segments meet
+    at (valence 2), stopped where one, three or more meet (Freestyle's chaining without its choice at
+    junctions). Returns (half-edges (k,), chain offsets (c + 1,)): half-edge h = 2 * segment + end walks the
+    segment from that end to the other; a closed loop ends where it began."""
+    s = len(key)
+    if s == 0:
+        return np.zeros(0, np.int64), np.zeros(1, np.int64)
+    node_key = key.astype(np.int64) * len(LINE_KINDS) + kind.astype(np.int64)[:, None]
+    _, inv = np.unique(node_key.ravel(), return_inverse=True)
+    inv = inv.reshape(-1)
+    order = np.argsort(inv, kind="stable")
+    deg = np.bincount(inv)
+    partner = np.full(2 * s, -1, np.int64)
+    two = deg[inv[order]] == 2
+    ho = order[two].reshape(-1, 2)  # both half-edges of each valence-2 node, next to each other
+    partner[ho[:, 0]] = ho[:, 1]
+    partner[ho[:, 1]] = ho[:, 0]
+    partner_l = partner.tolist()
+    visited = bytearray(s)
+    out: list[int] = []
+    offsets = [0]
+    for s0 in range(s):
+        if visited[s0]:
+            continue
+        visited[s0] = 1
+        back: list[int] = []
+        cur = 2 * s0
+        while True:  # backwards from end 0
+            p = partner_l[cur]
+            if p < 0 or visited[p >> 1]:
+                break
+            visited[p >> 1] = 1
+            back.append(p ^ 1)
+            cur = p ^ 1
+        back.reverse()
+        out.extend(back)
+        out.append(2 * s0)
+        cur = 2 * s0 + 1
+        while True:  # forwards from end 1
+            p = partner_l[cur]
+            if p < 0 or visited[p >> 1]:
+                break
+            visited[p >> 1] = 1
+            out.append(p)
+            cur = p ^ 1
+        offsets.append(len(out))
+    return np.asarray(out, np.int64), np.asarray(offsets, np.int64)
+
+
+@dataclass(frozen=True)
+class View:
+    """How object points reach the screen: `mvp` (object -> clip), `mv` (object -> view), canvas size."""
+
+    mvp: np.ndarray
+    mv: np.ndarray
+    size: tuple[int, int]
+
+    def screen(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(xy in pixels (k, 2), y up; linear view depth (k,))."""
+        h = np.c_[p, np.ones(len(p))]
+        clip = h @ self.mvp.T
+        w = clip[:, 3:4]
+        ndc = clip[:, :2] / np.where(np.abs(w) > 1e-300, w, 1e-300)
+        xy = (ndc * 0.5 + 0.5) * np.array(self.size, np.float64)
+        depth = -(h @ self.mv[2])
+        return xy, depth
+
+
+def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolerance: float) -> np.ndarray:
+    """Per sample: 1 visible, 0 hidden, -1 off the canvas. `zbuf` (H, W): linear view depth, row 0 at the
+    bottom, 0 = background. A sample is visible where some pixel within one pixel of it (3 x 3) is background
+    or no nearer than depth x (1 - tolerance): a line on a silhouette sees the background or its own surface
+    beside it, a line behind a nearer surface sees only that surface."""
+    from scipy.ndimage import maximum_filter
+
+    h, w = zbuf.shape
+    far = np.where(zbuf > 0.0, zbuf, np.inf)
+    near_max = maximum_filter(far, size=3, mode="constant", cval=np.inf)
+    ix = np.floor(xy[:, 0]).astype(np.int64)
+    iy = np.floor(xy[:, 1]).astype(np.int64)
+    on = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h) & (depth > 0.0)
+    state = np.full(len(xy), -1, np.int8)
+    ok = near_max[iy[on], ix[on]] >= depth[on] * (1.0 - tolerance)
+    state[on] = ok.astype(np.int8)
+    return state
+
+
+@dataclass(frozen=True, eq=False)
+class Samples:
+    """Chains sampled along the screen: per sample object point, face, barycentric, kind, xy, depth, and the
+    chain offsets (c + 1,)."""
+
+    p: np.ndarray
+    face: np.ndarray
+    bary: np.ndarray
+    kind: np.ndarray
+    front: np.ndarray
+    xy: np.ndarray
+    depth: np.ndarray
+    offsets: np.ndarray
+
+
+def sample(segs: Segs, half: np.ndarray, offsets: np.ndarray, view: View, spacing: float) -> Samples:
+    """Each chained segment cut into pieces at most `spacing` pixels long on the screen, the chain's last end
+    added: points interpolated in object space, barycentric coordinates inside the segment's face."""
+    seg, end = half >> 1, half & 1
+    p0, p1 = segs.p[seg, end], segs.p[seg, 1 - end]
+    b0, b1 = segs.bary[seg, end], segs.bary[seg, 1 - end]
+    xy0, _ = view.screen(p0)
+    xy1, _ = view.screen(p1)
+    n = np.maximum(1, np.ceil(np.hypot(*(xy1 - xy0).T) / spacing)).astype(np.int64)
+    n = np.minimum(n, 4096)
+    rep = np.repeat(np.arange(len(half)), n)
+    first = np.r_[0, np.cumsum(n)[:-1]]
+    t = (np.arange(int(n.sum())) - first[rep]) / n[rep]
+    pts = p0[rep] + t[:, None] * (p1 - p0)[rep]
+    bar = b0[rep] + t[:, None] * (b1 - b0)[rep]
+    face = segs.face[seg][rep]
+    kind = segs.kind[seg][rep]
+    front = segs.front[seg][rep]
+    # the chain ends: insert each chain's last endpoint after its last piece
+    c_last = offsets[1:] - 1
+    nonempty = offsets[1:] > offsets[:-1]
+    c_last = c_last[nonempty]
+    ins_at = np.cumsum(n)[c_last]  # position after the chain's last piece
+    pts = np.insert(pts, ins_at, p1[c_last], axis=0)
+    bar = np.insert(bar, ins_at, b1[c_last], axis=0)
+    face = np.insert(face, ins_at, segs.face[seg[c_last]])
+    kind = np.insert(kind, ins_at, segs.kind[seg[c_last]])
+    front = np.insert(front, ins_at, segs.front[seg[c_last]])
+    per_chain = np.add.reduceat(n, offsets[:-1][nonempty]) + 1 if len(n) else np.zeros(0, np.int64)
+    s_off = np.r_[0, np.cumsum(per_chain)].astype(np.int64)
+    xy, depth = view.screen(pts)
+    return Samples(pts, face, bar, kind, front, xy, depth, s_off)
+
+
+def split(sm: Samples, state: np.ndarray, split_angle: float, min_length: float,
+          hidden: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Strokes from sampled chains: cut where visibility `state` changes (the next stroke starts at the next
+    sample), at turns sharper than `split_angle` degrees on the screen (both strokes share the vertex), dropped
+    off the canvas, when hidden (unless `hidden`) and when shorter than `min_length` pixels. Returns (vertex
+    indices into the samples (k,), stroke offsets (m + 1,))."""
+    n = len(sm.xy)
+    if n == 0:
+        return np.zeros(0, np.int64), np.zeros(1, np.int64)
+    chain_start = sm.offsets[:-1][sm.offsets[1:] > sm.offsets[:-1]]
+    chain_end = sm.offsets[1:][sm.offsets[1:] > sm.offsets[:-1]] - 1
+    interior = np.ones(n, bool)
+    interior[chain_start] = False
+    interior[chain_end] = False
+    d = np.diff(sm.xy, axis=0)
+    ln = np.hypot(d[:, 0], d[:, 1])
+    turn = np.zeros(n, bool)
+    if n > 2:
+        a, b = d[:-1], d[1:]
+        la, lb = ln[:-1], ln[1:]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(la * lb, 1e-300)
+        turn[1:-1] = (cos < np.cos(np.radians(split_angle))) & (la > 1e-9) & (lb > 1e-9)
+    turn &= interior
+    change = np.zeros(n, bool)  # a stroke ends at i, the next starts at i + 1
+    change[:-1] = state[:-1] != state[1:]
+    change &= interior  # no cut at a chain's last sample (the chain ends there anyway)
+    change[chain_end] = False
+    tv = np.flatnonzero(turn & ~change)
+    cv = np.flatnonzero(change)
+    starts = np.sort(np.r_[chain_start, tv, cv + 1])
+    ends = np.sort(np.r_[chain_end, tv, cv])
+    counts = ends - starts + 1
+    keep = counts >= 2
+    st = state[starts]
+    keep &= st >= (0 if hidden else 1)
+    cum = np.r_[0.0, np.cumsum(ln)]
+    length = cum[ends] - cum[starts]
+    keep &= length >= min_length
+    starts, counts = starts[keep], counts[keep]
+    idx = np.repeat(starts - np.r_[0, np.cumsum(counts)[:-1]], counts) + np.arange(int(counts.sum()))
+    return idx, np.r_[0, np.cumsum(counts)].astype(np.int64)
+
+
+def to_strokes(parts: list[tuple[int, Samples, np.ndarray, np.ndarray, np.ndarray]], size: tuple[int, int],
+               width: float, color: tuple[float, float, float]) -> Strokes:
+    """`parts`: (object index, samples, state, vertex indices, stroke offsets) of each object."""
+    xy, starts, attrs = [], [0], {k: [] for k in ("depth", "obj", "face", "bary", "pos", "kind", "visible")}
+    base = 0
+    for obj, sm, state, idx, off in parts:
+        xy.append(sm.xy[idx])
+        attrs["depth"].append(sm.depth[idx])
+        attrs["obj"].append(np.full(len(idx), obj, np.int32))
+        attrs["face"].append(sm.face[idx])
+        attrs["bary"].append(sm.bary[idx])
+        attrs["pos"].append(sm.p[idx])
+        attrs["kind"].append(sm.kind[idx])
+        attrs["visible"].append(state[idx] > 0)
+        starts.extend((off[1:] + base).tolist())
+        base += len(idx)
+    if not xy:
+        return Strokes.from_arrays(np.zeros((0, 2)), np.zeros(1, np.int64), size, width, color)
+    return Strokes.from_arrays(np.concatenate(xy), np.asarray(starts, np.int64), size, width, color,
+                               {k: np.concatenate(v) for k, v in attrs.items()})

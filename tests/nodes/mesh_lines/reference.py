@@ -1,0 +1,126 @@
+"""An independent float64 reference for occluding contours (tests only): the exact zero set of
+G(b) = (sum_i b_i n_i) . (e - e_w sum_i b_i p_i) inside each face (interpolated vertex normals, the true view
+vector at each point: a quadratic in the barycentric coordinates b), found on a fine barycentric grid, and its
+visibility by ray casting against the mesh (Moller-Trumbore, vectorised)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def contour_points(V: np.ndarray, F: np.ndarray, N: np.ndarray, eye: np.ndarray, k: int = 32
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Points (q, 3) on the zero set of G and the face (q,) of each: on a k x k barycentric grid in each face
+    whose grid values change sign, the crossings of every grid edge by the root of G along it (G is quadratic
+    along a straight line in b: solved exactly)."""
+    i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+    keep = i + j <= k
+    grid = np.stack([k - i[keep] - j[keep], i[keep], j[keep]], 1) / k  # (g, 3) barycentric
+    index = -np.ones((k + 1, k + 1), np.int64)
+    index[i[keep], j[keep]] = np.arange(keep.sum())
+    edges = []
+    for a, b in (((0, 0), (1, 0)), ((0, 0), (0, 1)), ((1, 0), (0, 1))):
+        ii, jj = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+        ok = (ii + a[0] + jj + a[1] <= k) & (ii + b[0] + jj + b[1] <= k)
+        edges.append(np.stack([index[ii[ok] + a[0], jj[ok] + a[1]], index[ii[ok] + b[0], jj[ok] + b[1]]], 1))
+    E = np.concatenate(edges)
+
+    def G(bary: np.ndarray, faces: np.ndarray) -> np.ndarray:  # (f, g) values
+        n = np.einsum("gc,fcd->fgd", bary, N[F[faces]])
+        p = np.einsum("gc,fcd->fgd", bary, V[F[faces]])
+        return np.einsum("fgd,fgd->fg", n, eye[:3] - eye[3] * p)
+
+    pts, fids = [], []
+    for chunk in np.array_split(np.arange(len(F)), max(1, len(F) // 2000)):
+        g = G(grid, chunk)
+        mixed = (g.min(1) < 0) & (g.max(1) >= 0)
+        if not mixed.any():
+            continue
+        fc, gm = chunk[mixed], g[mixed]
+        ga, gb = gm[:, E[:, 0]], gm[:, E[:, 1]]
+        fi, ei = np.nonzero((ga < 0) != (gb < 0))
+        b0, b1 = grid[E[ei, 0]], grid[E[ei, 1]]
+        faces = fc[fi]
+        # G(b0 + t (b1 - b0)) = (n0 + t dn) . (w0 - t dp): quadratic c2 t^2 + c1 t + c0
+        n0 = np.einsum("qc,qcd->qd", b0, N[F[faces]])
+        dn = np.einsum("qc,qcd->qd", b1 - b0, N[F[faces]])
+        p0 = np.einsum("qc,qcd->qd", b0, V[F[faces]])
+        dp = np.einsum("qc,qcd->qd", b1 - b0, V[F[faces]])
+        w0 = eye[:3] - eye[3] * p0
+        dw = -eye[3] * dp
+        c0, c1, c2 = (n0 * w0).sum(1), (n0 * dw + dn * w0).sum(1), (dn * dw).sum(1)
+        disc = np.sqrt(np.maximum(c1 * c1 - 4 * c2 * c0, 0.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r1 = (-c1 - disc) / (2 * c2)
+            r2 = (-c1 + disc) / (2 * c2)
+            lin = -c0 / c1
+        t = np.where(np.abs(c2) < 1e-14, lin, np.where((r1 >= 0) & (r1 <= 1), r1, r2))
+        t = np.clip(np.nan_to_num(t, nan=0.5), 0.0, 1.0)
+        pts.append(p0 + t[:, None] * dp)
+        fids.append(faces)
+    if not pts:
+        return np.zeros((0, 3)), np.zeros(0, np.int64)
+    return np.concatenate(pts), np.concatenate(fids)
+
+
+def occluded_tiled(points: np.ndarray, point_face: np.ndarray, V: np.ndarray, F: np.ndarray, eye: np.ndarray,
+                   ring: list[set[int]], mvp: np.ndarray, size: tuple[int, int], tile: int = 16) -> np.ndarray:
+    """`occluded`, each point tested only against the triangles whose projected bounding box touches its screen
+    tile (a triangle that crosses the ray to the eye covers the point's projection): the same answer, faster."""
+    xy = project(V, mvp, size)
+    txy = xy[F]  # (m, 3, 2)
+    lo = np.floor(txy.min(1) / tile).astype(np.int64)
+    hi = np.floor(txy.max(1) / tile).astype(np.int64)
+    pt = np.floor(project(points, mvp, size) / tile).astype(np.int64)
+    ntx = int(max(pt[:, 0].max(initial=0), hi[:, 0].max(initial=0))) + 2
+    out = np.zeros(len(points), bool)
+    pkey = pt[:, 1] * ntx + pt[:, 0]
+    for key in np.unique(pkey):
+        tx, ty = key % ntx, key // ntx
+        tris = np.flatnonzero((lo[:, 0] <= tx) & (hi[:, 0] >= tx) & (lo[:, 1] <= ty) & (hi[:, 1] >= ty))
+        sel = np.flatnonzero(pkey == key)
+        if len(tris):
+            out[sel] = occluded(points[sel], point_face[sel], V, F, eye, ring, tris)
+    return out
+
+
+def occluded(points: np.ndarray, point_face: np.ndarray, V: np.ndarray, F: np.ndarray, eye: np.ndarray,
+             ring: list[set[int]], tris: np.ndarray | None = None) -> np.ndarray:
+    """Whether a triangle (of `tris`, default all) other than the point's face and its neighbours (`ring`: faces
+    sharing a vertex with each face) crosses the ray from the point towards the eye (strictly between them)."""
+    tris = np.arange(len(F)) if tris is None else tris
+    A, B, C = V[F[tris, 0]], V[F[tris, 1]], V[F[tris, 2]]
+    e1, e2 = B - A, C - A
+    out = np.zeros(len(points), bool)
+    for chunk in np.array_split(np.arange(len(points)), max(1, len(points) * len(tris) // 1_000_000)):
+        o = points[chunk]
+        # towards the eye; far enough along the direction to the viewer for an orthographic camera
+        d = np.broadcast_to(eye[:3], o.shape) * 1e3 if eye[3] == 0.0 else eye[:3] - o
+        pv = np.cross(d[:, None, :], e2[None])  # (c, m, 3)
+        det = np.einsum("md,cmd->cm", e1, pv)
+        inv = 1.0 / np.where(np.abs(det) > 1e-300, det, np.inf)
+        tv = o[:, None, :] - A[None]
+        u = np.einsum("cmd,cmd->cm", tv, pv) * inv
+        qv = np.cross(tv, e1[None])
+        v = np.einsum("cd,cmd->cm", d, qv) * inv
+        t = np.einsum("md,cmd->cm", e2, qv) * inv
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9) & (t < 1.0 - 1e-9) & (np.abs(det) > 1e-300)
+        for row, c in enumerate(chunk):
+            faces = tris[hit[row]]
+            out[c] = any(f not in ring[point_face[c]] for f in faces.tolist())
+    return out
+
+
+def vertex_rings(F: np.ndarray, weld: np.ndarray) -> list[set[int]]:
+    """Per face, the faces sharing a (welded) vertex with it."""
+    wF = weld[F]
+    by_vertex: dict[int, list[int]] = {}
+    for f, tri in enumerate(wF.tolist()):
+        for v in tri:
+            by_vertex.setdefault(v, []).append(f)
+    return [set(by_vertex[a]) | set(by_vertex[b]) | set(by_vertex[c]) for a, b, c in wF.tolist()]
+
+
+def project(points: np.ndarray, mvp: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    h = np.c_[points, np.ones(len(points))] @ mvp.T
+    return (h[:, :2] / h[:, 3:4] * 0.5 + 0.5) * np.asarray(size, float)

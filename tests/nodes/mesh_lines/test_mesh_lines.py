@@ -1,0 +1,177 @@
+"""mesh_lines and the Strokes schema: chaining by hand, the box's creases against its projected edges, borders
+between objects, the cache round trip of every attribute, the layered SVG read back (layers, page size in mm)
+and the command line writing one SVG a frame."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from nodegraph_nodes.mesh_lines import extract
+
+from nodegraph.cache import Cache
+from nodegraph.output.svg import layered_svg, parse_page, read_layers
+from nodegraph.values import LINE_KINDS, STROKE_ATTRS, Strokes
+from tests.helpers import run_minimal
+
+
+def test_chain_follows_valence_two_and_stops_at_junctions():
+    # a path 0-1-2-3 given out of order and reversed, a triangle loop 10-11-12, a Y junction at 20
+    key = np.array([[2, 1], [0, 1], [2, 3], [10, 11], [12, 11], [10, 12], [20, 21], [20, 22], [20, 23]])
+    half, off = extract.chain(key, np.zeros(len(key), np.uint8))
+    chains = []
+    for a, b in zip(off[:-1], off[1:], strict=True):
+        h = half[a:b]
+        nodes = [key[h[0] >> 1, h[0] & 1]] + [key[x >> 1, 1 - (x & 1)] for x in h]
+        chains.append(nodes)
+    as_sets = sorted(tuple(int(v) for v in c) for c in chains)
+    assert ([0, 1, 2, 3] in chains or [3, 2, 1, 0] in chains)
+    loops = [c for c in chains if c[0] == c[-1]]
+    assert len(loops) == 1 and sorted(loops[0][:-1]) == [10, 11, 12]
+    assert sum(len(c) == 2 and 20 in c for c in chains) == 3, as_sets  # the junction's arms stay apart
+    assert len(chains) == 5
+
+
+def test_chain_keeps_kinds_apart():
+    key = np.array([[0, 1], [1, 2]])
+    half, off = extract.chain(key, np.array([1, 2], np.uint8))
+    assert len(off) - 1 == 2
+
+
+def box_run(size=200, hidden=False):
+    nodes = ("  gbuf:\n    type: rasterize\n  lines:\n    type: mesh_lines\n    in: {linear_depth: gbuf.linear_depth}\n"
+             f"    params: {{contours: false, hidden: {str(hidden).lower()}, min_length: 0}}\n")
+    ex, res = run_minimal(None, nodes, {"s": "lines.strokes"}, size=(size, size), scene="builtin:box")
+    return ex, res.values[("lines", "strokes")]
+
+
+def test_box_creases_are_its_projected_edges():
+    ex, s = box_run(hidden=True)
+    sc = ex.pipeline.scene
+    cam = sc.camera_at(0)
+    mvp = cam.projection_matrix(1.0) @ cam.view_matrix() @ np.asarray(sc.objects[0].transform)
+    bits = np.arange(8)
+    corners = (np.stack([bits & 1, (bits >> 1) & 1, (bits >> 2) & 1], 1) - 0.5)
+    edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+    h = np.c_[corners, np.ones(8)] @ mvp.T
+    xy = (h[:, :2] / h[:, 3:4] * 0.5 + 0.5) * 200
+    # the hidden corner: the one farthest from the eye; its three edges are hidden, the other nine visible
+    far = int(np.argmax(np.linalg.norm(corners - np.linalg.inv(cam.view_matrix())[:3, 3], axis=1)))
+    vis_len = sum(np.linalg.norm(xy[a] - xy[b]) for a, b in edges if far not in (a, b))
+    hid_len = sum(np.linalg.norm(xy[a] - xy[b]) for a, b in edges if far in (a, b))
+    kinds, vis, lens = s.stroke_attr("kind"), s.stroke_attr("visible"), s.lengths()
+    assert set(kinds.tolist()) == {LINE_KINDS.index("crease")}
+    # visibility cuts leave at most one sample spacing (1 px) per cut; corners are where visible and hidden meet
+    assert abs(lens[vis].sum() - vis_len) < 8.0, (lens[vis].sum(), vis_len)
+    assert abs(lens[~vis].sum() - hid_len) < 8.0, (lens[~vis].sum(), hid_len)
+    # every sample lies on its face (barycentric sum 1) at its object position
+    V, F = sc.objects[0].mesh.vertices, sc.objects[0].mesh.faces
+    p = np.einsum("kc,kcd->kd", s["bary"].astype(float), V[F[s["face"]]])
+    assert np.allclose(p, s["pos"], atol=1e-5) and np.allclose(s["bary"].sum(1), 1.0, atol=1e-5)
+    hv = np.c_[s["pos"].astype(float), np.ones(s.n_vertices)] @ mvp.T
+    assert np.allclose((hv[:, :2] / hv[:, 3:4] * 0.5 + 0.5) * 200, s.xy, atol=1e-3)
+
+
+def test_hidden_strokes_are_off_by_default():
+    _, s = box_run()
+    assert len(s) > 0 and s["visible"].all()
+
+
+def test_boundaries_shared_by_two_objects_become_one_border():
+    quad_a = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]])
+    quad_b = quad_a + [1, 0, 0]
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    segs = []
+    for V in (quad_a, quad_b):
+        wid = np.arange(4)
+        ef = extract.edge_faces(faces, 4)
+        nrm = np.tile([0, 0, 1.0], (2, 1))
+        segs.append(extract.creases_and_boundaries(V, faces, nrm, wid, ef, np.array([0, 0, 5, 1.0]), 60.0))
+    out = extract.mark_borders(segs, [np.eye(4), np.eye(4)], 1e-9)
+    kinds = [np.bincount(s.kind, minlength=len(LINE_KINDS)) for s in out]
+    b, d = LINE_KINDS.index("boundary"), LINE_KINDS.index("border")
+    assert kinds[0][b] == 3 and kinds[0][d] == 1 and kinds[1][b] == 3 and kinds[1][d] == 0
+
+
+def test_strokes_schema_and_cache_round_trip(tmp_path: Path):
+    rng = np.random.default_rng(3)
+    n = 7
+    attrs = {name: (rng.random((n, *shape)) * 3).astype(dt) for name, (dt, shape, _) in STROKE_ATTRS.items()}
+    s = Strokes.from_arrays(rng.random((n, 2)) * 50, [0, 3, 3, 7], (64, 48), 1.5, (0.2, 0.3, 0.4), attrs)
+    assert len(s) == 3 and [len(p) for p in s.polylines] == [3, 0, 4]
+    ref = [np.sum(np.hypot(*np.diff(p.astype(np.float64), axis=0).T)) if len(p) > 1 else 0.0 for p in s.polylines]
+    assert np.allclose(s.lengths(), ref)
+    cache = Cache(tmp_path / "c")
+    key = "cd" + "0" * 62
+    assert cache.store_value(key, "strokes", s, {"node": "n", "type": "t", "version": 1, "params": {},
+                                                 "package": "0"})
+    cache.flush()
+    got = cache.load(key, "strokes").data
+    assert np.array_equal(got.xy, s.xy) and np.array_equal(got.starts, s.starts) and got.size == (64, 48)
+    for name in STROKE_ATTRS:
+        assert np.array_equal(got[name], s[name], equal_nan=True), name
+    sub = s.subset(np.array([True, False, True]))
+    assert len(sub) == 2 and sub.n_vertices == 7
+    with pytest.raises(ValueError, match="do not index"):
+        Strokes.from_arrays(np.zeros((3, 2)), [0, 2], (4, 4))
+    with pytest.raises(ValueError, match="unknown stroke attributes"):
+        Strokes.from_arrays(np.zeros((2, 2)), [0, 2], (4, 4), attrs={"colour": np.zeros(2)})
+
+
+def test_layered_svg_layers_and_page():
+    _, s = box_run(hidden=True)
+    text = layered_svg(s)
+    layers = read_layers(text)
+    assert set(layers) == {"crease", "crease hidden"}
+    vis = s.stroke_attr("visible")
+    assert len(layers["crease"]) == int(vis.sum()) and len(layers["crease hidden"]) == int((~vis).sum())
+    first = layers["crease"][0]
+    i = int(np.flatnonzero(vis)[0])
+    exp = s.polylines[i].astype(np.float64) * [1, -1] + [0, 200]
+    assert np.allclose(first, exp, atol=0.006)
+    page = parse_page("A4")
+    text = layered_svg(s, page)
+    assert 'width="210mm"' in text and 'height="297mm"' in text and 'viewBox="0 0 210 297"' in text
+    pts = np.concatenate([np.concatenate(v) for v in read_layers(text).values()])
+    scale = (210 - 20) / 200  # the square drawing fits the page's width inside 10 mm margins
+    exp_all = np.concatenate(s.polylines).astype(np.float64) * [scale, -scale] + [10, 297 / 2 + 100 * scale]
+    assert np.abs(np.sort(pts, axis=0) - np.sort(exp_all, axis=0)).max() < 0.01
+    assert f'stroke-width="{s.width * scale:.4g}"' in text
+    assert parse_page("150x100mm").width_mm == 150
+    with pytest.raises(Exception, match="--page"):
+        parse_page("B5")
+
+
+@pytest.mark.slow
+def test_run_writes_one_svg_a_frame(tmp_path: Path):
+    from nodegraph.cli import main
+
+    out = tmp_path / "f_####.svg"
+    r = CliRunner().invoke(main, ["run", "pipelines/plotter_lines.yaml", "--size", "160x160", "--frames", "0:3",
+                                  "-o", str(out), "--no-cache", "-q", "--page", "A3"])
+    assert r.exit_code == 0, r.output
+    files = sorted(tmp_path.glob("f_*.svg"))
+    assert [f.name for f in files] == ["f_0000.svg", "f_0001.svg", "f_0002.svg"]
+    text = files[0].read_text()
+    assert 'inkscape:label="contour"' in text and 'width="297mm" height="420mm"' in text
+
+
+def test_feature_kinds_come_from_feature_lines_segments():
+    """Suggestive contours through mesh_lines: strokes of that kind exist on the torus (its inner half carries
+    them, tests/nodes/feature_lines), their samples on their faces; without curvature: one clear error."""
+    nodes = ("  gbuf:\n    type: rasterize\n  curv:\n    type: curvature\n    params: {smoothing: 0}\n"
+             "  lines:\n    type: mesh_lines\n    in: {linear_depth: gbuf.linear_depth, curvature: curv.out}\n"
+             "    params: {contours: false, creases: false, boundaries: false, suggestive: true}\n")
+    ex, res = run_minimal(None, nodes, {"s": "lines.strokes"}, size=(200, 200), scene="builtin:torus")
+    s = res.values[("lines", "strokes")]
+    assert len(s) > 0 and set(s.stroke_attr("kind").tolist()) == {LINE_KINDS.index("suggestive")}
+    mesh = ex.pipeline.scene.objects[0].mesh
+    p = np.einsum("kc,kcd->kd", s["bary"].astype(float), mesh.vertices[mesh.faces[s["face"]]])
+    assert np.allclose(p, s["pos"], atol=1e-4)
+    from nodegraph.errors import SketchgraphError
+
+    bare = nodes.replace(", curvature: curv.out", "")
+    with pytest.raises(SketchgraphError, match="need the curvature input"):
+        run_minimal(None, bare, {"s": "lines.strokes"}, size=(64, 64), scene="builtin:torus")
