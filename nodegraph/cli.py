@@ -159,7 +159,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
     from .output import film
 
     frame_list, fps = film.prepare(pipe, out, frames, fps, camera)
-    name = output_name or next(iter(pipe.outputs))
+    name = output_name or default_output(pipe, out)
     if name not in pipe.outputs:
         raise SketchgraphError(f"pipeline has no output '{name}'; outputs: {', '.join(pipe.outputs)}")
     ref = pipe.outputs[name]
@@ -721,3 +721,18 @@ def gallery_verify(gallery_file: Path, only: tuple[str, ...], quiet: bool, use_c
 
 if __name__ == "__main__":  # pragma: no cover
     main()
+
+
+def default_output(pipe: Any, out: str | None) -> str:
+    """The output `-o` writes when --output is not given: the first one, except that a pipeline with strokes and
+    an image (plotter_lines) writes its first Strokes output to .svg and its first other output elsewhere."""
+    from .types import STROKES
+
+    names = list(pipe.outputs)
+    if out is None or len(names) < 2:
+        return names[0]
+    strokes = [n for n in names if pipe.nodes[pipe.outputs[n][0]].outputs[pipe.outputs[n][1]].type == STROKES]
+    want_svg = out.lower().endswith(".svg")
+    pick = [n for n in names if (n in strokes) == want_svg]
+    return pick[0] if pick else names[0]
+

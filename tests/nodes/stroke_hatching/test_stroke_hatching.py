@@ -1,0 +1,115 @@
+"""stroke_hatching: Jobard-Lefer separation checked in float64, density by tone, and a cylinder's hatching along
+its axis (its minimum-curvature direction)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from nodegraph_nodes.stroke_hatching import concat, hatch, streamlines
+from scipy.spatial import cKDTree
+
+from nodegraph.values import LINE_KINDS, Strokes
+from tests.helpers import run_minimal
+
+W, H = 120, 90
+
+
+def circle_field(x: float, y: float):
+    """Circles around (60, 45): a line field with curved streamlines."""
+    dx, dy = x - 60.0, y - 45.0
+    r = np.hypot(dx, dy)
+    if r < 3.0:
+        return None
+    return (-dy / r, dx / r)
+
+
+def test_streamlines_keep_the_separation_distance():
+    dsep = lambda x, y: 3.0 + 6.0 * x / W  # noqa: E731 - denser on the left
+    ratio = 0.5
+    h = streamlines.Hatcher((W, H), circle_field, dsep, 9.0, ratio, step=1.0, min_length=0.0)
+    ys, xs = np.mgrid[2:H:4, 2:W:4]
+    lines = h.run(np.c_[xs.ravel(), ys.ravel()].astype(float))
+    assert len(lines) > 10
+    pts = np.concatenate(lines)
+    owner = np.repeat(np.arange(len(lines)), [len(q) for q in lines])
+    d_test = ratio * (3.0 + 6.0 * pts[:, 0] / W)
+    tree = cKDTree(pts)
+    for i, j in tree.query_pairs(ratio * 9.0):
+        if owner[i] != owner[j]:
+            dist = np.hypot(*(pts[i] - pts[j]))
+            assert dist >= min(d_test[i], d_test[j]) - 1e-9, (i, j, dist)
+    # and the image is covered: no point of the region farther than d_sep + step from a streamline
+    probe = np.c_[xs.ravel(), ys.ravel()].astype(float)
+    probe = probe[np.hypot(probe[:, 0] - 60, probe[:, 1] - 45) > 8]
+    gap, _ = tree.query(probe)
+    assert np.percentile(gap, 95) <= 9.0 + 1.0
+
+
+def test_darker_tones_get_denser_hatching():
+    bright = np.tile(np.linspace(0.0, 0.8, W), (H, 1))  # dark on the left
+    ids = np.ones((H, W), np.int64)
+    t = np.zeros((H // 4 + 1, W // 4 + 1, 3))
+    t[..., 0] = 1.0  # horizontal everywhere
+    lines = hatch(t, bright, ids, (W, H), 3.0, 12.0, 0.9, 0.5, 1.0, 0.0, 4.0)
+    pts = np.concatenate(lines)
+    seg = np.concatenate([np.hypot(*np.diff(q, axis=0).T) for q in lines])
+    mid = np.concatenate([0.5 * (q[1:] + q[:-1]) for q in lines])
+    thirds = [(mid[:, 0] >= a) & (mid[:, 0] < a + W / 3) for a in (0, W / 3, 2 * W / 3)]
+    density = [seg[m].sum() / (W / 3 * H) for m in thirds]
+    assert density[0] > density[1] > density[2]
+    # horizontal lines spaced about d_sep: density ~ 1 / d_sep (d_sep = 3 + 9 b, b the third's mean brightness)
+    for dens, b in zip(density, (0.4 / 3, 0.4, 2 * 0.4 / 3 + 0.4), strict=True):
+        assert 0.5 / (3 + 9 * b) < dens < 2.2 / (3 + 9 * b)
+    assert len(pts)
+
+
+def cylinder_obj(path: Path, segments: int = 64, rings: int = 24) -> Path:
+    a = np.linspace(0, 2 * np.pi, segments, endpoint=False)
+    ys = np.linspace(-1.0, 1.0, rings)
+    verts = [(0.5 * np.cos(t), y, 0.5 * np.sin(t)) for y in ys for t in a]
+    faces = []
+    for r in range(rings - 1):
+        for s in range(segments):
+            i0, i1 = r * segments + s, r * segments + (s + 1) % segments
+            j0, j1 = i0 + segments, i1 + segments
+            faces += [(i0, j0, i1), (i1, j0, j1)]
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in verts] + [f"f {a+1} {b+1} {c+1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_cylinder_hatching_runs_along_its_axis(gl, tmp_path: Path):
+    scene = cylinder_obj(tmp_path / "cyl.obj")
+    nodes = ("  gbuf:\n    type: rasterize\n  curv:\n    type: curvature\n  hatch:\n    type: stroke_hatching\n"
+             "    in: {curvature: curv.out, linear_depth: gbuf.linear_depth, normal: gbuf.normal, "
+             "object_id: gbuf.object_id, position: gbuf.position}\n"
+             "    params: {white: 1.0, cross_below: 0.0, spacing: [3, 8]}\n")
+    _, res = run_minimal(gl, nodes, {"s": "hatch.strokes"}, size=(160, 160), scene=str(scene))
+    s = res.values[("hatch", "strokes")]
+    assert len(s) > 5 and (s["kind"] == LINE_KINDS.index("hatching")).all()
+    seg = np.concatenate([np.diff(q.astype(np.float64), axis=0) for q in s.polylines])
+    length = np.hypot(*seg.T)
+    # the axis (y) projects to the screen's vertical: the strokes' angle from vertical, length-weighted
+    off = np.degrees(np.arccos(np.clip(np.abs(seg[:, 1]) / np.maximum(length, 1e-12), 0, 1)))
+    share = length[off < 15.0].sum() / length.sum()
+    assert share > 0.9, share
+    # surface points from the position buffer lie on the cylinder (radius 0.5, |y| <= 1)
+    pos = s["pos"].astype(np.float64)
+    ok = np.isfinite(pos).all(axis=1)
+    assert ok.mean() > 0.95
+    assert np.abs(np.hypot(pos[ok, 0], pos[ok, 2]) - 0.5).max() < 0.01
+
+
+def test_combined_puts_lines_first():
+    a = Strokes([np.zeros((2, 2))], size=(10, 10), width=2.0, attrs={"kind": np.ones(2, np.uint8)})
+    b = Strokes([np.ones((3, 2))], size=(10, 10), width=0.5)
+    c = concat(a, b)
+    assert len(c) == 2 and list(c.starts) == [0, 2, 5]
+    np.testing.assert_array_equal(c["width"], [np.nan, np.nan, 0.5, 0.5, 0.5])
+    assert concat(None, b) is b
+
+
+def test_principal_direction_of_a_tensor():
+    t = np.array([[0.25, np.sqrt(3) / 4, 0.75]])  # d = (1/2, sqrt(3)/2): d d^T
+    np.testing.assert_allclose(np.abs(streamlines.principal(t)[0]), [0.5, np.sqrt(3) / 2], atol=1e-12)
