@@ -719,10 +719,6 @@ def gallery_verify(gallery_file: Path, only: tuple[str, ...], quiet: bool, use_c
         sys.exit(1)
 
 
-if __name__ == "__main__":  # pragma: no cover
-    main()
-
-
 def default_output(pipe: Any, out: str | None) -> str:
     """The output `-o` writes when --output is not given: the first one, except that a pipeline with strokes and
     an image (plotter_lines) writes its first Strokes output to .svg and its first other output elsewhere."""
@@ -736,3 +732,6 @@ def default_output(pipe: Any, out: str | None) -> str:
     pick = [n for n in names if (n in strokes) == want_svg]
     return pick[0] if pick else names[0]
 
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -17,7 +17,7 @@ from typing import Any
 import click
 import numpy as np
 
-from nodegraph.fsio import atomic_write_text
+from nodegraph.fsio import atomic_output, atomic_write_text
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "meshes"
 MESHES = ("builtin:torus", "spot.obj", "stanford-bunny.obj", "ogre.obj", "made:1M")
@@ -78,7 +78,8 @@ def picture(svg_text: str, png: Path, title: str = "") -> None:
     ax.axis("off")
     if title:
         ax.set_title(title, fontsize=8)
-    fig.savefig(png, bbox_inches="tight")
+    with atomic_output(png) as tmp:
+        fig.savefig(tmp, bbox_inches="tight", format="png")
     plt.close(fig)
 
 

@@ -227,7 +227,7 @@ def test_svg_write_is_atomic(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) ->
     p = tmp_path / "s.svg"
     p.write_text("previous")
     monkeypatch.setattr(strokes, "to_svg", lambda value: "x" * 10)
-    value = Strokes.__new__(Strokes)
+    value = Strokes([np.array([[1.0, 1.0], [4.0, 5.0]])], (8, 8))  # particle strokes: the plain writer
     real_replace = os.replace
 
     def failing_replace(src: str, dst: str) -> None:
