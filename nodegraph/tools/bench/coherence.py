@@ -32,9 +32,17 @@ frame of the `turn` shot to the nearest true feature line of the mesh (silhouett
 visible by depth: nodegraph/tools/bench/groundtruth.py, as the accuracy charts use); hatching counts as drawn
 marks too.
 
+`extended`: beside each index, the same figures with the motion extended beyond the outlines (`extend_motion`):
+background pixels within BAND_PX (6 px at 256) of an object move as the nearest covered pixel does, so a mark drawn
+just beyond an outline (an offset line, spilled shade) that moves with its object is not counted as change. The
+exact motion gives such pixels no motion (the sheet stays put), which the plain render, drawing nothing beyond its
+outlines, never pays for; the extended figures show how much of a pipeline's index that accounts for.
+
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
-like an elbow). `film`: each pipeline's film setting (FILM: overrides as `--set` takes them; empty = the default).
+like an elbow). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
+`film_overrides`: `hold: 0` on every node that has a hold, then FILM's overrides as `--set` takes them), with its
+sketchiness.
 `hold`: the index with `hold: N` on every node that has one. `sweep`: the pipeline's main parameters (SWEEP) scaled
 by 0.5 and 2 on the `turn` shot, for the chart of coherence against sketchiness.
 """
@@ -58,20 +66,27 @@ FPS = 24.0
 SHOTS = ("turn", "orbit", "bend")
 HOLDS = (1, 2, 4)
 RESEED_STRIDE = 7919  # pipeline seed of frame t in the re-seeded baseline: the pipeline's + 7919 (t + 1)
+BAND_PX = 6.0  # `extended`: background this close to an object moves with it (px at 256 px, scaled with size)
 DARK = 0.1  # a pixel counts as drawn where it is this much darker than its 5x5 grey closing (sketchiness)
-# each pipeline's film setting: overrides as `--set NODE.PARAM=VALUE` takes them ({} = the default)
+# each pipeline's film setting: overrides as `--set NODE.PARAM=VALUE` takes them, on top of `hold: 0` on every node
+# that has a hold (film_overrides); {} = the pipeline with every hold at 0. Where the screen-space Perlin uncertainty
+# is the method (the paper's default), the film setting is a variant file (FILM_PIPELINE, in pipelines/film/) with
+# geometry-controlled uncertainty instead. Chosen by measurement: docs/animation.md, "Making films".
 FILM: dict[str, dict[str, Any]] = {
     "chalk": {},
     "loose_and_sketchy": {},
     "loose_and_sketchy_shaded": {},
     "nienhaus_sketchy": {},
-    "object_space_uncertainty": {},
+    "object_space_uncertainty": {"noise.octaves": 1},  # one octave: no fine wobble to change as outlines slide
     "pencil": {},
     "pencil_contours": {},
     "repeated_edges": {},
     "sketchy_composite": {},
     "sketchy_lines": {},
 }
+# variant pipelines (paths relative to the shipped pipelines' folder) that FILM's overrides apply to
+FILM_PIPELINE: dict[str, str] = {name: f"film/{name}.yaml" for name in (
+    "chalk", "loose_and_sketchy_shaded", "nienhaus_sketchy", "repeated_edges", "sketchy_composite", "sketchy_lines")}
 # node type -> the params that set how far drawn marks stray (scaled together by SWEEP_FACTORS)
 SWEEP: dict[str, tuple[str, ...]] = {
     "sketch": ("edge_matrix", "shade_matrix"),
@@ -288,12 +303,56 @@ class Shot:
         pipe = session.load(plain, scene=str(scene), size=size)
         self.motion = [pipe.inspect("gbuf.motion", frame=t) for t in range(frames)]
         self.depth = [pipe.inspect("gbuf.depth", frame=t)[..., 0] for t in range(frames)]
-        self.e_plain = self.error([luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
+        self.band_px = BAND_PX * min(size) / 256.0
+        self.extended = [extend_motion(m, self.band_px) for m in self.motion]
+        self.e_plain, self.e_plain_extended = self.errors(
+            [luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
 
     def error(self, lum: list[np.ndarray]) -> float:
         """Mean warping error over the consecutive pairs of frames."""
-        errs = [mo.warping_error(lum[t], lum[t - 1], self.motion[t], self.depth[t - 1]) for t in range(1, len(lum))]
-        return float(np.nanmean(errs))
+        return self.errors(lum)[0]
+
+    def errors(self, lum: list[np.ndarray]) -> tuple[float, float]:
+        """Mean warping error over the consecutive pairs of frames: along the exact motion (the index's), and along
+        the motion extended beyond the outlines (`extend_motion`)."""
+        full, ext = [], []
+        for t in range(1, len(lum)):
+            mask = mo.visible_both(self.motion[t], self.depth[t - 1])
+            diff = np.abs(lum[t] - mo.warp(lum[t - 1], self.motion[t]))
+            full.append(diff[mask].mean() if mask.any() else np.nan)
+            motion, band = self.extended[t]
+            # a band pixel counts where it came from the previous frame's background, inside the image
+            inside = mo.visible_both(motion, self.depth[t - 1] * 0.0)
+            was_background = mo.sample(self.depth[t - 1], motion[..., 0], motion[..., 1]) >= 1.0
+            mask = (mask & ~band) | (band & inside & was_background)
+            diff = np.abs(lum[t] - mo.warp(lum[t - 1], motion))
+            ext.append(diff[mask].mean() if mask.any() else np.nan)
+        return float(np.nanmean(full)), float(np.nanmean(ext))
+
+
+def extend_motion(motion: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
+    """The motion field with the background within `width` px of a covered pixel moving as its nearest covered
+    pixel does (marks drawn just beyond an outline, such as offset lines and spilled shade, move with the object
+    they were drawn from), and the mask of those background pixels. Their z is set to 0, so that
+    `visible_both` with a zero depth buffer keeps them where they come from inside the image; `Shot.errors` also
+    leaves out those whose source was covered in the previous frame (an outline that slid over the surface)."""
+    from scipy.ndimage import distance_transform_edt
+
+    m = np.array(motion, dtype=np.float64)
+    covered = m[..., 3] > 0.5
+    if not covered.any():
+        return m, np.zeros(covered.shape, bool)
+    dist, (ri, ci) = distance_transform_edt(~covered, return_indices=True)
+    band = ~covered & (dist <= width)
+    h, w = covered.shape
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+    dx = m[ri, ci, 0] - (ci + 0.5)  # the nearest covered pixel's displacement (window x; y up)
+    dy = m[ri, ci, 1] - (h - ri - 0.5)
+    m[..., 0] = np.where(band, cols + 0.5 + dx, m[..., 0])
+    m[..., 1] = np.where(band, h - rows - 0.5 + dy, m[..., 1])
+    m[..., 2] = np.where(band, 0.0, m[..., 2])
+    m[..., 3] = np.where(band, 1.0, m[..., 3])
+    return m, band
 
 
 def coherence_index(e_pipe: float, e_plain: float, e_reseed: float) -> float | None:
@@ -317,6 +376,24 @@ def held_nodes(pipe: Any) -> list[str]:
     from ...node import HOLD_PARAM
 
     return [nid for nid, node in pipe.pipeline.nodes.items() if HOLD_PARAM in type(node.params).model_fields]
+
+
+def film_pipeline(name: str) -> str:
+    """The pipeline a film setting runs: the variant file FILM_PIPELINE names (beside the shipped pipelines), or
+    the shipped pipeline itself."""
+    if name not in FILM_PIPELINE:
+        return name
+    from ... import shipped
+
+    root = shipped.folder()
+    if root is None:
+        raise click.UsageError("the shipped pipelines are not installed: no film variant to load")
+    return str(root / FILM_PIPELINE[name])
+
+
+def film_overrides(pipe: Any, name: str) -> dict[str, Any]:
+    """A pipeline's film setting as `--set` overrides: `hold: 0` on every node that has a hold, then FILM[name]."""
+    return {**{f"{nid}.hold": 0 for nid in held_nodes(pipe)}, **FILM.get(name, {})}
 
 
 def sweep_overrides(pipe: Any, factor: float) -> dict[str, Any]:
@@ -374,24 +451,37 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
     probe = session.load(name, size=size)
     base = grain_off(probe)
 
-    def shot_figures(shot: Shot, overrides: dict[str, Any], reseed_e: float | None = None) -> dict[str, Any]:
-        e_pipe = shot.error(styled(session, name, shot, size, {**base, **overrides}))
-        e_reseed = reseed_e if reseed_e is not None else \
-            shot.error(styled(session, name, shot, size, {**base, **overrides}, reseed=True))
+    def shot_figures(shot: Shot, overrides: dict[str, Any], reseed: dict[str, Any] | None = None,
+                     source: str = name, grain: dict[str, Any] = base) -> dict[str, Any]:
+        e_pipe, i_pipe = shot.errors(styled(session, source, shot, size, {**grain, **overrides}))
+        if reseed is not None:
+            e_reseed, i_reseed = reseed["e_reseed"], reseed["extended"]["e_reseed"]
+        else:
+            e_reseed, i_reseed = shot.errors(styled(session, source, shot, size, {**grain, **overrides}, reseed=True))
         return {"coherence_index": coherence_index(e_pipe, shot.e_plain, e_reseed), "e_pipeline": e_pipe,
-                "e_plain": shot.e_plain, "e_reseed": e_reseed}
+                "e_plain": shot.e_plain, "e_reseed": e_reseed,
+                "extended": {"coherence_index": coherence_index(i_pipe, shot.e_plain_extended, i_reseed),
+                             "e_pipeline": i_pipe, "e_plain": shot.e_plain_extended, "e_reseed": i_reseed,
+                             "band_px": shot.band_px}}
 
     result: dict[str, Any] = {"grain_off": base}
     default = {s: shot_figures(shot, {}) for s, shot in shots.items()}
     still = sweep_overrides(probe, 0.0)
     if still:  # beside the index: the error left with the strays set to 0 (lines moving over the surface, aliasing)
         for s, shot in shots.items():
-            default[s]["e_no_uncertainty"] = shot.error(styled(session, name, shot, size, {**base, **still}))
+            default[s]["e_no_uncertainty"], default[s]["extended"]["e_no_uncertainty"] = shot.errors(
+                styled(session, name, shot, size, {**base, **still}))
     result["default"] = {"overrides": {}, "shots": default}
     echo(f"  {name}: default {_indices(default)} ({time.perf_counter() - t0:.0f} s)")
-    film = FILM.get(name, {})
-    if film:
-        result["film"] = {"overrides": film, "shots": {s: shot_figures(shot, film) for s, shot in shots.items()}}
+    source = film_pipeline(name)
+    film_probe = probe if source == name else session.load(source, size=size)
+    film_base = grain_off(film_probe)
+    film = film_overrides(film_probe, name)
+    if film or source != name:
+        result["film"] = {"overrides": film, "shots": {s: shot_figures(shot, film, source=source, grain=film_base)
+                                                       for s, shot in shots.items()}}
+        if source != name:
+            result["film"]["pipeline"] = FILM_PIPELINE[name]
         echo(f"  {name}: film {_indices(result['film']['shots'])}")
     else:
         result["film"] = {"overrides": {}, "same_as": "default", "shots": default}
@@ -400,10 +490,12 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
         result["hold"] = {}
         for n in HOLDS:
             ov = {f"{nid}.hold": n for nid in held}
-            result["hold"][str(n)] = {s: shot_figures(shot, ov, default[s]["e_reseed"]) for s, shot in shots.items()}
+            result["hold"][str(n)] = {s: shot_figures(shot, ov, default[s]) for s, shot in shots.items()}
         echo(f"  {name}: hold " + ", ".join(f"{n}: {_indices(result['hold'][str(n)])}" for n in HOLDS))
     turn = shots.get("turn") or next(iter(shots.values()))
     result["sketchiness_px"] = sketchiness(session, name, turn, size, base)
+    if "same_as" not in result["film"]:
+        result["film"]["sketchiness_px"] = sketchiness(session, source, turn, size, {**film_base, **film})
     if do_sweep:
         points = [{"factor": 1.0, "sketchiness_px": result["sketchiness_px"],
                    "coherence_index": default[_key(shots, turn)]["coherence_index"]}]
@@ -440,7 +532,7 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
     with tempfile.TemporaryDirectory(prefix="coherence-") as tmp, ng.Session(cache=False) as session:
         folder = Path(tmp)
         plain = folder / "plain.yaml"
-        plain.write_text(PLAIN_YAML)
+        atomic_write_text(plain, PLAIN_YAML)
         scenes = write_shots(folder, frames)
         shots = {}
         for s, path in scenes.items():
@@ -464,6 +556,7 @@ def chart(result: dict[str, Any], path: Path) -> Path:
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8.0, 4.6))
+    ax.set_prop_cycle(color=plt.get_cmap("tab20").colors)  # more pipelines than the default ten colours
     for name, r in result["pipelines"].items():
         turn = r["default"]["shots"].get("turn") or next(iter(r["default"]["shots"].values()))
         pts = r.get("sweep", {}).get("points") or [{"factor": 1.0, "sketchiness_px": r["sketchiness_px"],
@@ -476,11 +569,16 @@ def chart(result: dict[str, Any], path: Path) -> Path:
         for p in pts:
             ax.scatter([p["sketchiness_px"]], [p["coherence_index"]], color=line.get_color(), zorder=3,
                        s=40 if p["factor"] == 1.0 else 14, marker="o" if p["factor"] == 1.0 else "s")
+        film = r.get("film", {})
+        film_turn = film.get("shots", {}).get("turn", {}).get("coherence_index")
+        if film.get("sketchiness_px") is not None and film_turn is not None and math.isfinite(film["sketchiness_px"]):
+            ax.scatter([film["sketchiness_px"]], [film_turn], color=line.get_color(), zorder=4, s=70, marker="*")
     ax.set_xlabel("sketchiness: mean distance of drawn pixels from the true lines (px at "
                   f"{result['size'][0]}x{result['size'][1]})")
     ax.set_ylabel("coherence index, turn shot\n(1 = plain render, 0 = re-seeded every frame)")
     ax.set_ylim(-0.05, 1.05)
-    ax.set_title("Coherence against sketchiness (dot: default; squares: main params x0.5 and x2)", fontsize=9)
+    ax.set_title("Coherence against sketchiness (dot: default; squares: main params x0.5 and x2; star: film "
+                 "setting)", fontsize=9)
     ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8)
     path.parent.mkdir(parents=True, exist_ok=True)
     from ...fsio import atomic_output
@@ -489,6 +587,79 @@ def chart(result: dict[str, Any], path: Path) -> Path:
         fig.savefig(tmp, dpi=110, bbox_inches="tight", metadata={"Software": None}, format="png")
     plt.close(fig)
     return path
+
+
+def _tile(img: np.ndarray) -> np.ndarray:
+    """An (H, W, 3) uint8 tile of a float image (composited over white where it has alpha)."""
+    a = np.asarray(img, np.float64)
+    rgb = a[..., :3] if a.shape[2] >= 3 else np.repeat(a[..., :1], 3, axis=2)
+    if a.shape[2] == 4:
+        rgb = rgb * a[..., 3:] + (1.0 - a[..., 3:])
+    return (np.clip(rgb, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def _sheet(rows: list[tuple[str, list[np.ndarray]]], header: str, path: Path) -> Path:
+    """Rows of equal tiles, each row with its label above it, written as one PNG."""
+    from PIL import Image, ImageDraw
+
+    th, tw = rows[0][1][0].shape[:2]
+    gap, label = 4, 14
+    width = max(len(t) for _, t in rows) * (tw + gap) + gap
+    height = label + len(rows) * (th + label + gap) + gap
+    sheet = Image.new("RGB", (width, height), (255, 255, 255))
+    draw = ImageDraw.Draw(sheet)
+    draw.text((gap, 1), header, fill=(0, 0, 0))
+    y = label
+    for text, tiles in rows:
+        draw.text((gap, y + 1), text, fill=(0, 0, 0))
+        for i, tile in enumerate(tiles):
+            sheet.paste(Image.fromarray(tile), (gap + i * (tw + gap), y + label))
+        y += th + label + gap
+    path.parent.mkdir(parents=True, exist_ok=True)
+    from ...fsio import atomic_output
+
+    with atomic_output(path) as tmp:
+        sheet.save(tmp, format="PNG")
+    return path
+
+
+def stills(names: list[str], path: Path, size: tuple[int, int] = (256, 256)) -> Path:
+    """Each pipeline's frame 0 on its own scene, default beside film setting (paper grain on, as drawn)."""
+    import nodegraph as ng
+
+    rows = []
+    with ng.Session(cache=False) as session:
+        for name in names:
+            source = film_pipeline(name)
+            film = film_overrides(session.load(source, size=size), name)
+            tiles = [_tile(session.load(src, size=size, set=ov).render("image", frame=0, dtype="float32"))
+                     for src, ov in ((name, {}), (source, film))]
+            rows.append((f"{name}: default | film", tiles))
+    pairs = [(f"{a[0]}   /   {b[0]}", a[1] + b[1]) for a, b in zip(rows[::2], rows[1::2], strict=False)]
+    if len(rows) % 2:
+        pairs.append(rows[-1])
+    return _sheet(pairs, "stills, each pipeline's own scene: default (left) and film setting (right)", path)
+
+
+def contact_sheet(names: list[str], path: Path, size: tuple[int, int] = (160, 160), frames: int = 12,
+                  shot: str = "orbit", first: int = 4, count: int = 4) -> Path:
+    """`count` consecutive frames of `shot` per pipeline: the default, then the film setting (grain on)."""
+    import nodegraph as ng
+
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="coherence-") as tmp, ng.Session(cache=False) as session:
+        scene = str(write_shots(Path(tmp), frames)[shot])
+        span = range(first, first + count)
+        for name in names:
+            source = film_pipeline(name)
+            film = film_overrides(session.load(source, size=size), name)
+            for label, src, ov in (("default", name, {}), ("film", source, film)):
+                pipe = session.load(src, scene=scene, size=size, set=ov)
+                rows.append((f"{name}: {label}", [_tile(img) for _, img in pipe.frames(span, output="image",
+                                                                                       dtype="float32")]))
+    pairs = [(f"{a[0]}   /   {b[0]}", a[1] + b[1]) for a, b in zip(rows[::2], rows[1::2], strict=True)]
+    return _sheet(pairs, f"{shot} shot, frames {first}-{first + count - 1} of {frames}: default (left four) and film "
+                  "setting (right four)", path)
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -505,19 +676,25 @@ def _size(text: str) -> tuple[int, int]:
                     "along the exact motion, against the plain lit render and per-frame re-seeding, on three shots "
                     "made in code (turn, orbit, bend); coherence index 1 = plain, 0 = re-seeded.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
-@click.option("--pipelines", default=None, help="Comma-separated shipped pipelines (default: all).")
+@click.option("--pipelines", default=None,
+              help="Comma-separated shipped pipelines (default: all with an `image` output).")
 @click.option("--size", default="256x256", show_default=True, help="WxH of the frames.")
 @click.option("--frames", default=12, show_default=True, type=click.IntRange(3, 240), help="Frames per shot.")
 @click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
 @click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
 @click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
               help="Write the chart of coherence against sketchiness (PNG), e.g. docs/charts/coherence.png.")
+@click.option("--contact-sheet", "sheet_path", type=click.Path(path_type=Path), default=None,
+              help="Also write 4 consecutive frames of the orbit shot per pipeline, default and film (PNG).")
+@click.option("--stills", "stills_path", type=click.Path(path_type=Path), default=None,
+              help="Also write each pipeline's still on its own scene, default beside film (PNG).")
 def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, no_hold: bool, no_sweep: bool,
-            chart_path: Path | None) -> None:
+            chart_path: Path | None, sheet_path: Path | None, stills_path: Path | None) -> None:
     from ... import shipped
 
     known = shipped.names()
-    names = [p.strip() for p in pipelines.split(",") if p.strip()] if pipelines else known
+    names = [p.strip() for p in pipelines.split(",") if p.strip()] if pipelines else [n for n in known
+                                                                                       if _draws_image(n)]
     unknown = [n for n in names if n not in known]
     if unknown:
         raise click.BadParameter(f"unknown pipeline(s) {', '.join(unknown)}; shipped: {', '.join(known)}",
@@ -530,18 +707,33 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
         click.echo(f"wrote {json_path}")
     if chart_path:
         click.echo(f"wrote {chart(result, chart_path)}")
+    if sheet_path:
+        click.echo(f"wrote {contact_sheet(names, sheet_path, frames=frames)}")
+    if stills_path:
+        click.echo(f"wrote {stills(names, stills_path)}")
+
+
+def _draws_image(name: str) -> bool:
+    """Whether a shipped pipeline has an `image` output (vector-only pipelines have nothing to warp)."""
+    from ... import shipped, yamlio
+
+    return "image" in (yamlio.load(shipped.resolve(name)).get("outputs") or {})
 
 
 def summary(result: dict[str, Any]) -> str:
     """A table: per pipeline, the index per shot (default), with hold 1/2/4 where measured, and sketchiness."""
-    lines = [f"{'pipeline':26s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   hold1/2/4 (mean)  sketch px"]
+    lines = [f"{'pipeline':26s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   film " +
+             " ".join(f"{s:>6s}" for s in SHOTS) + "   hold1/2/4 (mean)  sketch px"]
     for name, r in result["pipelines"].items():
-        d = r["default"]["shots"]
+        d, f = r["default"]["shots"], r["film"]["shots"]
         holds = ""
         if "hold" in r:
             holds = "/".join(_fmt(_mean([f["coherence_index"] for f in r["hold"][str(n)].values()])) for n in HOLDS)
+        film = r["film"].get("sketchiness_px")
         lines.append(f"{name:26s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
-                                               for s in SHOTS) + f"   {holds:17s} {r['sketchiness_px']:.2f}")
+                                               for s in SHOTS) + "        " +
+                     " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in SHOTS) +
+                     f"   {holds:17s} {r['sketchiness_px']:.2f}" + (f" (film {film:.2f})" if film else ""))
     return "\n".join(lines)
 
 
