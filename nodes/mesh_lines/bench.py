@@ -4,7 +4,9 @@ and boundary segments on the mesh), chaining, sampling + visibility (against the
 rendered once beforehand and not timed), splitting into strokes, and writing the layered SVG text. Meshes: the
 built-in torus, the shared meshes that exist (spot, bunny, ogre) and a bumpy torus of about 1M triangles made
 here. Each stage's median over `--repeats` runs of the same frame (the first run, which builds the per-mesh
-topology cache, is reported apart as `first_ms`)."""
+topology cache, is reported apart as `first_ms`). With `--plotter` (the default) also plotter_lines (lines and
+hatching) per mesh on an A4 page and its pen-up travel as vpype counts it, in file order and after `linesort`
+(`pen_up`; vpype is in the [test] extra)."""
 
 from __future__ import annotations
 
@@ -161,6 +163,51 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             "ms": med, "total_ms": round(sum(med.values()), 2), "first_ms": round(first, 2)}
 
 
+def pen_up(svg_text: str) -> dict[str, Any] | None:
+    """Pen-up travel (mm) of a layered SVG on a page, as vpype plots it: in the file's order, after `linesort`,
+    and after `linemerge --tolerance 0.2mm linesort`; pen-down length and path counts beside. Travel is summed
+    over layers (one pen each: vpype leaves out the moves between layers). None without vpype."""
+    try:
+        import vpype as vp
+        import vpype_cli
+    except ImportError:
+        return None
+    import io
+
+    mm = 25.4 / 96.0  # vpype's unit is the CSS pixel
+
+    def stats(doc: Any) -> dict[str, float]:
+        return {"pen_up_mm": round(float(doc.pen_up_length()) * mm, 1),
+                "pen_down_mm": round(float(doc.length()) * mm, 1), "paths": sum(len(lc) for lc in doc.layers.values())}
+
+    def read() -> Any:
+        return vp.read_multilayer_svg(io.StringIO(svg_text), quantization=0.1)
+
+    return {"file_order": stats(read()), "linesort": stats(vpype_cli.execute("linesort", read())),
+            "linemerge_linesort": stats(vpype_cli.execute("linemerge --tolerance 0.2mm linesort", read()))}
+
+
+def plotter(scene: Any, size: int, page: str = "A4") -> dict[str, Any]:
+    """plotter_lines (lines and hatching) on `scene` at `size`, written on `page`; its strokes per layer, the time
+    of the frame (curvature, hatching and the GPU drawing included) and its pen-up travel (`pen_up`)."""
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+    from nodegraph.output.svg import layered_svg, parse_page, read_layers
+
+    pipe = pl.load("plotter_lines", size=(size, size), reference_size=size)
+    pipe.scene = scene
+    ex = Executor(pipe, None)
+    try:
+        t0 = time.perf_counter()
+        strokes = ex.run(0).values[("hatch", "combined")]
+        ms = (time.perf_counter() - t0) * 1e3
+    finally:
+        ex.close()
+    text = layered_svg(strokes, parse_page(page))
+    return {"page": page, "frame_ms": round(ms, 1),
+            "layers": {k: len(v) for k, v in read_layers(text).items()}, "pen": pen_up(text)}
+
+
 @click.command(help=__doc__.split("\n\n")[0].replace("`sketchgraph bench strokes`: ", ""))
 @click.option("--size", default=800, show_default=True, help="Square canvas in pixels.")
 @click.option("--repeats", default=3, show_default=True, help="Timed runs per mesh (after one untimed).")
@@ -168,7 +215,11 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 @click.option("--pictures", type=click.Path(path_type=Path), help="Write each mesh's layered SVG (hidden lines "
               "too) and a PNG of it into this folder.")
-def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | None, pictures: Path | None) -> None:
+@click.option("--plotter/--no-plotter", "with_plotter", default=True, show_default=True,
+              help="Also run plotter_lines (lines and hatching) on each mesh, on an A4 page, and report its pen-up "
+              "travel after vpype's linesort (needs vpype: the [test] extra).")
+def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | None, pictures: Path | None,
+            with_plotter: bool) -> None:
     out: dict[str, Any] = {}
     for name in meshes or MESHES:
         scene = _scene(name)
@@ -181,5 +232,15 @@ def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | 
                    f"({m['strokes_hidden']} hidden), lengths px p10/p50/p90 {lp.get('p10')}/{lp.get('p50')}/"
                    f"{lp.get('p90')}, total {lp.get('total')}; ms: "
                    + ", ".join(f"{k} {v}" for k, v in m["ms"].items()) + f"; total {m['total_ms']} ms")
+        if with_plotter:
+            pm = m["plotter"] = plotter(scene, size)
+            pen = pm["pen"]
+            if pen is None:
+                click.echo(f"{name}: plotter_lines pen-up travel not measured (vpype is not installed)")
+            else:
+                click.echo(f"{name}: plotter_lines on A4, {pm['layers']}, pen down {pen['file_order']['pen_down_mm']}"
+                           f" mm; pen up {pen['file_order']['pen_up_mm']} mm in file order, "
+                           f"{pen['linesort']['pen_up_mm']} after linesort, {pen['linemerge_linesort']['pen_up_mm']} "
+                           "after linemerge + linesort")
     if json_path is not None:
         atomic_write_text(json_path, json.dumps(out, indent=1) + "\n")

@@ -3,7 +3,7 @@ over the visible surfaces, spaced by tone, cross-hatched in the darkest tones.""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -34,7 +34,8 @@ class StrokeHatching(Node):
     second family along the maximum-curvature field. Streamlines stay on the object they start on and are dropped
     shorter than `min_length`. Output strokes of kind "hatching", visible, with depth, object, and `pos` (the
     object-space surface point) where `position` is connected; spacing, step and lengths are in pixels at the
-    reference size (times px_scale)."""
+    reference size (times px_scale). `anchor: surface` seeds from points fixed on the surfaces in a fixed order
+    instead (surface_seeds), so a film's hatching holds to its objects."""
 
     version = "1"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
@@ -74,6 +75,12 @@ class StrokeHatching(Node):
                                        "of its depth of the depth buffer.")
         width: float = Field(0.8, gt=0, le=64, description="Stroke width in pixels at the reference size.")
         tone: float = Field(1.0, ge=0, le=1, description="Darkness of the strokes.")
+        anchor: Literal["screen", "surface"] = Field("screen", description="Where streamlines start: `screen`, "
+                                                     "a pixel grid, darkest first, and Jobard and Lefer's seeds beside "
+                                                     "each streamline (the most even spacing); `surface`, points "
+                                                     "fixed on each object's surface (faces and barycentric "
+                                                     "coordinates) in a fixed order, so films keep their hatching "
+                                                     "from frame to frame.")
 
     def hash_extra(self, ctx: HashContext) -> Any:
         return origin.hash_extra(ctx.scene, ctx.frame)
@@ -103,9 +110,11 @@ class StrokeHatching(Node):
         lo, hi = p.spacing[0] * s, p.spacing[1] * s
         pos = inputs["position"].read() if inputs.get("position") is not None else None
         lines: list[np.ndarray] = []
+        anchored = surface_seeds(scene, view, proj, depth, ids, (w, h), lo, p.depth_tolerance) \
+            if p.anchor == "surface" else None
         for family, limit in ((0, p.white), (1, p.cross_below)):
             lines += hatch(fields[family], bright, ids, (w, h), lo, hi, limit, p.stop_ratio, p.step * s,
-                           p.min_length * s, p.cell * s)
+                           p.min_length * s, p.cell * s, anchored)
         strokes = to_strokes(lines, (w, h), depth, ids, pos, p.width * s, p.tone)
         out: dict[str, Any] = {"strokes": strokes}
         if "combined" in needed:
@@ -160,10 +169,56 @@ def _project(v: np.ndarray, proj: np.ndarray, size: tuple[int, int]) -> tuple[np
     return np.stack([(clip[:, 0] / wcl + 1) * 0.5 * size[0], (clip[:, 1] / wcl + 1) * 0.5 * size[1]], 1), ok
 
 
+def surface_seeds(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.ndarray, ids: np.ndarray,
+                  size: tuple[int, int], spacing: float, tol: float) -> np.ndarray:
+    """Seeds fixed on the surfaces: (x, y, object id) rows in a fixed order. Face f of an object carries the
+    points k = 0 .. n_f - 1 of the R2 low-discrepancy sequence folded into the triangle (n_f = its screen area /
+    (spacing / 2)^2, 1 to 64), each ordered by a hash of (object, f, k); the visible ones (object id and depth
+    within `tol` at their pixel), the first in that order in each cell of spacing / 2 pixels."""
+    w, h = size
+    a1, a2 = 0.7548776662466927, 0.5698402909980532  # R2: 1 / g, 1 / g^2, g the plastic number
+    cell = max(spacing * 0.5, 1.0)
+    out = []
+    for index, obj in enumerate(scene.objects):
+        v = np.asarray(obj.mesh.vertices, np.float64)
+        f = np.asarray(obj.mesh.faces, np.int64)
+        mv = view @ np.asarray(obj.transform, np.float64)
+        vv = v @ mv[:3, :3].T + mv[:3, 3]
+        xy, ok = _project(vv, proj, size)
+        t = xy[f]
+        area = 0.5 * np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
+                            - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
+        n = np.clip(np.ceil(np.nan_to_num(area) / cell ** 2), 1, 64).astype(np.int64)
+        n[~ok[f].all(axis=1)] = 0
+        face = np.repeat(np.arange(len(f)), n)
+        k = np.arange(len(face)) - np.repeat(np.cumsum(n) - n, n)
+        u, q = (0.5 + k * a1) % 1.0, (0.5 + k * a2) % 1.0
+        fold = u + q > 1.0
+        u, q = np.where(fold, 1.0 - u, u), np.where(fold, 1.0 - q, q)
+        bary = np.stack([1.0 - u - q, u, q], 1)
+        pts = np.einsum("nk,nkd->nd", bary, vv[f[face]])
+        sxy, sok = _project(pts, proj, size)
+        inside = sok & (sxy[:, 0] >= 0) & (sxy[:, 0] < w) & (sxy[:, 1] >= 0) & (sxy[:, 1] < h)
+        ix = np.clip(sxy[:, 0].astype(np.int64), 0, w - 1)
+        iy = np.clip(sxy[:, 1].astype(np.int64), 0, h - 1)
+        vis = inside & (ids[iy, ix] == index + 1) & \
+            (np.abs(depth[iy, ix] + pts[:, 2]) <= tol * np.maximum(-pts[:, 2], 1e-9))
+        key = ((face.astype(np.uint64) * np.uint64(2654435761) + k.astype(np.uint64) * np.uint64(40503)
+                + np.uint64(index) * np.uint64(97531)) * np.uint64(0x9E3779B1)) % np.uint64(1 << 32)
+        out.append(np.c_[sxy[vis], np.full(int(vis.sum()), index + 1), key[vis].astype(np.float64)])
+    rows = np.concatenate(out) if out else np.zeros((0, 4))
+    rows = rows[np.argsort(rows[:, 3], kind="stable")]
+    gx = (rows[:, 0] / cell).astype(np.int64)
+    gy = (rows[:, 1] / cell).astype(np.int64)
+    _, first = np.unique(gy * (int(w / cell) + 2) + gx, return_index=True)
+    return rows[np.sort(first), :3]
+
+
 def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[int, int], lo: float, hi: float,
-          limit: float, stop_ratio: float, step: float, min_length: float, cell: float) -> list[np.ndarray]:
+          limit: float, stop_ratio: float, step: float, min_length: float, cell: float,
+          anchored: np.ndarray | None = None) -> list[np.ndarray]:
     """One family of evenly spaced streamlines of `tensor` (streamlines.tensor_field) where brightness < limit,
-    each on the object it starts on."""
+    each on the object it starts on; from `anchored` seeds (surface_seeds) in their order where given."""
     w, h = size
     dirs = streamlines.principal(tensor)
     strength = tensor[..., 0] + tensor[..., 2]
@@ -188,6 +243,14 @@ def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[i
         return lo + (hi - lo) * min(max(float(bright[r, c]), 0.0), 1.0)
 
     hatcher = streamlines.Hatcher(size, field, dsep, hi, stop_ratio, step, min_length)
+    if anchored is not None:
+        r = np.clip(anchored[:, 1].astype(int), 0, h - 1)
+        c = np.clip(anchored[:, 0].astype(int), 0, w - 1)
+        use = anchored[bright[r, c] < limit]
+        for obj in np.unique(use[:, 2]):
+            state["obj"] = int(obj)
+            hatcher.run_fixed(use[use[:, 2] == obj, :2])
+        return hatcher.lines
     g = max(lo, 2.0)
     ys, xs = np.mgrid[0.5 * g:h:g, 0.5 * g:w:g]
     seeds = np.c_[xs.ravel(), ys.ravel()]

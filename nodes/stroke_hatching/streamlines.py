@@ -124,6 +124,13 @@ class Hatcher:
         self.lines.append(arr)
         return arr
 
+    def run_fixed(self, seeds: np.ndarray) -> list[np.ndarray]:
+        """Every seed in the order given, no queue of neighbour seeds: the streamlines depend only on the seeds'
+        order and the field, so seeds that move with a surface give much the same streamlines frame to frame."""
+        for x, y in seeds:
+            self.streamline(float(x), float(y))
+        return self.lines
+
     def run(self, seeds: np.ndarray) -> list[np.ndarray]:
         """Jobard and Lefer's loop: seeds d_sep to either side of each new streamline's samples first (a queue),
         then the next of `seeds` (grid candidates) when the queue is empty."""

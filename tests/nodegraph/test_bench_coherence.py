@@ -14,7 +14,8 @@ from nodegraph.tools.bench import coherence as co
 
 def test_coherence_index_maps_plain_to_one_and_reseed_to_zero():
     assert co.coherence_index(0.01, 0.01, 0.05) == 1.0
-    assert co.coherence_index(0.05, 0.01, 0.05) == 0.0
+    assert co.coherence_index(0.0499, 0.01, 0.05) == pytest.approx(0.0025)
+    assert co.coherence_index(0.05, 0.01, 0.05) is None  # re-seeding changed no pixel: nothing is seeded
     assert co.coherence_index(0.02, 0.01, 0.05) == pytest.approx(0.75)
     assert co.coherence_index(0.002, 0.01, 0.05) == 1.0 and co.coherence_index(0.09, 0.01, 0.05) == 0.0  # clipped
     assert co.coherence_index(0.02, 0.01, 0.01) is None  # re-seeding changes nothing: no scale

@@ -83,6 +83,8 @@ FILM: dict[str, dict[str, Any]] = {
     "repeated_edges": {},
     "sketchy_composite": {},
     "sketchy_lines": {},
+    "sketchy_strokes": {},  # its uncertainty is read on the surface already (stroke_style), held at 0
+    "plotter_lines": {"hatch.anchor": "surface"},  # hatching seeded from fixed surface points
 }
 # variant pipelines (paths relative to the shipped pipelines' folder) that FILM's overrides apply to
 FILM_PIPELINE: dict[str, str] = {name: f"film/{name}.yaml" for name in (
@@ -356,8 +358,12 @@ def extend_motion(motion: np.ndarray, width: float) -> tuple[np.ndarray, np.ndar
 
 
 def coherence_index(e_pipe: float, e_plain: float, e_reseed: float) -> float | None:
+    """1 = as coherent as the plain render, 0 = as incoherent as re-seeding every frame (clipped to [0, 1]); None
+    where the index says nothing: re-seeding does not raise the error above the plain render's, or changes no
+    pixel at all (the same error to the last bit: a pipeline without seeded nodes, such as plotter_lines, whose
+    raw errors are then its figures)."""
     span = e_reseed - e_plain
-    if not span > 1e-6:
+    if not span > 1e-6 or e_pipe == e_reseed:
         return None
     return float(min(max(1.0 - (e_pipe - e_plain) / span, 0.0), 1.0))
 

@@ -1,9 +1,14 @@
 """`sketchgraph bench peer`: sketchgraph against Blender 5 on the same meshes, camera and size (800x800).
 
-Two Blender setups, each timed against every sketchgraph pipeline asked for (default `nienhaus_sketchy`):
+Two Blender setups by default (a third on request), each timed against every sketchgraph pipeline asked for
+(default `nienhaus_sketchy`):
 
 - `cycles`: Cycles on the CPU, `--cycles-samples` samples a pixel (default 16; adaptive sampling and denoising
   off), with Freestyle lines (one line set: visible silhouette, border and crease edges, 1.5 px).
+- `freestyle_svg` (asked for with `--setup freestyle_svg`, beside `--pipeline plotter_lines`): Freestyle's
+  lines written as an SVG a frame by Blender's Freestyle SVG Exporter (a bundled add-on up to Blender 4.1, an
+  extension since: it must be installed in the bpy environment, else the worker answers one error line), on the
+  `cycles` setup's line set with Cycles at 1 sample; the issue's vector-lines comparison (docs/strokes.md).
 - `workbench`: Workbench (studio light, the material's colour, Blender's default 8 anti-aliasing samples) with a
   Grease Pencil v3 object whose Line Art modifier (`LINEART`, source: the scene) draws contour, crease and loose
   lines about 2 px wide.
@@ -68,7 +73,8 @@ WORKER = Path(__file__).with_name("peer_blender.py")
 SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
 DEFAULT_MESHES = ("spot.obj", "ogre.obj")
 DEFAULT_PIPELINES = ("nienhaus_sketchy",)
-SETUPS = ("cycles", "workbench")
+SETUPS = ("cycles", "workbench", "freestyle_svg")
+DEFAULT_SETUPS = ("cycles", "workbench")
 SENSOR_MM = 36.0  # Blender's sensor size along the fitted side; only lens / sensor matters
 
 
@@ -382,11 +388,12 @@ SETUP_TEXT = {
               "silhouette + border + crease edges, 1.5 px",
     "workbench": "Workbench, studio light, material colour, 8 AA samples (default); Grease Pencil v3 Line Art "
                  "modifier (source: scene; contour + crease + loose lines)",
+    "freestyle_svg": "Freestyle SVG Exporter (one SVG a frame) on the cycles setup's line set, Cycles at 1 sample",
 }
 
 
 def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str, ...] = DEFAULT_PIPELINES,
-               setups: tuple[str, ...] = SETUPS, rounds: int = 5, size: tuple[int, int] = (800, 800),
+               setups: tuple[str, ...] = DEFAULT_SETUPS, rounds: int = 5, size: tuple[int, int] = (800, 800),
                cycles_samples: int = 16, view: str | None = None, up: str | None = None,
                images: Path | None = None, cold: bool = True) -> dict[str, Any]:
     if rounds < 1:
@@ -521,7 +528,8 @@ def print_peer(result: dict[str, Any]) -> None:
               help="Folder of the shared test meshes (default: ../shared/meshes beside the checkout).")
 @click.option("--pipeline", "pipelines", multiple=True, help="A sketchgraph pipeline (repeatable; default: "
               f"{', '.join(DEFAULT_PIPELINES)}).")
-@click.option("--setup", "setups", multiple=True, type=click.Choice(SETUPS), help="Blender setups (default: both).")
+@click.option("--setup", "setups", multiple=True, type=click.Choice(SETUPS),
+              help="Blender setups (default: cycles and workbench).")
 @click.option("--rounds", default=5, show_default=True, help="Interleaved rounds counted (after one not counted).")
 @click.option("--size", default="800x800", show_default=True, help="WxH.")
 @click.option("--cycles-samples", default=16, show_default=True, help="Cycles samples a pixel.")
@@ -552,7 +560,7 @@ def command(mesh_names: tuple[str, ...], meshes_dir: Path | None, pipelines: tup
     if not meshes:
         click.echo(f"bench peer: no meshes to render (looked in {folder}); pass --meshes-dir DIR or --mesh FILE")
         return
-    result = bench_peer(python, meshes, pipelines=pipelines or DEFAULT_PIPELINES, setups=setups or SETUPS,
+    result = bench_peer(python, meshes, pipelines=pipelines or DEFAULT_PIPELINES, setups=setups or DEFAULT_SETUPS,
                         rounds=rounds, size=parse_size(size), cycles_samples=cycles_samples, view=view, up=up,
                         images=images_dir, cold=not no_cold)
     print_peer(result)

@@ -9,7 +9,8 @@ Requests (`op`):
 
 - `load`: a mesh file and the camera, light and colour sketchgraph renders it with (the matrices computed by the
   caller, nodegraph/tools/bench/peer.py); builds one scene per setup (`cycles`: Cycles on the CPU with Freestyle
-  lines; `workbench`: Workbench with a Grease Pencil Line Art modifier) sharing the imported mesh, camera and sun.
+  lines; `workbench`: Workbench with a Grease Pencil Line Art modifier; `freestyle_svg`: Freestyle's lines
+  written as SVG by the Freestyle SVG Exporter) sharing the imported mesh, camera and sun.
   Answers the OBJ import's seconds, the setup's, the mesh's bounds in sketchgraph's world frame (to check the
   import against the framing) and where the given points project.
 - `render`: one render of `name`'s `setup` scene; answers the seconds of the render call alone (Blender's own
@@ -30,7 +31,8 @@ import sys
 import time
 from typing import Any
 
-SETUPS = ("cycles", "workbench")
+SETUPS = ("cycles", "workbench", "freestyle_svg")
+SVG_ADDONS = ("render_freestyle_svg", "bl_ext.blender_org.render_freestyle_svg")  # bundled (<= 4.1), extension
 
 
 class Worker:
@@ -88,6 +90,8 @@ class Worker:
                 self._cycles(scene, int(req.get("cycles_samples", 16)))
             elif setup == "workbench":
                 self._workbench(scene, name)
+            elif setup == "freestyle_svg":
+                self._freestyle_svg(scene, name)
             else:
                 raise ValueError(f"unknown setup {setup!r}; expected one of {', '.join(SETUPS)}")
             self.scenes[(name, setup)] = scene.name
@@ -172,6 +176,29 @@ class Worker:
             lineset.select_silhouette = True
             lineset.select_border = True
             lineset.select_crease = True
+
+    def _freestyle_svg(self, scene: Any, name: str) -> None:
+        """Freestyle's lines written as SVG by Blender's Freestyle SVG Exporter (a bundled add-on up to Blender 4.1,
+        an extension since): the cycles setup's line set, Cycles at 1 sample (Freestyle needs a render engine;
+        the lines are the work), one SVG a frame into a temporary folder."""
+        import tempfile
+
+        import addon_utils
+
+        self._cycles(scene, 1)
+        for module in SVG_ADDONS:
+            try:
+                addon_utils.enable(module, default_set=True)
+            except Exception:  # noqa: BLE001 - the next name, then one error line below
+                continue
+            if hasattr(scene, "svg_export"):
+                break
+        if not hasattr(scene, "svg_export"):
+            raise RuntimeError("the Freestyle SVG Exporter is not installed in this Blender (add-on "
+                               "render_freestyle_svg, an extension since Blender 4.2): setup freestyle_svg cannot run")
+        scene.svg_export.use_svg_export = True
+        scene.svg_export.mode = "FRAME"
+        scene.render.filepath = os.path.join(tempfile.mkdtemp(prefix="peer_svg_"), f"{name}_")
 
     def _workbench(self, scene: Any, name: str) -> None:
         bpy = self.bpy

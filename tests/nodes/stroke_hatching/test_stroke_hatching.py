@@ -1,5 +1,5 @@
-"""stroke_hatching: Jobard-Lefer separation checked in float64, density by tone, and a cylinder's hatching along
-its axis (its minimum-curvature direction)."""
+"""stroke_hatching: Jobard-Lefer separation checked in float64, density by tone, a cylinder's hatching along
+its axis (its minimum-curvature direction), and hatching from surface-anchored seeds carried with a turning torus."""
 
 from __future__ import annotations
 
@@ -113,3 +113,74 @@ def test_combined_puts_lines_first():
 def test_principal_direction_of_a_tensor():
     t = np.array([[0.25, np.sqrt(3) / 4, 0.75]])  # d = (1/2, sqrt(3)/2): d d^T
     np.testing.assert_allclose(np.abs(streamlines.principal(t)[0]), [0.5, np.sqrt(3) / 2], atol=1e-12)
+
+
+HOLD_YAML = """pipeline: hold
+size: [200, 200]
+reference_size: 200
+scene: builtin:torus
+nodes:
+  gbuf: {{type: rasterize}}
+  curv: {{type: curvature}}
+  hatch:
+    type: stroke_hatching
+    in: {{curvature: curv.out, linear_depth: gbuf.linear_depth, normal: gbuf.normal, object_id: gbuf.object_id,
+         position: gbuf.position}}
+    params: {{anchor: {anchor}}}
+outputs:
+  s: hatch.strokes
+"""
+
+
+def _turned_torus(deg: float):
+    import dataclasses
+
+    from nodegraph.scene.scene import load_scene
+
+    base = load_scene("builtin:torus")
+    a = np.radians(deg)
+    x, y, z = np.array([1.0, 0.3, 0.0]) / np.hypot(1.0, 0.3)
+    c, s, t = np.cos(a), np.sin(a), 1 - np.cos(a)
+    m = np.eye(4)
+    m[:3, :3] = [[c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+                 [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+                 [z * x * t - y * s, z * y * t + x * s, c + z * z * t]]
+    obj = base.objects[0]
+    return dataclasses.replace(base, objects=(dataclasses.replace(obj, transform=m @ np.asarray(obj.transform)),))
+
+
+def _hatching(anchor: str, scene):
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+
+    pipe = pl.loads(HOLD_YAML.format(anchor=anchor), "hold.yaml")
+    pipe.scene = scene
+    ex = Executor(pipe, None)
+    try:
+        return ex.run(0).values[("hatch", "strokes")]
+    finally:
+        ex.close()
+
+
+def test_surface_anchored_hatching_holds_to_the_surface():
+    """The torus turned by 3 degrees: frame 1's hatching samples carried to frame 2 by their object-space points
+    (`pos`) and the exact projection (float64); the share of frame 2's samples within 1 px of them and back.
+    Seeds fixed on the surface (anchor: surface) keep about 0.8 of the hatching in place, a screen grid about 0.4
+    (measured 0.79 / 0.81 against 0.39 / 0.39); unturned, both give the same strokes again."""
+    shares = {}
+    for anchor in ("screen", "surface"):
+        first, second = _turned_torus(0.0), _turned_torus(3.0)
+        a, b = _hatching(anchor, first), _hatching(anchor, second)
+        pos = a["pos"].astype(np.float64)
+        assert np.isfinite(pos).all()
+        cam = second.camera_at(0)
+        mvp = cam.projection_matrix(1.0) @ cam.view_matrix() @ np.asarray(second.objects[0].transform)
+        hom = np.c_[pos, np.ones(len(pos))] @ mvp.T
+        carried = (hom[:, :2] / hom[:, 3:4] + 1) * 0.5 * 200
+        there, _ = cKDTree(carried).query(b.xy.astype(np.float64))
+        back, _ = cKDTree(b.xy.astype(np.float64)).query(carried)
+        shares[anchor] = ((there < 1).mean(), (back < 1).mean())
+    assert min(shares["surface"]) > 0.7, shares
+    assert min(shares["surface"]) - max(shares["screen"]) > 0.2, shares
+    again = _hatching("surface", _turned_torus(0.0))
+    assert np.array_equal(again.xy, _hatching("surface", _turned_torus(0.0)).xy)
