@@ -85,9 +85,11 @@ class PencilShade(Node):
         foreshortening: tuple[float, float] = Field((0.15, 0.45), description="Projected/true length of a "
                                                     "direction below which it is replaced by the fallback, "
                                                     "and above which it is kept (smooth in between).")
-        anchor: Literal["object", "screen"] = Field("object", description="Centre the hatching frame on each "
-                                                    "object's projected centre (less swimming when objects "
-                                                    "move) or on the screen origin.")
+        anchor: Literal["object", "screen", "surface"] = Field(
+            "object", description="Centre the screen-space hatching frame on each object's projected centre (less "
+            "swimming when objects move) or on the screen origin; or `surface` (for films): hatching coordinates "
+            "fixed to the rest-pose surface, each corner's (P . d, P . (n x d)) from its object-space curvature "
+            "direction d, so strokes move and bend with the object (docs/pencil.md, Hatching on the surface).")
         grazing_floor: float = Field(0.5, ge=0, le=1, description="Brightness a surface keeps when seen edge-on "
                                      "(seen at a grazing angle, a surface turned from the light would be hatched "
                                      "nearly black): brightness is at least grazing_floor x (1 - N.V / sin "
@@ -143,13 +145,17 @@ class PencilShade(Node):
         w, h = ctx.size
         # 1. geometry: per pixel the three corner angles, darkness, blending weights and anchor (G-buffer)
         face_order = "blend" in needed  # weights in the triangles' corner order: one lookup per fragment more
+        surface = p.anchor == "surface"
         # punctual lights (scene.lights): their irradiance's brightness instead of the scene light's N.L
         punctual = lights.view_uniforms(scene.lights, scene.camera_at(ctx.frame).view_matrix(), scene.exposure) \
             if scene.lights else {}
         prog = ctx.program("pencil_shade.glsl", {"FACE_ORDER": int(face_order), "SLOT_ROW": SLOT_ROW,
                                                  **({"LIGHTS": len(scene.lights[:lights.MAX_LIGHTS])} if punctual
-                                                    else {})})
+                                                    else {}), **({"SURFACE": 1} if surface else {})})
         gbuffer, fbo = _gbuffer(gl, (w, h))
+        surface_tex: tuple[Any, Any] | None = None
+        if surface:
+            *surface_tex, fbo = _surface_gbuffer(gl, (w, h), gbuffer)
         # only the depth is cleared (clearing RGBA32F costs about a full-screen pass here): the passes below read
         # the G-buffer only where the depth test says an object was drawn
         gl.framebuffer([], gl.depth_buffer((w, h))).clear(depth=1.0)
@@ -172,9 +178,12 @@ class PencilShade(Node):
             "u_grazing": (p.grazing_floor, math.sin(math.radians(p.grazing_angle))), **punctual,
         })
         anchors = np.zeros((1, max(len(scene.objects), 1), 2), dtype=np.float32)  # screen anchor: the origin
+        texel_scale = self.texel_scale(ctx.px_scale)
+        if surface:
+            bind(prog, {}, {"u_tam_size": float(tam.size[0])})
         with gl.depth_test() as state:
             for index, obj in enumerate(scene.objects):
-                geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self)
+                geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self, surface)
                 if geometry is None:
                     continue
                 vao, local, slots = geometry
@@ -194,9 +203,11 @@ class PencilShade(Node):
                 normal_view = np.linalg.inv(view[:3, :3] @ model[:3, :3]).T
                 u_view, u_model = origin.relative_matrices(view, model, world, local)
                 slot_tex = gl.upload(slots, "R8", filter="nearest") if face_order else None
+                tiles = {"u_tiles": surface_tiles(scene, index, (w, h), texel_scale / float(tam.size[0]))} \
+                    if surface else {}
                 bind(prog, {"t_slots": slot_tex} if face_order else {},
                      {"u_mvp": proj @ u_view @ u_model, "u_model3": u_model[:3, :3], "u_normal_view": normal_view,
-                      "u_object": index, **({"u_model_view": u_view @ u_model} if punctual else {})})
+                      "u_object": index, **({"u_model_view": u_view @ u_model} if punctual else {}), **tiles})
                 vao.render(gl.ctx.TRIANGLES)
                 if slot_tex is not None:
                     gl.release(slot_tex)
@@ -208,6 +219,8 @@ class PencilShade(Node):
         defines: dict[str, Any] = {_LOCATIONS[port]: i for i, port in enumerate(ports)}
         defines.update(LAYERS=p.layers, PAPER=int(paper is not None), CONTOUR=int(contour is not None),
                        CONTOUR_SAME_SIZE=int(same), ALBEDO=int(albedo is not None))
+        if surface:
+            defines["SURFACE"] = 1
         targets = [ctx.target(port, filter="nearest" if port != "color" else "linear") for port in ports]
         anchor_tex = gl.upload(anchors, "RG32F", filter="nearest")
         textures: dict[str, Any] = {"t_tam": tam, "t_gbuffer": gbuffer, "t_anchors": anchor_tex}
@@ -217,7 +230,6 @@ class PencilShade(Node):
             textures["t_contour"] = contour
         if albedo is not None:
             textures["t_albedo"] = albedo
-        texel_scale = self.texel_scale(ctx.px_scale)
         uniforms = {"u_max_tone": float(p.max_darkness * (tam.layers - 1)), "u_layer_offset": p.layer_offset,
                     "u_layer_rot": self.layer_rotations(), "u_layer_shift": self.layer_shifts(),
                     "u_texel_scale": texel_scale, "u_lod": max(math.log2(texel_scale), 0.0), "u_grain": p.grain,
@@ -227,11 +239,14 @@ class PencilShade(Node):
         gl.fullscreen(ctx.program("hatch.glsl", {**defines, "BACKGROUND": 1}), targets, textures=textures,
                       uniforms=uniforms, fbo=shaded)
         box = screen_bounds(scene, cam, (w, h), 1)
-        # one texel per pixel or coarser needs no mipmaps: plain bilinear is 3x cheaper on llvmpipe
-        sampler = _sampler(gl, mipmaps=texel_scale > 1.0)
+        # one texel per pixel or coarser needs no mipmaps: plain bilinear is 3x cheaper on llvmpipe (on the surface
+        # strokes foreshorten: mipmaps, at each pixel's own level)
+        sampler = _sampler(gl, mipmaps=texel_scale > 1.0 or surface)
         shaded.depth_mask = False  # read the depth, keep it
         shaded.scissor = box
         hatch = ctx.program("hatch.glsl", {**defines, "BACKGROUND": 0})
+        hatch_textures = textures if surface_tex is None else \
+            {**textures, "t_surface0": surface_tex[0], "t_surface1": surface_tex[1]}
         # t_tam is bound first, to unit 0; where only `blend` is asked for the program does not read it (the unit
         # goes to the integer G-buffer, which a filtering sampler would make read as 0)
         tam_used = "t_tam" in hatch
@@ -239,7 +254,7 @@ class PencilShade(Node):
             with gl.depth_test(">"):  # the pass's triangle lies at depth 1, the clear value: covered pixels pass
                 if tam_used:
                     sampler.use(location=0)
-                gl.fullscreen(hatch, targets, textures=textures, uniforms=uniforms, fbo=shaded)
+                gl.fullscreen(hatch, targets, textures=hatch_textures, uniforms=uniforms, fbo=shaded)
         finally:
             if tam_used:
                 sampler.clear(location=0)
@@ -265,6 +280,68 @@ def _gbuffer(gl: Any, size: tuple[int, int]) -> tuple[Any, Any]:
     return entry[1], entry[2]
 
 
+def _surface_gbuffer(gl: Any, size: tuple[int, int], gbuffer: Any) -> tuple[Any, Any, Any]:
+    """The two RGBA32F surface-coordinate textures of `anchor: surface` and the geometry pass's framebuffer over
+    `gbuffer` (the RGBA32UI G-buffer) and them, kept for the last size used."""
+    key = "pencil_shade.surface"
+    entry = gl.resources.get(key)
+    if entry is None or entry[0] != size or entry[4] is not gbuffer:
+        if entry is not None:
+            gl.framebuffer([], gl.depth_buffer(size)).use()
+            for res in (entry[3], entry[1], entry[2]):
+                res.release()
+        texs = [gl.ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+        for tex in texs:
+            tex.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        entry = gl.resources[key] = (size, *texs, gl.ctx.framebuffer([gbuffer, *texs], gl.depth_buffer(size)),
+                                     gbuffer)
+    return entry[1], entry[2], entry[3]
+
+
+def surface_coordinates(gl: Any) -> np.ndarray | None:
+    """(h, w, 3, 2) the last `anchor: surface` geometry pass's hatching coordinates (tiles) of the three corners,
+    in slot order (corner order where `blend` was asked for), and (h, w) their level of detail, bottom row first;
+    None before any. For tests and inspection: the values are meaningful where an object was drawn."""
+    entry = gl.resources.get("pencil_shade.surface")
+    if entry is None:
+        return None
+    w, h = entry[0]
+    s0 = np.frombuffer(entry[1].read(), dtype=np.float32).reshape(h, w, 4)
+    s1 = np.frombuffer(entry[2].read(), dtype=np.float32).reshape(h, w, 4)
+    return np.stack([s0[..., 0:2], s0[..., 2:4], s1[..., 0:2]], axis=2), s1[..., 2]
+
+
+def surface_tiles(scene: Any, index: int, size: tuple[int, int], tiles_per_pixel: float) -> float:
+    """Tonal-art-map tiles per object unit of `anchor: surface` for object `index`: the screen modes' tiles per
+    pixel times the pixels an object unit spans at the centre of the object's rest-pose box in the film's first
+    frame (frame 0: the scene posed there, seen by its camera), so strokes there are spaced on screen as in the
+    screen modes, and the scale is the same in every frame of the film, whatever the camera or the object does
+    (strokes then grow and shrink with the object on screen). A still scene's frame 0 is itself."""
+    source = scene.animated_source() if hasattr(scene, "animated_source") else None
+    first = source.at(0) if source is not None else scene
+    key = ("pencil_shade.tiles", index, tuple(size), float(tiles_per_pixel))
+    memo = getattr(source if source is not None else scene, "_cache", None)
+    if memo is not None and key in memo:
+        return memo[key]
+    cam = first.camera_at(0)
+    obj = first.objects[index]
+    w, h = size
+    proj = cam.projection_matrix(w / h)
+    model = np.asarray(obj.transform, dtype=np.float64)
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in (obj.mesh.rest if obj.mesh.rest is not None
+                                                        else obj.mesh).bounds())
+    centre = model @ np.append((lo + hi) / 2.0, 1.0)
+    units = abs(float(np.linalg.det(model[:3, :3]))) ** (1.0 / 3.0)  # world units per object unit (mean)
+    px_per_unit = float(proj[1, 1]) * 0.5 * h * units
+    if not cam.orthographic:
+        depth = -float((cam.view_matrix() @ centre)[2])
+        px_per_unit /= max(depth, float(cam.near))
+    out = tiles_per_pixel * px_per_unit
+    if memo is not None:
+        memo[key] = out
+    return out
+
+
 def _sampler(gl: Any, mipmaps: bool) -> Any:
     key = ("pencil_shade.sampler", mipmaps)
     smp = gl.resources.get(key)
@@ -277,10 +354,11 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float,
-              node: Node) -> tuple[Any, np.ndarray, np.ndarray] | None:
+              node: Node, surface: bool = False) -> tuple[Any, np.ndarray, np.ndarray] | None:
     """The program's vertex array over position (relative to the mesh's origin, nodegraph/scene/origin.py), split
-    normal, curvature direction, trust and corner slot, built once per (mesh, crease angle, curvature) and
-    kept across frames, that origin, and each triangle's slots as `_slot_codes` gives them."""
+    normal, curvature direction, trust and corner slot (`surface`: and the rest-pose frame, `surface_frame`),
+    built once per (mesh, crease angle, curvature) and kept across frames, that origin, and each triangle's
+    slots as `_slot_codes` gives them."""
     if mesh.n_faces == 0:
         return None
     name = object_field(index, "dmin")
@@ -300,17 +378,37 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         sv = _slotted(mesh.topology_mesh(), crease_angle)  # a posed part: its rest pose's, made once
         vertex = sv["vertex"]
         trust = (curv.data[object_field(index, "source")][src[vertex]] != DirectionSource.FIXED_FRAME)
-        return MeshArrays({"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
-                           "in_normal": (ra.normals[vertex], "3f"),
-                           "in_dir": (skinned_directions(mesh, dmin, src[vertex]), "3f"),
-                           "in_trust": (trust.astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")},
-                          sv["indices"], meta={"origin": local, "slots": sv["codes"]})
+        arrays = {"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
+                  "in_normal": (ra.normals[vertex], "3f"),
+                  "in_dir": (skinned_directions(mesh, dmin, src[vertex]), "3f"),
+                  "in_trust": (trust.astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")}
+        if surface:
+            rest, rdir, rperp = surface_frame(mesh.topology_mesh(), dmin, crease_angle)
+            arrays.update(in_rest=(rest[vertex], "3f"), in_rdir=(rdir[vertex], "3f"), in_rperp=(rperp[vertex], "3f"))
+        return MeshArrays(arrays, sv["indices"], meta={"origin": local, "slots": sv["codes"]})
 
     # a posed part's buffers take each frame's vertices in place (slot: its rest pose)
-    slot = ("pencil_shade.slots", mesh.rest.content_hash(), float(crease_angle), ckey) if mesh.rest is not None \
-        else None
-    entry = gl.mesh_buffers(("pencil_shade.slots", mesh.content_hash(), float(crease_angle), ckey), build, slot)
+    kind = "pencil_shade.surface" if surface else "pencil_shade.slots"
+    slot = (kind, mesh.rest.content_hash(), float(crease_angle), ckey) if mesh.rest is not None else None
+    entry = gl.mesh_buffers((kind, mesh.content_hash(), float(crease_angle), ckey), build, slot)
     return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
+
+
+def surface_frame(rest: Any, dmin: np.ndarray, crease_angle: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per render vertex of the rest-pose mesh `rest` (float32, (k, 3) each): its position relative to the centre
+    of the rest pose's box, its minimum-curvature direction made tangent to its (split) normal n and unit (0
+    where it has none), and n x that direction: the frame `anchor: surface` hatches in."""
+    ra = rest.render_arrays(crease_angle)
+    src = ra.source_vertex
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in rest.bounds())
+    pos = np.asarray(rest.vertices, dtype=np.float64)[src] - (lo + hi) / 2.0
+    n = np.asarray(ra.normals, dtype=np.float64)
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    d = np.asarray(dmin, dtype=np.float64)[src]
+    d = d - n * np.einsum("ij,ij->i", d, n)[:, None]
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    d = np.divide(d, length, out=np.zeros_like(d), where=length > 1e-9)
+    return pos.astype(np.float32), d.astype(np.float32), np.cross(n, d).astype(np.float32)
 
 
 def _slotted(shape: Any, crease_angle: float) -> dict[str, np.ndarray]:

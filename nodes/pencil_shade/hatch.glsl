@@ -6,6 +6,8 @@
 // lighter first, each the barycentric blend of the tonal art map sampled in the three corners' rotated
 // frames (3-way blending), graphite modulated by paper grain, layers multiplied so that crossings darken.
 // For `color` both then multiply the contours in and lay graphite over paper whose relief shows faintly.
+// SURFACE (anchor: surface): the frames' texture coordinates are the surface coordinates of pencil_shade.glsl
+// (fixed to the rest-pose surface), each layer's turn a rotation of them, at their own level of detail.
 // llvmpipe runs both sides of every branch, but skips a block of pixels that fails the depth test before
 // shading it: the split is what keeps the background from paying for the lookups.
 #if defined VERTEX_SHADER
@@ -20,6 +22,10 @@ void main() {
 in vec2 v_uv;
 uniform usampler2D t_gbuffer;  // pencil_shade.glsl's: angles, darkness, weights 0 and 1, object index
 uniform sampler2D t_anchors;   // per object (x = index): the pixel its hatching frame is centred on
+#if defined SURFACE && !BACKGROUND
+uniform sampler2D t_surface0;  // corner 0's and 1's surface coordinates (tiles)
+uniform sampler2D t_surface1;  // corner 2's; level of detail
+#endif
 uniform sampler2DArray t_tam;  // tones, layer 0 lightest, wrap-around
 #if PAPER
 uniform sampler2D t_paper;     // grain normal (xyz), height (w)
@@ -60,6 +66,13 @@ float tam(vec2 uv, float t) {
     return mix(a, b, t - t0);
 }
 
+float tam_lod(vec2 uv, float t, float lod) {
+    float t0 = floor(t);
+    float a = textureLod(t_tam, vec3(uv, t0), lod).r;
+    float b = textureLod(t_tam, vec3(uv, min(t0 + 1.0, float(textureSize(t_tam, 0).z - 1))), lod).r;
+    return mix(a, b, t - t0);
+}
+
 vec2 unpack2(uint v) { return vec2(uvec2(v & 0xFFFFu, v >> 16)) / 65535.0; }
 
 const float PI = 3.141592653589793;
@@ -89,9 +102,14 @@ void main() {
     vec2 dir0 = vec2(cos(angle.x), sin(angle.x));
     vec2 dir1 = vec2(cos(angle.y), sin(angle.y));
     vec2 dir2 = vec2(cos(angle.z), sin(angle.z));
+#ifdef SURFACE
+    vec4 s0 = texelFetch(t_surface0, px, 0);
+    vec4 s1 = texelFetch(t_surface1, px, 0);
+#else
     vec2 anchor = texelFetch(t_anchors, ivec2(int(g.w), 0), 0).xy;
     vec2 tam_size = vec2(textureSize(t_tam, 0).xy);
     vec2 p = (gl_FragCoord.xy - anchor) * u_texel_scale / tam_size;
+#endif
     vec2 strongest = w.x >= w.y ? (w.x >= w.z ? dir0 : dir2) : (w.y >= w.z ? dir1 : dir2);
     float value = 1.0;
     for (int k = 0; k < LAYERS; ++k) {
@@ -101,10 +119,18 @@ void main() {
         float t = share * u_max_tone;
         vec2 cs = u_layer_rot[k];
         vec2 sh = u_layer_shift[k];
+#ifdef SURFACE
+        // turned by the layer's angle in the tangent plane: d' = c d + s e, e' = c e - s d
+        vec2 r = vec2(cs.x, -cs.y);
+        float layer = w.x * tam_lod(rot(s0.xy, r) + sh, t, s1.z)
+                    + w.y * tam_lod(rot(s0.zw, r) + sh, t, s1.z)
+                    + w.z * tam_lod(rot(s1.xy, r) + sh, t, s1.z);
+#else
         vec2 d0 = rot(dir0, cs), d1 = rot(dir1, cs), d2 = rot(dir2, cs);
         float layer = w.x * tam(vec2(dot(p, d0), dot(p, vec2(-d0.y, d0.x))) + sh, t)
                     + w.y * tam(vec2(dot(p, d1), dot(p, vec2(-d1.y, d1.x))) + sh, t)
                     + w.z * tam(vec2(dot(p, d2), dot(p, vec2(-d2.y, d2.x))) + sh, t);
+#endif
         float dark = 1.0 - layer;
 #if PAPER
         // graphite catches on the side of the paper tooth the stroke runs into (mean factor 1)

@@ -11,6 +11,11 @@
 // three corners of its triangle (what a geometry shader handed on as flat values).
 // Fragment stage: the three angles, darkness from the light, two blending weights (the third is 1 - both),
 // each as 16 bits, and the object's index, in one RGBA32UI texel (one target: two cost a quarter more here).
+// SURFACE (anchor: surface): two more targets hold each corner's hatching coordinates on the surface, in tonal-art-
+// map tiles: (dot(P, d_i), dot(P, e_i)) with P the rest-pose object-space point (relative to the rest pose's
+// box centre, times tiles per object unit), d_i corner i's rest-pose minimum-curvature direction and e_i = n_i x
+// d_i; the corners' directions reach the fragment by the same one-hot slots as the angles. With them the level
+// of detail, from the coordinates' screen derivatives within the triangle.
 #if defined VERTEX_SHADER
 in vec3 in_pos;
 in vec3 in_normal;
@@ -30,6 +35,15 @@ out vec4 v_angles_b1;  // one-hot x this corner's screen angle; one-hot slot 1 (
 #ifdef LIGHTS
 uniform mat4 u_model_view;     // u_view u_model: the view-space position the punctual lights need
 out vec3 v_view_pos;
+#endif
+#ifdef SURFACE
+in vec3 in_rest;     // rest-pose object-space position relative to the rest pose's box centre
+in vec3 in_rdir;     // rest-pose minimum-curvature direction, unit, in the tangent plane (0: none)
+in vec3 in_rperp;    // rest-pose normal x in_rdir
+uniform float u_tiles;         // tonal-art-map tiles per object unit
+out vec3 v_rest;               // in_rest x u_tiles
+out vec3 v_sdir[3];            // one-hot slot x in_rdir
+out vec3 v_sperp[3];           // one-hot slot x in_rperp
 #endif
 
 vec2 doubled(vec2 d) { return vec2(d.x * d.x - d.y * d.y, 2.0 * d.x * d.y); }
@@ -52,6 +66,13 @@ void main() {
 #ifdef LIGHTS
     v_view_pos = (u_model_view * vec4(in_pos, 1.0)).xyz;
 #endif
+#ifdef SURFACE
+    v_rest = in_rest * u_tiles;
+    for (int i = 0; i < 3; ++i) {
+        v_sdir[i] = onehot[i] * in_rdir;
+        v_sperp[i] = onehot[i] * in_rperp;
+    }
+#endif
     gl_Position = clip;
 }
 
@@ -73,6 +94,14 @@ uniform uint u_object;         // the object's index: hatch.glsl looks its ancho
 uniform sampler2D t_slots;     // per triangle (gl_PrimitiveID, SLOT_ROWS per row): slot(0) + 3 slot(1), / 255
 #endif
 layout(location = 0) out uvec4 o_gbuffer;  // angles 0 | 1, angle 2 | darkness, weights 0 | 1, object (16 | 16 bits)
+#ifdef SURFACE
+in vec3 v_rest;
+in vec3 v_sdir[3];
+in vec3 v_sperp[3];
+uniform float u_tam_size;      // texels per tile
+layout(location = 1) out vec4 o_surface0;  // corner 0's and corner 1's surface coordinates (tiles)
+layout(location = 2) out vec4 o_surface1;  // corner 2's; level of detail; 0
+#endif
 
 float corner_angle(float a, float b) { return b > 0.0 ? a / b : 0.0; }  // b = 0: the weight is 0 too
 
@@ -111,6 +140,25 @@ void main() {
                      vec3(equal(vec3(3.0 - code + 2.0 * s1), vec3(0.0, 1.0, 2.0))));  // column j: corner j's slot
     w = w * pick;
     a = a * pick;
+#endif
+#ifdef SURFACE
+    // slot i's direction is (b_i d_i) / b_i; where b_i is 0 its weight is 0 too
+    vec3 su = vec3(0.0), sv = vec3(0.0);
+    for (int i = 0; i < 3; ++i) {
+        float b = i == 0 ? v_normal_b0.w : (i == 1 ? v_angles_b1.w : 1.0 - v_normal_b0.w - v_angles_b1.w);
+        if (b > 0.0) {
+            su[i] = dot(v_rest, v_sdir[i]) / b;
+            sv[i] = dot(v_rest, v_sperp[i]) / b;
+        }
+    }
+#if FACE_ORDER
+    su = su * pick;
+    sv = sv * pick;
+#endif
+    // texels per pixel: the rest position's screen derivative (the coordinates' gradient is at most that long)
+    float rho = max(length(dFdx(v_rest)), length(dFdy(v_rest))) * u_tam_size;
+    o_surface0 = vec4(su.x, sv.x, su.y, sv.y);
+    o_surface1 = vec4(su.z, sv.z, log2(max(rho, 1.0)), 0.0);
 #endif
     vec3 an = a / (2.0 * HALF_PI) + 0.5;  // (-90, 90] degrees -> (0, 1]
     o_gbuffer = uvec4(pack2(an.x, an.y), pack2(an.z, darkness), pack2(w.x, w.y), u_object);

@@ -78,7 +78,7 @@ FILM: dict[str, dict[str, Any]] = {
     "loose_and_sketchy_shaded": {},
     "nienhaus_sketchy": {},
     "object_space_uncertainty": {"noise.octaves": 1},  # one octave: no fine wobble to change as outlines slide
-    "pencil": {},
+    "pencil": {"shade.anchor": "surface"},  # hatching fixed to the (rest-pose) surface: docs/pencil.md
     "pencil_contours": {},
     "repeated_edges": {},
     "sketchy_composite": {},
