@@ -43,7 +43,8 @@ def expected(files: list[str]) -> dict[str, str]:
             continue
         p = Path(f)
         if (top == "pipelines"  # every file: pipelines, scenes and whatever the scenes name
-                or p.suffix in (".py", ".glsl") or p.name == "py.typed"):
+                or p.suffix in (".py", ".glsl") or p.name == "py.typed"
+                or f.startswith("nodegraph/tools/serve/static/")):  # the page of `sketchgraph serve`
             want[f] = f"{MAPPED[top]}/{rest}"
     return want
 

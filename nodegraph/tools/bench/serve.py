@@ -1,0 +1,207 @@
+"""Latency of `sketchgraph serve` as a user sees it, in a real headless Chromium (Debian's, driven by Playwright).
+
+    sketchgraph bench serve [--size 800x800] [--changes 30] [--param edges.normal_threshold] [--json F] [PIPELINE ...]
+
+For each pipeline (default: nienhaus_sketchy, the design's example, and pencil) a server is started on
+127.0.0.1 with a fresh cache folder and the page opened at a size where the final image is shown whole, one
+buffer pixel per screen pixel. Figures, each the median and 90th percentile:
+- **change**: from the slider's input event in the page to the updated final image drawn (the next animation
+  frame after it is on the canvas), one change at a time, waiting for each; alternating values so every change
+  recomputes what it reaches.
+- **drag**: a drag of `--drag-steps` input events 16 ms apart (a 60 Hz pointer); the latency of its last value,
+  and how many renders the server made for the drag (changes coalesce to the latest value).
+- **view**: from clicking an output port in the graph to its buffer drawn, for every port the run produces:
+  the first time (one read-back from the GPU) and again (the read-back is kept until the buffer changes).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from ...errors import SketchgraphError
+from ...fsio import atomic_write_text
+
+DEFAULT_PIPELINES = ("nienhaus_sketchy", "pencil")
+COMPUTES = "(id) => window.sg.state.nodes.find(n => n.id === id).computes"
+
+
+def _stats(values: list[float]) -> dict[str, Any]:
+    a = np.asarray(values, np.float64)
+    if a.size == 0:
+        return {"n": 0}
+    return {"n": int(a.size), "median_ms": round(float(np.median(a)), 2),
+            "p90_ms": round(float(np.percentile(a, 90)), 2), "min_ms": round(float(a.min()), 2),
+            "max_ms": round(float(a.max()), 2)}
+
+
+def _start(pipeline: str, size: str, cache: Path, out: Path) -> tuple[subprocess.Popen, str]:
+    root = Path(__file__).resolve().parents[3]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))}
+    proc = subprocess.Popen([sys.executable, "-m", "nodegraph.cli", "serve", pipeline, "--port", "0", "--size", size,
+                             "--cache-dir", str(cache), "--out-dir", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env=env, cwd=out)
+    line = proc.stdout.readline() if proc.stdout else ""
+    m = re.search(r"http://\S+\?token=\S+", line)
+    if m is None:
+        proc.kill()
+        raise SketchgraphError(f"bench serve: the server did not start: {line.strip()}")
+    return proc, m.group(0)
+
+
+def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: int, param: str,
+              values: tuple[float, float]) -> dict[str, Any]:
+    node, _, name = param.partition(".")
+    w, h = (int(v) for v in size.lower().split("x"))
+    with tempfile.TemporaryDirectory(prefix="bench-serve-") as tmp:
+        proc, url = _start(pipeline, size, Path(tmp) / "cache", Path(tmp))
+        try:
+            page = browser.new_page(viewport={"width": w + 1000, "height": h + 260}, device_scale_factor=1)
+            page.goto(url)
+            page.wait_for_function("window.sg && window.sg.lastImage && window.sg.state && !window.sg.state.error",
+                                   timeout=120000)
+            final = page.evaluate("Object.values(window.sg.state.outputs)[0]")
+            shown = page.evaluate("[window.sg.lastImage.width, window.sg.lastImage.height]")
+            page.click(f'[data-node="{node}"] .type')
+            slider = page.locator(f'input[type=range][data-param="{name}"]')
+            slider.wait_for(timeout=10000)
+            # one change at a time
+            for i in range(changes + 2):
+                seq = page.evaluate("window.sg.seq") + 1
+                slider.fill(str(values[i % 2]))
+                page.wait_for_function(f"window.sg.lastImage.seq >= {seq}", timeout=60000)
+            timings = page.evaluate("window.sg.timings.map(t => t.ms)")[2:]  # the first two warm up
+            # drags: input events 16 ms apart, then the last value's latency
+            drags, renders = [], []
+            for d in range(max(1, changes // 6)):
+                before = page.evaluate(COMPUTES, node)
+                page.evaluate("window.sg.timings = []")
+                lo, hi = values
+                steps = [lo + (hi - lo) * k / max(1, drag_steps - 1) for k in range(drag_steps)]
+                if d % 2:
+                    steps.reverse()
+                for v in steps:
+                    slider.fill(f"{v:.4f}")
+                    page.wait_for_timeout(16)
+                seq = page.evaluate("window.sg.seq")
+                page.wait_for_function(f"window.sg.lastImage.seq >= {seq} && window.sg.state.seq >= {seq}",
+                                       timeout=60000)
+                last = page.evaluate(f"window.sg.timings.filter(t => t.seq === {seq}).map(t => t.ms)")
+                drags += last
+                renders.append(page.evaluate(COMPUTES, node)
+                               - before)
+            # buffer views: every port the run produced, clicked in the graph
+            ports = page.eval_on_selector_all("[data-port]", "els => els.map(e => e.dataset.port)")
+            state = page.evaluate("window.sg.state")
+            planned = {n["id"] for n in state["nodes"] if n["status"] not in ("not planned", "not run")}
+            ports = [p for p in ports if p.split(".")[0] in planned]
+            first, again, parts = [], [], {"first": [], "again": []}
+            for rnd, part in ((first, parts["first"]), (again, parts["again"])):
+                for port in ports:
+                    t = page.evaluate("""async (port) => {
+                        const t0 = performance.now();
+                        window.sgView(port);
+                        return await new Promise((ok) => { const poll = () => {
+                          const li = window.sg.lastImage;
+                          if (li && li.port === port && li.at > t0) ok(li.empty ? null : [li.at - t0, li.at - li.recv,
+                            li.read_ms, li.draw_ms]);
+                          else if (performance.now() - t0 > 20000) ok(null); else setTimeout(poll, 1); };
+                          poll(); });
+                    }""", port)
+                    if t is not None:  # ports that are not pictures (a scene, strokes as text) are left out
+                        rnd.append(t[0])
+                        part.append(t[1:])
+            run_ms = state["run_ms"]
+            page.close()
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+    return {"pipeline": pipeline, "size": size, "final": final, "shown": shown, "param": param,
+            "values": list(values), "change": _stats(timings), "drag": {**_stats(drags), "steps": drag_steps,
+                                                                         "renders": renders},
+            "view_first": _stats(first), "view_again": _stats(again), "ports": len(first),
+            "view_parts_median_ms": {rnd: {k: round(float(np.median([p[i] for p in got])), 2) if got else None
+                                           for i, k in enumerate(("page_draw", "server_read", "server_draw"))}
+                                     for rnd, got in parts.items()},
+            "last_run_ms": run_ms}
+
+
+def run(pipelines: list[str], size: str, changes: int, drag_steps: int, param: str,
+        values: tuple[float, float]) -> dict[str, Any]:
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        raise SketchgraphError("bench serve needs chromium (Debian: apt-get install chromium)")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        raise SketchgraphError("bench serve needs playwright: pip install playwright") from None
+    out: dict[str, Any] = {"benchmark": "serve", "chromium": chromium, "results": []}
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, headless=True, args=["--no-sandbox"])
+        try:
+            for pipe in pipelines:
+                out["results"].append(bench_one(browser, pipe, size, changes, drag_steps, param, values))
+        finally:
+            browser.close()
+    return out
+
+
+def _ms(stats: dict[str, Any], key: str) -> float:
+    return float(stats.get(key, float("nan")))
+
+
+def report(data: dict[str, Any]) -> str:
+    lines = []
+    for r in data["results"]:
+        c, d, f, a = r["change"], r["drag"], r["view_first"], r["view_again"]
+        lines.append(f"{r['pipeline']} {r['size']} ({r['final']} shown at {r['shown'][0]}x{r['shown'][1]}), "
+                     f"{r['param']}:")
+        lines.append(f"  change -> final image drawn: median {_ms(c, 'median_ms'):.1f} ms, "
+                     f"p90 {_ms(c, 'p90_ms'):.1f} ms ({c['n']} changes)")
+        lines.append(f"  end of a {d['steps']}-step drag -> drawn: median {_ms(d, 'median_ms'):.1f} ms, "
+                     f"p90 {_ms(d, 'p90_ms'):.1f} ms; renders per drag {d['renders']}")
+        lines.append(f"  buffer view ({r['ports']} ports): first median {_ms(f, 'median_ms'):.1f} ms, p90 "
+                     f"{_ms(f, 'p90_ms'):.1f} ms; again median {_ms(a, 'median_ms'):.1f} ms, "
+                     f"p90 {_ms(a, 'p90_ms'):.1f} ms")
+        lines.append(f"  a view's parts (medians, ms): {r['view_parts_median_ms']}")
+    return "\n".join(lines)
+
+
+@click.command(help="Latency of `sketchgraph serve` in headless Chromium: a parameter change to the final image "
+                    "drawn, the end of a drag, and a buffer view (median and p90).")
+@click.argument("pipelines", nargs=-1)
+@click.option("--size", default="800x800", show_default=True, help="WxH of the pipelines.")
+@click.option("--changes", default=30, show_default=True, help="Single changes measured per pipeline.")
+@click.option("--drag-steps", default=30, show_default=True, help="Input events per drag (16 ms apart).")
+@click.option("--param", default="edges.normal_threshold", show_default=True, help="NODE.PARAM the slider moves.")
+@click.option("--values", default=(0.3, 0.6), nargs=2, type=float, show_default=True,
+              help="The two values changes alternate between (a drag goes from one to the other).")
+@click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
+def command(pipelines: tuple[str, ...], size: str, changes: int, drag_steps: int, param: str,
+            values: tuple[float, float], json_path: Path | None) -> None:
+    t0 = time.perf_counter()
+    data = run(list(pipelines) or list(DEFAULT_PIPELINES), size, changes, drag_steps, param, values)
+    data["wall_s"] = round(time.perf_counter() - t0, 1)
+    click.echo(report(data))
+    text = json.dumps(data, indent=2)
+    click.echo(text)
+    if json_path is not None:
+        atomic_write_text(json_path, text + "\n")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    command()

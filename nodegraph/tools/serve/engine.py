@@ -1,0 +1,663 @@
+"""The render thread of `sketchgraph serve`: it alone owns the GL context.
+
+Everything the page asks for is queued to it. Parameter changes coalesce: while the thread is busy, later
+values of a parameter replace earlier ones, so a slider drag renders the latest value only. After a change the
+pipeline is loaded again with the edited values as overrides and run by a new executor that adopts the previous
+one's in-memory values (content addressed: only the nodes whose key changed compute again). The executor keeps
+every planned port (as `inspect --all` does, in the formats the ordinary run gives them), so looking at any
+buffer costs one read-back, kept for pixel probes until the buffer changes. Between requests the thread polls
+the pipeline and scene files and reloads when one changes.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+from ...errors import PipelineError, SketchgraphError, one_line
+from ...pipeline import Pipeline
+from .. import viz
+from ..inspect_all import all_ports, box_area, box_sum, reduce_and_colour
+from ..watch import _stamp, scene_files
+from . import yamledit
+
+MODES = ("auto", "rgb", "r", "g", "b", "a")
+MAX_BOX = 8192
+
+
+@dataclass
+class View:
+    """What one page looks at: a port, the box it is shown in (device pixels) and how it is drawn."""
+
+    port: str | None = None  # NODE.PORT; None: the pipeline's first output
+    width: int = 800
+    height: int = 800
+    mode: str = "auto"  # auto (the port's own visualisation), rgb (with exposure), or one channel
+    exposure: float = 0.0  # stops, for colour
+    lo: float | None = None  # value range of one channel (None: its finite min and max)
+    hi: float | None = None
+
+
+@dataclass
+class Client:
+    """A page's connection: `send(message)` is called on the render thread (it must be thread safe)."""
+
+    send: Callable[[Any], None]
+    view: View = field(default_factory=View)
+    wants_image: bool = True
+    probe: tuple[int, int] | None = None
+    stats_for: tuple[tuple[str, str], str] | None = None  # the port whose statistics are sent when idle
+    asked: float = 0.0  # when the last view request arrived (perf_counter), for the header's `wait_ms`
+
+
+class Engine:
+    """Loads, runs and shows one pipeline; `start()` runs the render thread."""
+
+    def __init__(self, pipeline: str | Path, *, open_pipeline: Callable[[tuple[str, ...]], Pipeline],
+                 cache: Any = None, roots: list[Path] | None = None, poll: float = 0.25, frame: int = 0):
+        self.path = Path(pipeline).resolve()
+        self._open = open_pipeline
+        self.cache = cache
+        self.roots = [Path(r).resolve() for r in (roots or [self.path.parent])]
+        self.poll = poll
+        self.frame = frame
+        self.edits: dict[str, dict[str, Any]] = {}  # node -> param -> value, applied as overrides
+        self.pipe: Pipeline | None = None
+        self.error: str | None = None  # the located one-line error of the last load or run, if any
+        self.notice: str | None = None  # a refused edit, for one message
+        self.result: Any = None
+        self.counts: dict[str, int] = {}  # node -> computes since the server started
+        self.last_ms: dict[str, float] = {}  # node -> its last compute's time
+        self.run_ms = 0.0
+        self.seq = 0  # the last change the page sent that has been applied
+        self._ex: Any = None
+        self._lock = threading.Condition()
+        self._pending: dict[tuple[str, str], Any] = {}
+        self._pending_seq = 0
+        self._pending_frame: int | None = None
+        self._save = False
+        self._reload = True
+        self._clients: dict[int, Client] = {}
+        self._stamps: dict[Path, Any] = {}
+        self._host: dict[tuple[str, str], tuple[str, np.ndarray]] = {}  # port -> (value key, GL-order data)
+        self._stats_key: Any = None
+        self._stats_val: list[dict[str, Any]] = []
+        self._extra: set[tuple[str, str]] = set()  # ports looked at that the ordinary run does not produce
+        self._stop = False
+        self._thread: threading.Thread | None = None
+        self.ready = threading.Event()
+
+    # -- called from any thread -----------------------------------------------------------------------
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._loop, name="sketchgraph-render", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        with self._lock:
+            self._stop = True
+            self._lock.notify_all()
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+
+    def add_client(self, cid: int, send: Callable[[Any], None]) -> None:
+        with self._lock:
+            self._clients[cid] = Client(send)
+            self._lock.notify_all()
+
+    def remove_client(self, cid: int) -> None:
+        with self._lock:
+            self._clients.pop(cid, None)
+
+    def submit(self, cid: int, msg: dict[str, Any]) -> None:
+        """A message from a page (already parsed JSON); applied by the render thread, latest values first."""
+        op = msg.get("op")
+        with self._lock:
+            client = self._clients.get(cid)
+            if op == "set":
+                node, param = str(msg.get("node")), str(msg.get("param"))
+                self._pending[(node, param)] = msg.get("value")
+                self._pending_seq = max(self._pending_seq, int(msg.get("seq") or 0))
+            elif op == "reset":
+                self._pending[(str(msg.get("node")), str(msg.get("param")))] = _RESET
+            elif op == "frame":
+                self._pending_frame = int(msg.get("frame") or 0)
+            elif op == "view" and client is not None:
+                client.view = _view(msg, client.view)
+                client.wants_image = True
+                client.asked = time.perf_counter()
+            elif op == "probe" and client is not None:
+                client.probe = (int(msg.get("x", -1)), int(msg.get("y", -1)))
+            elif op == "save":
+                self._save = True
+            elif op == "state" and client is not None:
+                client.wants_image = True
+            self._lock.notify_all()
+
+    # -- the render thread ----------------------------------------------------------------------------
+    def _loop(self) -> None:
+        from ...gpu import gl as glmod
+
+        try:
+            self._gl = glmod.get()  # created here: this thread owns it
+        except SketchgraphError as exc:
+            self.error = _line(exc)
+            self._gl = None
+        next_poll = 0.0
+        while True:
+            with self._lock:
+                while not self._stop and not self._has_work() and time.monotonic() < next_poll:
+                    self._lock.wait(timeout=max(0.0, next_poll - time.monotonic()))
+                if self._stop:
+                    break
+                pending, self._pending = self._pending, {}
+                seq = self._pending_seq
+                frame, self._pending_frame = self._pending_frame, None
+                save, self._save = self._save, False
+                reload, self._reload = self._reload, False
+            if time.monotonic() >= next_poll:
+                reload = reload or self._files_changed()
+                next_poll = time.monotonic() + self.poll
+            try:
+                self._step(pending, seq, frame, save, reload)
+            except Exception as exc:  # noqa: BLE001 - the server stays up; the page shows the error
+                self.error = _line(exc)
+                self._broadcast_state()
+            self.ready.set()
+        self._close()
+
+    def _has_work(self) -> bool:
+        return bool(self._pending or self._pending_frame is not None or self._save or self._reload
+                    or any(c.wants_image or c.probe for c in self._clients.values()))
+
+    def _files_changed(self) -> bool:
+        files = [self.path] if self.pipe is None else list(self._stamps)
+        return any(_stamp(p) != self._stamps.get(p) for p in files) or not self._stamps
+
+    def _step(self, pending: dict[tuple[str, str], Any], seq: int, frame: int | None, save: bool,
+              reload: bool) -> None:
+        changed = reload
+        if pending:
+            changed = self._apply(pending) or changed
+        if frame is not None and frame != self.frame:
+            self.frame, changed = frame, True
+        if save:
+            self._write_back()
+        tell = False
+        if changed:
+            self._load_and_run()
+            for c in list(self._clients.values()):
+                c.wants_image = True
+        if changed or pending or save:
+            self.seq = max(self.seq, seq)
+            tell = True
+        for c in list(self._clients.values()):
+            if c.wants_image:
+                c.wants_image = False
+                self._send_image(c)
+            if c.probe is not None:
+                x, y = c.probe
+                c.probe = None
+                c.send({"type": "probe", **self.probe(c.view.port, x, y)})
+        if tell:  # after the pictures: the graph's news is not on the way to the screen
+            self._broadcast_state()
+        for c in list(self._clients.values()):
+            if c.stats_for is not None and not self._pending:
+                ref, port = c.stats_for
+                c.stats_for = None
+                _, host = self._host_of(ref)
+                if host is not None:
+                    c.send({"type": "stats", "port": port, "stats": _finite(self._stats(ref, host))})
+
+    def _apply(self, pending: dict[tuple[str, str], Any]) -> bool:
+        """Merge edits; an edit the node's parameters refuse is dropped and reported (one line)."""
+        before = json.loads(json.dumps(self.edits))
+        for (node, param), value in pending.items():
+            if value is _RESET:
+                self.edits.get(node, {}).pop(param, None)
+            else:
+                self.edits.setdefault(node, {})[param] = value
+        self.edits = {n: p for n, p in self.edits.items() if p}
+        if self.error is None:
+            try:
+                self._open(self._overrides())
+            except SketchgraphError as exc:
+                self.edits = before
+                self.notice = _line(exc)
+                return False
+        return self.edits != before
+
+    def _overrides(self) -> tuple[str, ...]:
+        return tuple(f"{n}.{p}={json.dumps(v)}" for n, ps in self.edits.items() for p, v in ps.items())
+
+    def _load_and_run(self) -> None:
+        from ...executor import Executor
+        from ...plan import plan
+
+        t0 = time.perf_counter()
+        self._stamps = {self.path: _stamp(self.path)}
+        try:
+            pipe = self._open(self._overrides())
+        except SketchgraphError as exc:
+            # the file changed under edits it no longer takes: keep those it does
+            found = self._drop_stale_edits() if self.edits else None
+            if found is None:
+                self.error = _line(exc)
+                return
+            pipe = found
+        scene_base = self.path.parent
+        for f in scene_files(pipe.scene_spec, scene_base):
+            self._stamps[f] = _stamp(f)
+        base = plan(pipe)
+        ports = all_ports(pipe)
+        ports += sorted(r for r in self._extra if r not in ports and r[0] in pipe.nodes
+                        and r[1] in pipe.nodes[r[0]].outputs)
+        ex = Executor(pipe, self.cache, mode="loop", requested=ports, gl=self._gl, like=base)
+        ex.adopt_memory(self._ex, self.frame)
+        if self._ex is not None:
+            self._ex.close()
+        self._ex, self.pipe = ex, pipe
+        try:
+            result = ex.run(self.frame)
+        except SketchgraphError as exc:
+            self.error = _line(exc)
+            self.result = None
+            return
+        self.error = None
+        self.result = result
+        for nid in result.computed():
+            self.counts[nid] = self.counts.get(nid, 0) + 1
+            self.last_ms[nid] = result.stats[nid].ms
+        self.run_ms = (time.perf_counter() - t0) * 1000
+
+    def _drop_stale_edits(self) -> Pipeline | None:
+        kept: dict[str, dict[str, Any]] = {}
+        for node, params in self.edits.items():
+            for param, value in params.items():
+                trial = {**kept, node: {**kept.get(node, {}), param: value}}
+                overrides = tuple(f"{n}.{p}={json.dumps(v)}" for n, ps in trial.items() for p, v in ps.items())
+                try:
+                    self._open(overrides)
+                except SketchgraphError:
+                    continue
+                kept = trial
+        self.edits = kept
+        try:
+            return self._open(self._overrides())
+        except SketchgraphError:
+            return None
+
+    def _write_back(self) -> None:
+        from ...fsio import atomic_write_text
+
+        if not self.edits:
+            self.notice = "nothing to save: no parameter was changed"
+            return
+        target = self.path
+        if not _inside(target, self.roots):
+            self.notice = f"refusing to write {target}: outside the folders this server may write"
+            return
+        try:
+            text = yamledit.set_params(target.read_text(encoding="utf-8"), self.edits)
+        except (PipelineError, OSError) as exc:
+            self.notice = _line(exc)
+            return
+        atomic_write_text(target, text)
+        self.notice = f"saved {sum(len(p) for p in self.edits.values())} parameter(s) to {target.name}"
+        self.edits = {}
+        self._reload = False
+        # the file now holds the values the overrides held: the same keys, nothing recomputes
+        self._load_and_run()
+
+    def _close(self) -> None:
+        if self._ex is not None:
+            self._ex.clear_memory()
+            self._ex.close()
+            self._ex = None
+
+    # -- what the page is told ------------------------------------------------------------------------
+    def _broadcast_state(self) -> None:
+        state = self.state()
+        for c in list(self._clients.values()):
+            c.send(state)
+        self.notice = None
+
+    def state(self) -> dict[str, Any]:
+        """The graph, laid out, with each node's type, ports, cache state, last compute time, parameters and
+        their schemas; the error and the notice, if any."""
+        pipe = self.pipe
+        out: dict[str, Any] = {"type": "state", "file": self.path.name, "error": self.error, "notice": self.notice,
+                               "seq": self.seq, "frame": self.frame, "frames": _frames(pipe),
+                               "edits": self.edits, "run_ms": round(self.run_ms, 2), "nodes": [], "edges": [],
+                               "outputs": {}}
+        if pipe is None:
+            return out
+        g = pipe.graph()
+        planned = set(self._ex.plan.order) if self._ex is not None else set()
+        stats = self.result.stats if self.result is not None else {}
+        for col, gen in enumerate(nx.topological_generations(g)):
+            for row, nid in enumerate(sorted(gen)):
+                node = pipe.nodes[nid]
+                st = stats.get(nid)
+                out["nodes"].append({
+                    "id": nid, "type": node.type_name, "col": col, "row": row,
+                    "inputs": {p: {"type": str(spec.type), "from": ".".join(pipe.connections[nid][p])
+                                   if p in pipe.connections[nid] else None} for p, spec in node.inputs.items()},
+                    "outputs": {p: {"type": str(spec.type), "doc": spec.doc} for p, spec in node.outputs.items()},
+                    "status": (st.status if st is not None else "not run") if nid in planned else "not planned",
+                    "ms": round(self.last_ms.get(nid, 0.0), 3), "computes": self.counts.get(nid, 0),
+                    "params": node.params.model_dump(mode="json"),
+                    "schema": _schema(type(node.params)),
+                    "doc": " ".join((getattr(node, "doc", None) or type(node).__doc__ or "").split())[:400],
+                })
+        out["edges"] = [{"from": f"{s}.{sp}", "to": f"{n}.{p}"} for n, conns in pipe.connections.items()
+                        for p, (s, sp) in conns.items()]
+        out["outputs"] = {name: ".".join(ref) for name, ref in pipe.outputs.items()}
+        return out
+
+    def _ref(self, port: str | None) -> tuple[str, str] | None:
+        pipe = self.pipe
+        if pipe is None:
+            return None
+        if port is None:
+            return next(iter(pipe.outputs.values()), None)
+        if port in pipe.outputs:
+            return pipe.outputs[port]
+        node, _, name = port.partition(".")
+        return (node, name) if node in pipe.nodes and name in pipe.nodes[node].outputs else None
+
+    def _host_of(self, ref: tuple[str, str]) -> tuple[Any, np.ndarray | None]:
+        """A port's value and, for a texture, its data read back once (kept until its key changes)."""
+        from ...values import Tex, TexArray
+
+        if self.result is None or ref not in self.result.values:
+            return None, None
+        value = self.result.values[ref]
+        if not isinstance(value, (Tex, TexArray)):
+            return value, None
+        key = f"{self.result.stats[ref[0]].key}:{self.frame}"
+        hit = self._host.get(ref)
+        if hit is not None and hit[0] == key:
+            return value, hit[1]
+        host = self._ex.host_copy(value) if self._ex is not None else None
+        data = np.asarray(host if host is not None else value.read(), np.float32)
+        self._host[ref] = (key, data)
+        return value, data
+
+    def _send_image(self, client: Client) -> None:
+        ref = self._ref(client.view.port)
+        if ref is None or self.result is None:
+            client.send({"type": "image", "port": client.view.port, "seq": self.seq, "empty": True,
+                         "note": "nothing to show" if self.error is None else self.error})
+            return
+        if ref not in self.result.values and ref not in self._extra:  # a port nothing reads: run it too
+            self._extra.add(ref)
+            self._load_and_run()
+            if self.result is None:  # that port cannot be made here: say why, and run without it
+                why = self.error
+                self._extra.discard(ref)
+                self._load_and_run()
+                self._broadcast_state()
+                client.send({"type": "image", "port": f"{ref[0]}.{ref[1]}", "seq": self.seq, "empty": True,
+                             "note": f"cannot show {ref[0]}.{ref[1]}: {why}"})
+                return
+            self._broadcast_state()
+        wait = (time.perf_counter() - client.asked) * 1000 if client.asked else 0.0
+        client.asked = 0.0
+        header, pixels = self.image(ref, client.view)
+        header["seq"] = self.seq
+        header["wait_ms"] = round(wait, 2)  # from the view request's arrival to its drawing starting
+        client.send(header if header.get("empty") else (header, pixels))
+        if header.get("stats") is None and not header.get("empty"):
+            client.stats_for = (ref, header["port"])
+
+    def image(self, ref: tuple[str, str], view: View) -> tuple[dict[str, Any], bytes]:
+        """A port drawn at the size it is shown: (header, RGBA8 bytes, row 0 at the top)."""
+        from ...values import Tex
+
+        t0 = time.perf_counter()
+        value, host = self._host_of(ref)
+        t1 = time.perf_counter()
+        doc = self.pipe.nodes[ref[0]].outputs[ref[1]].doc if self.pipe is not None else ""
+        port = f"{ref[0]}.{ref[1]}"
+        fast = None
+        if isinstance(value, Tex) and host is not None and view.mode == "auto" and host.shape[2] == 4 \
+                and _fit(host.shape[0], host.shape[1], view.width, view.height) == host.shape[:2] \
+                and viz.classify(ref[1], 4, doc) == "color":
+            fast = _fast_rgba8(host)
+        if fast is not None:  # the usual final image, shown whole
+            h, w = host.shape[:2]
+            header = {"type": "image", "port": port, "width": w, "height": h, "full": (w, h), "note": "rgb",
+                      "kind": "color", "stats": None, "frame": self.frame, "read_ms": round((t1 - t0) * 1000, 2),
+                      "draw_ms": round((time.perf_counter() - t1) * 1000, 2)}
+            return header, fast.tobytes()
+        if isinstance(value, Tex) and host is not None:
+            rgb, note, kind = draw(host, ref[1], doc, view)
+            full = (host.shape[1], host.shape[0])
+            stats = None  # sent after the picture (`stats_message`): they are not on the way to the screen
+        else:
+            panel = viz.visualize(host if host is not None else value, ref[1], doc)
+            if panel.image is None:
+                return {"type": "image", "port": port, "empty": True, "note": panel.note, "kind": panel.kind}, b""
+            img = panel.image
+            full = (img.shape[1], img.shape[0])
+            h, w = _fit(img.shape[0], img.shape[1], view.width, view.height)
+            rgb = img if (h, w) == img.shape[:2] else (box_sum(img, h, w) / box_area(*img.shape[:2], h, w)[:, :, None])
+            note, kind, stats = panel.note, panel.kind, []
+        h, w = rgb.shape[:2]
+        rgba = np.empty((h, w, 4), np.uint8)
+        scaled = np.clip(np.asarray(rgb, np.float32), 0.0, 1.0) * np.float32(255.0)
+        scaled += np.float32(0.5)
+        rgba[:, :, :3] = scaled  # truncation after +0.5: rounded
+        rgba[:, :, 3] = 255
+        header = {"type": "image", "port": port, "width": w, "height": h, "full": full, "note": note, "kind": kind,
+                  "stats": None if stats is None else _finite(stats), "frame": self.frame,
+                  "read_ms": round((t1 - t0) * 1000, 2),
+                  "draw_ms": round((time.perf_counter() - t1) * 1000, 2)}
+        return header, rgba.tobytes()
+
+    def _stats(self, ref: tuple[str, str], host: np.ndarray) -> list[dict[str, Any]]:
+        key = (ref, id(host))
+        if self._stats_key != key:
+            self._stats_key, self._stats_val = key, channel_stats(host)
+        return self._stats_val
+
+    def probe(self, port: str | None, x: int, y: int) -> dict[str, Any]:
+        """The values of a texture at pixel (x, y), row 0 at the top, from the data the view read back."""
+        ref = self._ref(port)
+        if ref is None:
+            return {"x": x, "y": y, "values": None}
+        _, host = self._host_of(ref)
+        if host is None or host.ndim != 3 or not (0 <= x < host.shape[1] and 0 <= y < host.shape[0]):
+            return {"x": x, "y": y, "values": None}
+        vals = host[host.shape[0] - 1 - y, x]
+        return {"x": x, "y": y, "port": f"{ref[0]}.{ref[1]}",
+                "values": [float(v) if np.isfinite(v) else str(v) for v in vals.tolist()]}
+
+
+def _line(exc: BaseException) -> str:
+    """The one-line message the command line prints: a located error as `file:line:col: message`."""
+    if isinstance(exc, SketchgraphError):
+        return " ".join(str(exc).split())
+    return one_line(exc)
+
+
+class _Reset:
+    def __repr__(self) -> str:
+        return "<reset>"
+
+
+_RESET = _Reset()
+
+
+def _inside(path: Path, roots: list[Path]) -> bool:
+    p = path.resolve()
+    return any(p == r or r in p.parents for r in roots)
+
+
+def _view(msg: dict[str, Any], old: View) -> View:
+    def num(name: str, default: Any) -> Any:
+        v = msg.get(name, default)
+        if v is None or v == "":
+            return None
+        v = float(v)
+        return v if np.isfinite(v) else None
+
+    mode = str(msg.get("mode", old.mode))
+    return View(port=msg.get("port", old.port) or None,
+                width=int(min(MAX_BOX, max(1, int(msg.get("width", old.width))))),
+                height=int(min(MAX_BOX, max(1, int(msg.get("height", old.height))))),
+                mode=mode if mode in MODES else "auto", exposure=num("exposure", old.exposure) or 0.0,
+                lo=num("lo", old.lo), hi=num("hi", old.hi))
+
+
+def _fit(h: int, w: int, box_w: int, box_h: int) -> tuple[int, int]:
+    """(height, width) of an h x w picture shrunk to fit the box (never enlarged)."""
+    s = min(1.0, box_w / w, box_h / h)
+    return max(1, round(h * s)), max(1, round(w * s))
+
+
+def draw(host: np.ndarray, port: str, doc: str, view: View) -> tuple[np.ndarray, str, str]:
+    """A texture (GL order) drawn at the size of `view`'s box: (RGB float image, note, kind)."""
+    a = host[::-1]
+    h, w, c = a.shape
+    height, width = _fit(h, w, view.width, view.height)
+    kind = viz.classify(port, c, doc)
+    if view.mode == "auto":
+        fast = _fast_color(a, height, width) if kind == "color" else None
+        if fast is not None:
+            img, note = fast
+        elif (height, width) == (h, w):  # shown whole: the port's own visualisation, nothing to average
+            img, note = viz._DRAW[kind](a)
+        else:
+            img, note = reduce_and_colour(a, kind, height, width)
+        if kind == "color" and view.exposure:
+            img = np.clip(img * np.float32(2.0 ** view.exposure), 0.0, 1.0)
+            note += f", exposure {view.exposure:+g}"
+        return img, note, kind
+    area = box_area(h, w, height, width)[:, :, None]
+    if view.mode == "rgb":
+        src = a[:, :, :3] if c >= 3 else np.repeat(a[:, :, :1], 3, axis=2)
+        mean = box_sum(np.nan_to_num(src, nan=0.0, posinf=0.0, neginf=0.0), height, width) / area
+        img = np.clip(mean * 2.0 ** view.exposure, 0.0, 1.0).astype(np.float32)
+        return img, f"RGB, exposure {view.exposure:+g}", "rgb"
+    k = "rgba".index(view.mode)
+    if k >= c:
+        return np.zeros((height, width, 3), np.float32), f"no channel {view.mode.upper()} ({c} channels)", "grey"
+    ch = a[:, :, k]
+    finite = np.isfinite(ch)
+    vals = ch[finite]
+    lo = view.lo if view.lo is not None else (float(vals.min()) if vals.size else 0.0)
+    hi = view.hi if view.hi is not None else (float(vals.max()) if vals.size else 1.0)
+    mean = box_sum(np.where(finite, ch, np.float32(lo))[:, :, None], height, width) / area
+    g = np.clip((mean - lo) / (hi - lo), 0.0, 1.0) if hi > lo else (mean > lo).astype(np.float64)
+    img = np.repeat(g, 3, axis=2).astype(np.float32)
+    return img, f"channel {view.mode.upper()}, {lo:.4g}..{hi:.4g}", "grey"
+
+
+def _box_mean32(a: np.ndarray, height: int, width: int) -> np.ndarray:
+    """The area average of (H, W, C) over a (height, width) grid, summed in float32 (for display only)."""
+    h, w = a.shape[:2]
+    s = np.add.reduceat(a, (np.arange(height) * h // height), axis=0) if height < h else a
+    s = np.add.reduceat(s, (np.arange(width) * w // width), axis=1) if width < w else s
+    return s / box_area(h, w, height, width).astype(np.float32)[:, :, None]
+
+
+def _fast_color(a: np.ndarray, height: int, width: int) -> tuple[np.ndarray, str] | None:
+    """`reduce_and_colour` for a colour buffer whose values are all finite and within 0..1 (the usual final
+    image), in float32 and without the masks; None for anything else (the exact path draws it)."""
+    rgb = a[:, :, :3] if a.shape[2] >= 3 else None
+    if rgb is None or not np.isfinite(rgb).all():
+        return None
+    if float(rgb.min()) < -1e-3 or float(rgb.max()) > 1.0 + 1e-3:
+        return None
+    mean = rgb if (height, width) == rgb.shape[:2] else _box_mean32(rgb, height, width)
+    return np.clip(mean, 0.0, 1.0), "rgb"
+
+
+def _fast_rgba8(host: np.ndarray) -> np.ndarray | None:
+    """An RGBA texture (GL order) whose values are all finite and whose colour lies within 0..1 as the RGBA8
+    picture `viz`'s colour drawing gives (opaque, row 0 at the top), in a few whole-array passes; None for
+    anything else (the exact path draws it)."""
+    h, w, c = host.shape
+    rows = np.ascontiguousarray(host).reshape(h, w * c)
+    if not np.isfinite(rows).all():
+        return None
+    lo = float(rows.min(axis=0).reshape(w, c)[:, :3].min())
+    hi = float(rows.max(axis=0).reshape(w, c)[:, :3].max())
+    if lo < -1e-3 or hi > 1.0 + 1e-3:
+        return None
+    scaled = np.clip(host[::-1], np.float32(0.0), np.float32(1.0))
+    scaled *= np.float32(255.0)
+    scaled += np.float32(0.5)
+    out = scaled.astype(np.uint8)  # truncation after +0.5: rounded
+    out[:, :, 3] = 255
+    return out
+
+
+def channel_stats(host: np.ndarray) -> list[dict[str, Any]]:
+    """Per-channel min, max and mean (float64 sums) of a texture; NumPy's nan-aware path only where needed."""
+    c = host.shape[-1]
+    if not np.isfinite(host).all():
+        return [s.as_dict() for s in viz.channel_stats(host)]
+    # reduced over rows first (a contiguous inner axis is several times faster than reducing (N, C) on axis 0)
+    rows = np.ascontiguousarray(host).reshape(host.shape[0], -1)
+    lo = rows.min(axis=0).reshape(-1, c).min(axis=0)
+    hi = rows.max(axis=0).reshape(-1, c).max(axis=0)
+    mean = rows.sum(axis=0, dtype=np.float64).reshape(-1, c).sum(axis=0) / (host.size // c)
+    names = "RGBA" if c <= 4 else [str(i) for i in range(c)]
+    return [{"channel": names[k], "min": float(lo[k]), "max": float(hi[k]), "mean": float(mean[k]), "nan": 0,
+             "inf": 0} for k in range(c)]
+
+
+def _finite(stats: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [{k: (v if not isinstance(v, float) or np.isfinite(v) else str(v)) for k, v in s.items()} for s in stats]
+
+
+def _frames(pipe: Pipeline | None) -> dict[str, Any] | None:
+    """The frame slider's range: an animated scene's frames, or one turn of its orbit; None for a still."""
+    scene = getattr(pipe, "scene", None)
+    if scene is None:
+        return None
+    anim = getattr(scene, "animation", None)
+    if anim is not None:
+        r = anim.frame_range()
+        return {"start": r.start, "end": max(r.start, r.stop - 1), "fps": anim.fps, "kind": "animation"}
+    orbit = getattr(scene, "orbit", None)
+    if orbit is not None and orbit.degrees_per_frame:
+        n = max(1, round(360.0 / abs(orbit.degrees_per_frame)))
+        return {"start": 0, "end": n - 1, "fps": 24.0, "kind": "orbit"}
+    return None
+
+
+_SCHEMAS: dict[type, dict[str, Any]] = {}
+
+
+def _schema(model: type) -> dict[str, Any]:
+    """A node's parameter schema (pydantic's JSON schema, `$ref`s resolved), memoised per class."""
+    hit = _SCHEMAS.get(model)
+    if hit is None:
+        raw = model.model_json_schema()  # type: ignore[attr-defined]
+        defs = raw.get("$defs", {})
+
+        def resolve(node: Any, depth: int = 0) -> Any:
+            if depth > 20:
+                return {}
+            if isinstance(node, dict):
+                if "$ref" in node:
+                    target = defs.get(node["$ref"].rsplit("/", 1)[-1], {})
+                    return resolve({**target, **{k: v for k, v in node.items() if k != "$ref"}}, depth + 1)
+                return {k: resolve(v, depth + 1) for k, v in node.items() if k != "$defs"}
+            if isinstance(node, list):
+                return [resolve(v, depth + 1) for v in node]
+            return node
+
+        hit = _SCHEMAS[model] = resolve(raw)
+    return hit

@@ -1,0 +1,73 @@
+// The DAG as SVG: a column per topological generation (laid out by the server), input ports on the left of a
+// node, output ports (click one to view it) on the right; edges from output to input ports.
+const NS = "http://www.w3.org/2000/svg";
+const W = 150, GAPX = 46, GAPY = 26, ROWH = 16, HEAD = 46;
+
+function el(name, attrs, parent) {
+  const e = document.createElementNS(NS, name);
+  for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
+  if (parent) parent.appendChild(e);
+  return e;
+}
+
+export function drawGraph(svg, state, opts) {
+  svg.replaceChildren();
+  const pos = new Map();
+  const colY = new Map();
+  const boxes = [];
+  for (const n of [...state.nodes].sort((a, b) => a.col - b.col || a.row - b.row)) {
+    const ins = Object.keys(n.inputs), outs = Object.keys(n.outputs);
+    const h = HEAD + ROWH * Math.max(ins.length, outs.length) + 6;
+    const x = 8 + n.col * (W + GAPX);
+    const y = colY.get(n.col) || 8;
+    colY.set(n.col, y + h + GAPY);
+    boxes.push({ n, x, y, h, ins, outs });
+    ins.forEach((p, i) => pos.set(`in:${n.id}.${p}`, [x, y + HEAD + ROWH * i + 4]));
+    outs.forEach((p, i) => pos.set(`out:${n.id}.${p}`, [x + W, y + HEAD + ROWH * i + 4]));
+  }
+  const edges = el("g", {}, svg);
+  for (const e of state.edges) {
+    const a = pos.get(`out:${e.from}`), b = pos.get(`in:${e.to}`);
+    if (!a || !b) continue;
+    const mx = (a[0] + b[0]) / 2;
+    el("path", { class: "edge", d: `M${a[0]},${a[1]} C${mx},${a[1]} ${mx},${b[1]} ${b[0]},${b[1]}` }, edges);
+  }
+  let maxX = 0, maxY = 0;
+  for (const { n, x, y, h, ins, outs } of boxes) {
+    const g = el("g", { class: `node${n.id === opts.selected ? " selected" : ""}`, "data-node": n.id,
+                        transform: `translate(${x},${y})` }, svg);
+    el("rect", { width: W, height: h }, g);
+    const title = el("text", { x: 8, y: 15 }, g);
+    title.textContent = n.id;
+    const type = el("text", { x: 8, y: 28, class: "type" }, g);
+    type.textContent = n.type;
+    const meta = el("text", { x: 8, y: 40, class: "meta", "data-status": n.status }, g);
+    meta.textContent = `${n.status}${n.computes ? ` · ${n.ms.toFixed(1)} ms · ${n.computes}×` : ""}`;
+    const dot = el("circle", { cx: W - 10, cy: 11, r: 4, class: `status-${n.status}` }, g);
+    dot.style.fill = "#666";
+    g.addEventListener("click", (ev) => { if (!ev.target.closest(".port.out")) opts.onNode(n.id); });
+    ins.forEach((p, i) => {
+      const pg = el("g", { class: "port in", transform: `translate(0,${HEAD + ROWH * i + 4})` }, g);
+      el("circle", { r: 4 }, pg);
+      const t = el("text", { x: 7, y: 3 }, pg);
+      t.textContent = p;
+      const tip = el("title", {}, pg);
+      tip.textContent = `${p}: ${n.inputs[p].type}${n.inputs[p].from ? " ← " + n.inputs[p].from : ""}`;
+    });
+    outs.forEach((p, i) => {
+      const ref = `${n.id}.${p}`;
+      const pg = el("g", { class: `port out${ref === opts.viewed ? " viewed" : ""}`, "data-port": ref,
+                           transform: `translate(${W},${HEAD + ROWH * i + 4})` }, g);
+      el("circle", { r: 5 }, pg);
+      const t = el("text", { x: -7, y: 3, "text-anchor": "end" }, pg);
+      t.textContent = p;
+      const tip = el("title", {}, pg);
+      tip.textContent = `${ref}: ${n.outputs[p].type}. ${n.outputs[p].doc}`;
+      pg.addEventListener("click", (ev) => { ev.stopPropagation(); opts.onPort(ref); });
+    });
+    maxX = Math.max(maxX, x + W + 10);
+    maxY = Math.max(maxY, y + h + 10);
+  }
+  svg.setAttribute("width", maxX);
+  svg.setAttribute("height", maxY);
+}

@@ -1,0 +1,313 @@
+"""`sketchgraph serve` in a real headless Chromium (Debian's, driven by Playwright), against a server the test
+starts itself (a `sketchgraph serve` process on 127.0.0.1, a free port, a copy of a shipped pipeline in a
+temporary folder) and stops. Screenshots go to $SKETCHGRAPH_SERVE_SHOTS where set (docs/serve.md's pictures).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+import yaml
+
+from nodegraph.tools.serve.yamledit import set_params
+
+ROOT = Path(__file__).resolve().parents[3]
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+# -- writing values back (no browser) -------------------------------------------------------------------
+TEXT = """\
+# a comment at the top
+pipeline: t   # trailing comment
+nodes:
+  a:
+    type: x
+    params: {k: 1, m: [1, 2]}   # flow mapping
+  b:
+    type: y
+    params:
+      # inside a block mapping
+      mat: [[0.010, 0.0],
+            [0.0, 0.010]]     # spans two lines
+      s: hello
+
+      t: 2
+  c: {type: z}
+outputs:
+  image: b.out
+"""
+
+
+def test_set_params_keeps_comments_and_order():
+    out = set_params(TEXT, {"a": {"k": 2.5, "new": True}, "b": {"mat": [[0.02, 0], [0, 0.02]], "s": "a b",
+                                                                 "u": [1, 2]}, "c": {"w": 3}})
+    doc = yaml.safe_load(out)
+    assert doc["nodes"]["a"]["params"] == {"k": 2.5, "m": [1, 2], "new": True}
+    assert doc["nodes"]["b"]["params"] == {"mat": [[0.02, 0], [0, 0.02]], "s": "a b", "t": 2, "u": [1, 2]}
+    assert doc["nodes"]["c"] == {"type": "z", "params": {"w": 3}}
+    for comment in ("# a comment at the top", "# trailing comment", "# flow mapping", "# inside a block mapping",
+                    "# spans two lines"):
+        assert comment in out
+    assert list(doc["nodes"]["b"]["params"]) == ["mat", "s", "t", "u"]  # order kept, the new one last
+    # untouched lines are byte for byte the same
+    assert out.splitlines()[0:3] == TEXT.splitlines()[0:3]
+    assert out.endswith("outputs:\n  image: b.out\n")
+
+
+def test_set_params_refuses_a_missing_node():
+    from nodegraph.errors import PipelineError
+
+    with pytest.raises(PipelineError, match="node 'zz'"):
+        set_params(TEXT, {"zz": {"k": 1}})
+
+
+# -- the page in Chromium ------------------------------------------------------------------------------------
+def _shots() -> Path | None:
+    where = os.environ.get("SKETCHGRAPH_SERVE_SHOTS")
+    return Path(where) if where else None
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    if CHROMIUM is None:
+        pytest.skip("chromium is not installed (Debian: apt-get install chromium); the serve page is not checked")
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        pytest.skip("playwright is not installed (pip install playwright); the serve page is not checked")
+    folder = tmp_path_factory.mktemp("serve")
+    pipe = folder / "nienhaus_sketchy.yaml"
+    shutil.copy(ROOT / "pipelines" / "nienhaus_sketchy.yaml", pipe)
+    proc = subprocess.Popen([sys.executable, "-m", "nodegraph.cli", "serve", str(pipe), "--port", "0", "--size",
+                             "400x400", "--no-cache", "--out-dir", str(folder)], cwd=folder, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    line = proc.stdout.readline()
+    m = re.search(r"(http://127\.0\.0\.1:(\d+)/)\?token=(\S+)", line)
+    if m is None:
+        proc.kill()
+        pytest.fail(f"serve printed no address: {line!r} {proc.stdout.read()}")
+    try:
+        yield {"url": m.group(0), "base": m.group(1), "port": int(m.group(2)), "token": m.group(3), "file": pipe}
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+@pytest.fixture(scope="module")
+def page(served):
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=["--no-sandbox"])
+        pg = browser.new_page(viewport={"width": 1500, "height": 900})
+        errors: list[str] = []
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.goto(served["url"])
+        pg.wait_for_function("window.sg && window.sg.lastImage && window.sg.lastImage.port === 'sprite.color'",
+                             timeout=30000)
+        yield pg
+        browser.close()
+        assert not errors, errors
+
+
+def _state(pg) -> dict:
+    return pg.evaluate("window.sg.state")
+
+
+def _shot(pg, name: str) -> None:
+    where = _shots()
+    if where is not None:
+        where.mkdir(parents=True, exist_ok=True)
+        pg.evaluate("document.getElementById('graph-pane').scrollLeft = 0")
+        pg.screenshot(path=str(where / name))
+
+
+@pytest.mark.slow
+def test_graph_lists_every_node(page, served):
+    spec = yaml.safe_load(served["file"].read_text())
+    shown = set(page.eval_on_selector_all("[data-node]", "els => els.map(e => e.dataset.node)"))
+    assert shown == set(spec["nodes"])
+    state = _state(page)
+    types = {n["id"]: n["type"] for n in state["nodes"]}
+    assert types == {nid: n["type"] for nid, n in spec["nodes"].items()}
+    for nid in spec["nodes"]:  # the first run computed every node that does work, once
+        assert page.text_content(f'[data-node="{nid}"] .type') == spec["nodes"][nid]["type"]
+    assert {n["id"]: n["computes"] for n in state["nodes"] if n["status"] == "computed"} == \
+        {"gbuf": 1, "edges": 1, "noise": 1, "sketch": 1}
+
+
+@pytest.mark.slow
+def test_click_a_port_shows_its_buffer(page):
+    page.click('[data-port="gbuf.normal"]')
+    page.wait_for_function("window.sg.lastImage.port === 'gbuf.normal'", timeout=10000)
+    img = page.evaluate("window.sg.lastImage")
+    assert (img["width"], img["height"]) == (400, 400)  # the box is larger: sent at the buffer's own size
+    assert "normal" in page.inner_text("#note")
+    # the canvas shows it: not all one colour
+    spread = page.evaluate("""() => { const c = document.getElementById('view'); const d = c.getContext('2d')
+        .getImageData(0, 0, c.width, c.height).data; let lo = 255, hi = 0;
+        for (let i = 0; i < d.length; i += 4) { lo = Math.min(lo, d[i]); hi = Math.max(hi, d[i]); }
+        return hi - lo; }""")
+    assert spread > 100
+    # the value under the cursor, from the server's read-back: a unit normal in the middle of the cloister
+    box = page.locator("#view").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    page.wait_for_function("window.sg.probe && window.sg.probe.values", timeout=10000)
+    vals = page.evaluate("window.sg.probe.values")
+    assert abs(sum(v * v for v in vals[:3]) - 1.0) < 0.02
+    _shot(page, "serve-normals.png")
+    page.click('[data-port="sprite.color"]')
+    page.wait_for_function("window.sg.lastImage.port === 'sprite.color'", timeout=10000)
+
+
+@pytest.mark.slow
+def test_slider_rerenders_only_what_it_reaches(page):
+    before = page.evaluate("window.sg.lastImage.sum")
+    counts = {n["id"]: n["computes"] for n in _state(page)["nodes"]}
+    page.click('[data-node="edges"] .type')
+    slider = page.locator('input[type=range][data-param="normal_threshold"]')
+    slider.wait_for()
+    seq0 = page.evaluate("window.sg.seq")
+    for v in ("0.3", "0.25", "0.2", "0.15"):  # a drag: values arrive faster than they render, and coalesce
+        slider.fill(v)
+    seq = page.evaluate("window.sg.seq")
+    assert seq == seq0 + 4
+    page.wait_for_function(f"window.sg.lastImage.seq === {seq} && window.sg.state.seq === {seq}", timeout=20000)
+    state = _state(page)
+    assert state["edits"] == {"edges": {"normal_threshold": 0.15}}
+    after = {n["id"]: n["computes"] for n in state["nodes"]}
+    # what the change reaches: edges and the sketch that reads it; never the G-buffer or the noise
+    runs = after["edges"] - counts["edges"]
+    assert 1 <= runs <= 4 and after["sketch"] - counts["sketch"] == runs
+    assert after["gbuf"] == counts["gbuf"] and after["noise"] == counts["noise"]
+    assert page.evaluate("window.sg.lastImage.sum") != before
+    assert page.evaluate("window.sg.timings.length") >= 1
+    _shot(page, "serve-page.png")
+
+
+@pytest.mark.slow
+def test_save_parameters_keeps_comments(page, served):
+    text = served["file"].read_text()
+    page.click("#save")
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and served["file"].read_text() == text:
+        time.sleep(0.05)
+    new = served["file"].read_text()
+    assert yaml.safe_load(new)["nodes"]["edges"]["params"]["normal_threshold"] == 0.15
+    old_lines, new_lines = text.splitlines(), new.splitlines()
+    assert len(old_lines) == len(new_lines)
+    changed = [(a, b) for a, b in zip(old_lines, new_lines, strict=True) if a != b]
+    assert changed == [("    params: {normal_threshold: 0.4, depth_threshold: 0.03, width: 2}",
+                        "    params: {normal_threshold: 0.15, depth_threshold: 0.03, width: 2}")]
+    page.wait_for_function("window.sg.state.notice === null || Object.keys(window.sg.state.edits).length === 0",
+                           timeout=10000)
+    counts = {n["id"]: n["computes"] for n in _state(page)["nodes"]}
+    time.sleep(0.6)  # the server sees the file change; the same keys: nothing computes again
+    assert {n["id"]: n["computes"] for n in _state(page)["nodes"]} == counts
+
+
+@pytest.mark.slow
+def test_broken_yaml_shows_the_located_error_then_clears(page, served):
+    path = served["file"]
+    good = path.read_text()
+    path.write_text(good.replace("type: edge_detect", "type: edge_detekt"))
+    page.wait_for_selector("#error:not([hidden])", timeout=10000)
+    error = page.inner_text("#error")
+    line = next(i for i, s in enumerate(good.splitlines(), 1) if "edge_detect" in s)
+    assert re.search(rf"nienhaus_sketchy\.yaml:{line}:\d+", error), error
+    assert "edge_detekt" in error and "\n" not in error
+    _shot(page, "serve-error.png")
+    path.write_text(good)
+    page.wait_for_selector("#error[hidden]", state="attached", timeout=10000)
+    assert _state(page)["error"] is None
+
+
+@pytest.mark.slow
+def test_controls_from_the_schema_and_the_frame_slider(page):
+    page.click('[data-node="sketch"] .type')
+    page.wait_for_selector('[data-param="edge_matrix"]')
+    assert page.locator('[data-param="edge_matrix"] input[type=number]').count() == 4  # 2x2 matrix fields
+    assert page.get_attribute('[data-param="edge_color"]', "type") == "color"  # RGB in 0..1: a colour picker
+    assert page.evaluate("document.querySelector('[data-param=\"edge_color\"]').value") == "#1a1a1f"  # 0.1, 0.12
+    # the cloister turns on an orbit (6 degrees a frame): a frame slider over one turn
+    assert _state(page)["frames"] == {"start": 0, "end": 59, "fps": 24.0, "kind": "orbit"}
+    before = page.evaluate("window.sg.lastImage.sum")
+    page.locator("#frame").fill("5")
+    page.wait_for_function("window.sg.state.frame === 5 && window.sg.lastImage.at > 0", timeout=20000)
+    page.wait_for_function(f"window.sg.lastImage.sum !== {before}", timeout=20000)
+    page.locator("#frame").fill("0")
+    page.wait_for_function("window.sg.state.frame === 0", timeout=20000)
+
+
+@pytest.mark.slow
+def test_requests_without_the_token_are_refused(served):
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    base, token, port = served["base"], served["token"], served["port"]
+
+    def status(url: str, headers: dict | None = None) -> int:
+        try:
+            with urllib.request.urlopen(urllib.request.Request(url, headers=headers or {}), timeout=5) as r:
+                return r.status
+        except urllib.error.HTTPError as exc:
+            return exc.code
+
+    assert status(f"{base}api/state?token={token}") == 200
+    assert status(f"{base}api/state") == 403
+    assert status(f"{base}?token=wrong") == 403
+    assert status(f"{base}static/app.js") == 403
+    assert status(f"{base}api/state?token={token}", {"Origin": "http://evil.example"}) == 403
+    assert status(f"{base}api/state?token={token}", {"Host": f"evil.example:{port}"}) == 403
+    ws = f"ws://127.0.0.1:{port}/ws"
+    for url, origin in ((ws, None), (f"{ws}?token=wrong", None), (f"{ws}?token={token}", "http://evil.example")):
+        with pytest.raises(InvalidStatus) as info:
+            connect(url, origin=origin, open_timeout=5).close()
+        assert info.value.response.status_code == 403
+    with connect(f"{ws}?token={token}", origin=f"http://127.0.0.1:{port}", open_timeout=5) as conn:
+        assert json.loads(conn.recv(timeout=5))["type"] == "state"
+
+
+# -- drawing and statistics against float64 references (no browser) -------------------------------------------
+def test_fast_colour_path_matches_a_float64_reference():
+    import numpy as np
+
+    from nodegraph.tools.serve.engine import _fast_rgba8
+
+    rng = np.random.default_rng(3)
+    host = rng.random((37, 53, 4), dtype=np.float32)
+    out = _fast_rgba8(host)
+    ref = np.rint(np.clip(host[::-1, :, :3].astype(np.float64), 0, 1) * 255)  # row 0 at the top
+    assert out.shape == (37, 53, 4) and (out[:, :, 3] == 255).all()
+    assert np.abs(out[:, :, :3].astype(np.int64) - ref).max() <= 1  # float32 rounding near .5 only
+    assert (out[:, :, :3] == ref).mean() > 0.99
+    host[5, 7, 1] = np.inf  # anything not plain colour goes the exact way
+    assert _fast_rgba8(host) is None
+    assert _fast_rgba8(rng.random((4, 4, 4), dtype=np.float32) * 3) is None
+
+
+def test_channel_stats_match_float64():
+    import numpy as np
+
+    from nodegraph.tools.serve.engine import channel_stats
+
+    host = np.random.default_rng(4).normal(size=(31, 17, 4)).astype(np.float32)
+    flat = host.reshape(-1, 4).astype(np.float64)
+    for k, s in enumerate(channel_stats(host)):
+        assert (s["min"], s["max"]) == (flat[:, k].min(), flat[:, k].max())
+        assert abs(s["mean"] - flat[:, k].mean()) < 1e-12
+    host[0, 0, 2] = np.nan
+    assert channel_stats(host)[2]["nan"] == 1
