@@ -13,7 +13,9 @@ from nodegraph.tools.bench import sizes
 # Particle pipelines: two renders of one pipeline at one size with another particle seed score about 0.91 (the
 # strokes are random), so they are held at the issue's 0.85; with depth_edges' and force_field's filters in
 # reference pixels they measure 0.896 and 0.908 (0.819 and 0.844 with the per-pixel filters; docs/sizes.md).
-FLOOR = {"loose_and_sketchy": 0.85, "loose_and_sketchy_shaded": 0.85}
+# particle strokes and plotter_lines' hatching streamlines are laid out anew at each size (the same density and
+# tone, other places: plotter_lines 0.82 with hatching, 0.92 without; its tone within 0.005)
+FLOOR = {"loose_and_sketchy": 0.85, "loose_and_sketchy_shaded": 0.85, "plotter_lines": 0.80}
 
 
 @pytest.fixture(scope="module")

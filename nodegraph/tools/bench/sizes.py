@@ -55,7 +55,8 @@ def ssim(a: np.ndarray, b: np.ndarray) -> float:
 
 def render_luminance(session: Any, pipeline: str, size: int, overrides: tuple[str, ...] = ()) -> np.ndarray:
     pipe = session.load(pipeline, size=(size, size), set=list(overrides))
-    return luminance(pipe.render())
+    # the picture: a pipeline whose first output is strokes (plotter_lines) names its drawing `image`
+    return luminance(pipe.render("image" if "image" in pipe.outputs else None))
 
 
 def compare(pipeline: str, small: int = 400, large: int = 1600, overrides: tuple[str, ...] = (),
