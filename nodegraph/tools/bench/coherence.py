@@ -61,6 +61,7 @@ import numpy as np
 
 from ...fsio import atomic_write_text
 from ...output import motion as mo
+from .gltfdoc import GltfDoc
 
 FPS = 24.0
 SHOTS = ("turn", "orbit", "bend")
@@ -110,38 +111,24 @@ outputs:
 # -- the shots ---------------------------------------------------------------------------------------------
 
 
-class _Gltf:
+class _Gltf(GltfDoc):
     """A small glTF document written with pygltflib: meshes, nodes, cameras and LINEAR animation channels."""
 
     def __init__(self) -> None:
         import pygltflib as g
 
-        self.g = g
-        self.doc = g.GLTF2(scene=0, scenes=[g.Scene(nodes=[])], animations=[g.Animation(name="shot")])
-        self.blob = bytearray()
-
-    def data(self, array: np.ndarray, kind: str, ctype: int = 5126, bounds: bool = False) -> int:
-        a = np.ascontiguousarray(array)
-        self.blob += b"\0" * (-len(self.blob) % 4)
-        self.doc.bufferViews.append(self.g.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=a.nbytes))
-        self.blob += a.tobytes()
-        acc = self.g.Accessor(bufferView=len(self.doc.bufferViews) - 1, componentType=ctype, count=len(a), type=kind)
-        if bounds:
-            flat = a.reshape(len(a), -1).astype(np.float64)
-            acc.min, acc.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
-        self.doc.accessors.append(acc)
-        return len(self.doc.accessors) - 1
+        super().__init__(animations=[g.Animation(name="shot")])
 
     def mesh(self, vertices: np.ndarray, faces: np.ndarray, color: tuple[float, float, float],
              skin: tuple[np.ndarray, np.ndarray] | None = None) -> int:
         g = self.g
-        attrs = {"POSITION": self.data(vertices.astype(np.float32), "VEC3", bounds=True)}
+        attrs = {"POSITION": self.accessor(vertices.astype(np.float32), "VEC3", minmax=True)}
         if skin is not None:
-            attrs["JOINTS_0"] = self.data(skin[0].astype(np.uint8), "VEC4", 5121)
-            attrs["WEIGHTS_0"] = self.data(skin[1].astype(np.float32), "VEC4")
+            attrs["JOINTS_0"] = self.accessor(skin[0].astype(np.uint8), "VEC4", 5121)
+            attrs["WEIGHTS_0"] = self.accessor(skin[1].astype(np.float32), "VEC4")
         self.doc.materials.append(g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(
             baseColorFactor=[*color, 1.0])))
-        prim = g.Primitive(attributes=g.Attributes(**attrs), indices=self.data(faces.astype(np.uint32).ravel(),
+        prim = g.Primitive(attributes=g.Attributes(**attrs), indices=self.accessor(faces.astype(np.uint32).ravel(),
                                                                                 "SCALAR", 5125),
                            material=len(self.doc.materials) - 1)
         self.doc.meshes.append(g.Mesh(primitives=[prim]))
@@ -163,18 +150,15 @@ class _Gltf:
         g = self.g
         kind = "VEC4" if path == "rotation" else "VEC3"
         an = self.doc.animations[0]
-        an.samplers.append(g.AnimationSampler(input=self.data(np.asarray(times, np.float32), "SCALAR", bounds=True),
-                                              output=self.data(np.asarray(values, np.float32), kind)))
+        an.samplers.append(g.AnimationSampler(input=self.accessor(np.asarray(times, np.float32), "SCALAR", minmax=True),
+                                              output=self.accessor(np.asarray(values, np.float32), kind)))
         an.channels.append(g.AnimationChannel(sampler=len(an.samplers) - 1,
                                               target=g.AnimationChannelTarget(node=node, path=path)))
 
     def save(self, path: Path) -> Path:
         if not self.doc.animations[0].channels:
             self.doc.animations = []
-        self.doc.buffers = [self.g.Buffer(byteLength=len(self.blob))]
-        self.doc.set_binary_blob(bytes(self.blob))
-        self.doc.save_binary(str(path))
-        return path
+        return self.write(path)
 
 
 def quaternion(axis: Any, degrees: float) -> list[float]:
@@ -271,7 +255,7 @@ def write_shots(folder: Path, frames: int) -> dict[str, Path]:
     f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
     ibm = np.stack([np.eye(4), np.eye(4)])
     ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0  # inverse bind: joint 0 at x = -1, joint 1 at x = 0
-    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.data(
+    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.accessor(
         ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
     f.node(mesh=mesh, skin=0, name="tube")
     f.camera([0.3, 1.0, 4.6], [0.2, 0.4, 0.0])

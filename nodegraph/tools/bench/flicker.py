@@ -54,6 +54,7 @@ import numpy as np
 
 from ...errors import SketchgraphError
 from ...fsio import atomic_write_text
+from .gltfdoc import GltfDoc
 
 RINGS, SEGMENTS, LEAN, SECONDS, NOISE = 30, 16, 30.0, 2.0, 0.08
 PIPELINE = "nienhaus_sketchy"
@@ -74,20 +75,8 @@ def figure(path: Path, rings: int = RINGS, segments: int = SEGMENTS, lean: float
     0.7 < y < 1.3); joint 1 turns by `lean` degrees about +x then back over `seconds`."""
     import pygltflib as g
 
-    doc = g.GLTF2(scene=0, scenes=[g.Scene(nodes=[])])
-    blob = bytearray()
-
-    def accessor(arr: np.ndarray, kind: str, ctype: int = 5126, minmax: bool = False) -> int:
-        arr = np.ascontiguousarray(arr)
-        blob.extend(b"\0" * (-len(blob) % 4))
-        doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=arr.nbytes))
-        blob.extend(arr.tobytes())
-        acc = g.Accessor(bufferView=len(doc.bufferViews) - 1, componentType=ctype, count=arr.shape[0], type=kind)
-        if minmax:
-            flat = arr.reshape(arr.shape[0], -1).astype(np.float64)
-            acc.min, acc.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
-        doc.accessors.append(acc)
-        return len(doc.accessors) - 1
+    gd = GltfDoc()
+    doc, accessor = gd.doc, gd.accessor
 
     rng = np.random.default_rng(seed)
     ys = np.linspace(0.0, 2.0, rings)
@@ -132,9 +121,7 @@ def figure(path: Path, rings: int = RINGS, segments: int = SEGMENTS, lean: float
     doc.animations.append(g.Animation(name="lean", samplers=[g.AnimationSampler(
         input=accessor(times, "SCALAR", minmax=True), output=accessor(values, "VEC4"))], channels=[
         g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=1, path="rotation"))]))
-    doc.buffers = [g.Buffer(byteLength=len(blob))]
-    doc.set_binary_blob(bytes(blob))
-    doc.save_binary(str(path))
+    gd.write(path)
     return Path(path)
 
 

@@ -29,6 +29,7 @@ import click
 import numpy as np
 
 from ...fsio import atomic_write_text
+from .gltfdoc import GltfDoc
 
 PARTS, TRIANGLES, JOINTS, SECONDS = 30, 60_000, 18, 3.0
 TARGET_MS_PER_100K = 5.0
@@ -41,20 +42,8 @@ def character(path: Path, parts: int = PARTS, triangles: int = TRIANGLES, joints
     """Write the synthetic character (see the module docstring) as a .glb at `path`."""
     import pygltflib as g
 
-    doc = g.GLTF2(scene=0, scenes=[g.Scene(nodes=[])])
-    blob = bytearray()
-
-    def accessor(arr: np.ndarray, kind: str, ctype: int = 5126, minmax: bool = False) -> int:
-        arr = np.ascontiguousarray(arr)
-        blob.extend(b"\0" * (-len(blob) % 4))
-        doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(blob), byteLength=arr.nbytes))
-        blob.extend(arr.tobytes())
-        acc = g.Accessor(bufferView=len(doc.bufferViews) - 1, componentType=ctype, count=arr.shape[0], type=kind)
-        if minmax:
-            flat = arr.reshape(arr.shape[0], -1).astype(np.float64)
-            acc.min, acc.max = flat.min(axis=0).tolist(), flat.max(axis=0).tolist()
-        doc.accessors.append(acc)
-        return len(doc.accessors) - 1
+    gd = GltfDoc()
+    doc, accessor = gd.doc, gd.accessor
 
     height, seg = 2.0, 24
     rings = max(3, triangles // parts // (2 * seg) + 1)
@@ -113,9 +102,7 @@ def character(path: Path, parts: int = PARTS, triangles: int = TRIANGLES, joints
         anim.channels.append(g.AnimationChannel(sampler=len(anim.samplers) - 1,
                                                 target=g.AnimationChannelTarget(node=j, path="rotation")))
     doc.animations.append(anim)
-    doc.buffers = [g.Buffer(byteLength=len(blob))]
-    doc.set_binary_blob(bytes(blob))
-    doc.save_binary(str(path))
+    gd.write(path)
     return path
 
 
