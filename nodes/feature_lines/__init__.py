@@ -15,8 +15,8 @@ from nodegraph.scene import origin
 from nodegraph.types import ARRAYS, SCENE, Texture
 from nodegraph.values import Footprint
 
+from .._shared import feature_lines as lines
 from .._shared.curvature import object_field
-from . import lines
 
 _KINDS = ("suggestive", "ridges", "valleys")
 

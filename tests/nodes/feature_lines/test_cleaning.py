@@ -5,7 +5,7 @@ RMS radius against the one it is asked for, on two mesh densities; noise on a sp
 from __future__ import annotations
 
 import numpy as np
-from nodegraph_nodes.feature_lines import lines as L
+from nodegraph_nodes._shared import feature_lines as L
 
 from tests.nodes.feature_lines.test_feature_lines import icosphere, ops_of
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nodegraph_nodes._shared import feature_lines as L
 from nodegraph_nodes.curvature.principal import compute_curvature
-from nodegraph_nodes.feature_lines import lines as L
 
 from nodegraph import pipeline as pl
 from nodegraph.errors import PipelineError
