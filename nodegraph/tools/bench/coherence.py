@@ -61,7 +61,7 @@ import numpy as np
 
 from ...fsio import atomic_write_text
 from ...output import motion as mo
-from .gltfdoc import GltfDoc
+from .gltfdoc import GltfDoc, quaternion
 
 FPS = 24.0
 SHOTS = ("turn", "orbit", "bend")
@@ -159,13 +159,6 @@ class _Gltf(GltfDoc):
         if not self.doc.animations[0].channels:
             self.doc.animations = []
         return self.write(path)
-
-
-def quaternion(axis: Any, degrees: float) -> list[float]:
-    a = np.asarray(axis, np.float64)
-    a = a / np.linalg.norm(a)
-    h = math.radians(degrees) / 2.0
-    return [*(a * math.sin(h)).tolist(), math.cos(h)]
 
 
 def look_rotation(eye: Any, target: Any) -> list[float]:

@@ -54,7 +54,7 @@ import numpy as np
 
 from ...errors import SketchgraphError
 from ...fsio import atomic_write_text
-from .gltfdoc import GltfDoc
+from .gltfdoc import GltfDoc, quaternion
 
 RINGS, SEGMENTS, LEAN, SECONDS, NOISE = 30, 16, 30.0, 2.0, 0.08
 PIPELINE = "nienhaus_sketchy"
@@ -112,12 +112,8 @@ def figure(path: Path, rings: int = RINGS, segments: int = SEGMENTS, lean: float
     doc.nodes.append(g.Node(mesh=0, skin=0, name="torso"))
     doc.scenes[0].nodes = [0, 2]
 
-    def quat(deg: float) -> list[float]:
-        h = math.radians(deg) / 2
-        return [math.sin(h), 0.0, 0.0, math.cos(h)]
-
     times = np.array([0.0, seconds / 2, seconds], np.float32)
-    values = np.array([quat(0.0), quat(lean), quat(0.0)], np.float32)
+    values = np.array([quaternion((1, 0, 0), 0.0), quaternion((1, 0, 0), lean), quaternion((1, 0, 0), 0.0)], np.float32)
     doc.animations.append(g.Animation(name="lean", samplers=[g.AnimationSampler(
         input=accessor(times, "SCALAR", minmax=True), output=accessor(values, "VEC4"))], channels=[
         g.AnimationChannel(sampler=0, target=g.AnimationChannelTarget(node=1, path="rotation"))]))

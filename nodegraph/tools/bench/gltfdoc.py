@@ -3,6 +3,7 @@ a pygltflib document and its one binary buffer, written as .glb."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -39,3 +40,11 @@ class GltfDoc:
         self.doc.set_binary_blob(bytes(self.blob))
         self.doc.save_binary(str(path))
         return path
+
+
+def quaternion(axis: Any, degrees: float) -> list[float]:
+    """The (x, y, z, w) rotation by `degrees` about `axis`, as glTF stores it."""
+    a = np.asarray(axis, np.float64)
+    a = a / np.linalg.norm(a)
+    h = math.radians(degrees) / 2.0
+    return [*(a * math.sin(h)).tolist(), math.cos(h)]
