@@ -7,6 +7,10 @@ height as the canvas, stroke widths in pixels); with a page (`A4`, `A3`, `letter
 landscape as the drawing is) the file is that size in millimetres, the drawing scaled to fit inside a margin
 and centred, and stroke widths are in millimetres (pixels times the same scale). y is flipped (strokes have y
 up) so the file looks like the image.
+
+An SVG path has one width and one opacity: each stroke is one path with its vertices' mean width and tone (taper
+and pressure along a stroke show in the GPU drawing, `draw_strokes`, not in the file). Points that coincide once
+rounded to the file's digits are written once.
 """
 
 from __future__ import annotations
@@ -103,7 +107,9 @@ def layered_svg(strokes: Strokes, page: Page | None = None, digits: int = 2) -> 
                 p = strokes.xy[a:b].astype(np.float64)
                 x = off_x + scale * p[:, 0]
                 y = off_y + scale * (h - p[:, 1])
-                d = "M" + " L".join(f"{u:.{digits}f},{v:.{digits}f}" for u, v in zip(x, y, strict=True))
+                d = path_data(x, y, digits)
+                if d is None:
+                    continue
                 attrs = {"d": d}
                 sw = float(np.mean(widths[a:b])) * scale
                 if abs(sw - base_w) > 1e-6 * max(base_w, 1e-9):
@@ -114,6 +120,14 @@ def layered_svg(strokes: Strokes, page: Page | None = None, digits: int = 2) -> 
                 ET.SubElement(g, f"{{{SVG_NS}}}path", attrs)
     ET.indent(root, space="", level=0)
     return ET.tostring(root, encoding="unicode", xml_declaration=False) + "\n"
+
+
+def path_data(x: np.ndarray, y: np.ndarray, digits: int) -> str | None:
+    """An SVG path's `d` for one polyline, points rounded to `digits` decimals and a point equal to the one
+    before it once rounded left out; None when fewer than two distinct points remain."""
+    pts = [f"{u:.{digits}f},{v:.{digits}f}" for u, v in zip(x, y, strict=True)]
+    kept = [q for k, q in enumerate(pts) if k == 0 or q != pts[k - 1]]
+    return "M" + " L".join(kept) if len(kept) >= 2 else None
 
 
 def read_layers(text: str) -> dict[str, list[np.ndarray]]:

@@ -175,3 +175,13 @@ def test_feature_kinds_come_from_feature_lines_segments():
     bare = nodes.replace(", curvature: curv.out", "")
     with pytest.raises(SketchgraphError, match="need the curvature input"):
         run_minimal(None, bare, {"s": "lines.strokes"}, size=(64, 64), scene="builtin:torus")
+
+
+def test_layered_svg_writes_a_point_repeated_by_rounding_once():
+    xy = np.array([[10.0, 20.0], [10.001, 20.002], [12.0, 20.0], [12.0, 20.0], [15.0, 25.0],  # 2 repeats
+                   [30.0, 30.0], [30.002, 30.001]], np.float32)  # a stroke that rounds to one point
+    attrs = {"kind": np.full(7, LINE_KINDS.index("contour"), np.int8), "visible": np.ones(7, bool)}
+    s = Strokes.from_arrays(xy, [0, 5, 7], (40, 40), 1.0, attrs=attrs)
+    paths = read_layers(layered_svg(s))["contour"]
+    assert len(paths) == 1
+    np.testing.assert_allclose(paths[0], [[10, 20], [12, 20], [15, 15]], atol=0.006)
