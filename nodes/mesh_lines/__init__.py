@@ -41,13 +41,14 @@ class MeshLines(Node):
     edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
     (boundaries another object shares: object and material borders) and, where a curvature node is connected,
     feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
-    chained across faces (through points two segments of one kind share), sampled every `spacing` pixels, and
-    each sample is tested against the linear depth buffer: visible where a pixel within one pixel of it is
-    background or no nearer than its depth x (1 - `depth_tolerance`). Strokes are split where visibility
+    chained across faces (through points two segments of one kind share; where three or more meet, along the
+    straightest pair turning by less than `junction_turn`, as Freestyle chooses at a junction), sampled every
+    `spacing` pixels, and each sample is tested against the linear depth buffer: visible where a pixel within one
+    pixel of it is background or no nearer than its depth x (1 - `depth_tolerance`). Strokes are split where visibility
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "1"
+    version = "2"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -69,6 +70,10 @@ class MeshLines(Node):
                                     "faces' normals) above which an edge is a crease.")
         split_angle: float = Field(100.0, gt=0, le=180, description="A stroke is split where it turns by more "
                                    "than this many degrees on the screen (180: never).")
+        junction_turn: float = Field(extract.JUNCTION_TURN, ge=0, le=90, description="Where three or more "
+                                     "segments of one kind meet, a chain goes on along the straightest pair of "
+                                     "them that turns by less than this many degrees (object space; 0: chains "
+                                     "end at every junction).")
         min_length: float = Field(3.0, ge=0, le=1e4, description="Strokes shorter than this many pixels (at the "
                                   "reference size, times px_scale) are dropped.")
         spacing: float = Field(1.0, gt=0.05, le=64, description="Stroke samples are at most this many pixels "
@@ -117,7 +122,8 @@ class MeshLines(Node):
         for (index, model), s in zip(objs, segs, strict=True):
             mv = view @ model
             parts.append(strokes_of(index, s, extract.View(proj @ mv, mv, (w, h)), zbuf, p.spacing * ctx.px_scale,
-                                    p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden))
+                                    p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
+                                    p.junction_turn))
         return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
 
     def feature_segments(self, curv: Any, index: int, mesh: Any, eye_obj: np.ndarray, kinds: set[str]) -> Any:
@@ -212,9 +218,10 @@ def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creas
 
 
 def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float,
-               tolerance: float, split_angle: float, min_length: float, hidden: bool) -> tuple[Any, ...]:
+               tolerance: float, split_angle: float, min_length: float, hidden: bool,
+               junction_turn: float = extract.JUNCTION_TURN) -> tuple[Any, ...]:
     """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`."""
-    half, offsets = extract.chain(segs.key, segs.kind)
+    half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
     sm = extract.sample(segs, half, offsets, view, spacing)
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance)
     state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces

@@ -23,6 +23,7 @@ import numpy as np
 from nodegraph.values import LINE_KINDS, Strokes
 
 KIND = {name: i for i, name in enumerate(LINE_KINDS)}
+JUNCTION_TURN = 60.0  # degrees: at a junction, `chain` continues along a pair of segments turning by less than this
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,11 +204,15 @@ def mark_borders(per_object: list[Segs], transforms: list[np.ndarray], quantum: 
     return out
 
 
-def chain(key: np.ndarray, kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def chain(key: np.ndarray, kind: np.ndarray, p: np.ndarray | None = None,
+          max_turn: float = JUNCTION_TURN) -> tuple[np.ndarray, np.ndarray]:
     """Chains of segments of one kind that share endpoints, continued through endpoints two segments meet
-    at (valence 2), stopped where one, three or more meet (Freestyle's chaining without its choice at
-    junctions). Returns (half-edges (k,), chain offsets (c + 1,)): half-edge h = 2 * segment + end walks the
-    segment from that end to the other; a closed loop ends where it began."""
+    at (valence 2). Where three or more meet (a junction) and the segments' endpoints `p` (s, 2, 3) are given,
+    the chain goes on along the straightest continuation, as Freestyle's chaining chooses at a junction: the
+    pairs of segments leaving the junction are taken most nearly opposite first, each segment at most once, while
+    they turn by less than `max_turn` degrees (object space); the other segments end there. Returns (half-edges
+    (k,), chain offsets (c + 1,)): half-edge h = 2 * segment + end walks the segment from that end to the other;
+    a closed loop ends where it began."""
     s = len(key)
     if s == 0:
         return np.zeros(0, np.int64), np.zeros(1, np.int64)
@@ -221,6 +226,8 @@ def chain(key: np.ndarray, kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ho = order[two].reshape(-1, 2)  # both half-edges of each valence-2 node, next to each other
     partner[ho[:, 0]] = ho[:, 1]
     partner[ho[:, 1]] = ho[:, 0]
+    if p is not None and max_turn > 0:
+        _pair_junctions(partner, inv, order, deg, np.asarray(p, np.float64), max_turn)
     partner_l = partner.tolist()
     visited = bytearray(s)
     out: list[int] = []
@@ -251,6 +258,34 @@ def chain(key: np.ndarray, kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             cur = p ^ 1
         offsets.append(len(out))
     return np.asarray(out, np.int64), np.asarray(offsets, np.int64)
+
+
+def _pair_junctions(partner: np.ndarray, inv: np.ndarray, order: np.ndarray, deg: np.ndarray, p: np.ndarray,
+                    max_turn: float) -> None:
+    """`chain`'s choice at junctions, written into `partner` (half-edge -> the half-edge it continues into)."""
+    sorted_deg = deg[inv[order]]
+    at = order[sorted_deg >= 3]  # half-edges at junctions, grouped by node
+    if not len(at):
+        return
+    seg, end = at >> 1, at & 1
+    out = p[seg, 1 - end] - p[seg, end]  # each half-edge's direction out of its junction
+    out /= np.maximum(np.linalg.norm(out, axis=1), 1e-300)[:, None]
+    nodes = inv[at]
+    bounds = np.r_[0, np.flatnonzero(np.diff(nodes)) + 1, len(at)]
+    limit = -np.cos(np.radians(max_turn))  # u_i . u_j below this: the pair turns by less than max_turn
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        u = out[a:b]
+        cos = u @ u.T
+        i, j = np.triu_indices(b - a, 1)
+        c = cos[i, j]
+        ok = c < limit
+        taken = np.zeros(b - a, bool)
+        for k in np.argsort(c[ok], kind="stable"):
+            x, y = i[ok][k], j[ok][k]
+            if taken[x] or taken[y]:
+                continue
+            taken[x] = taken[y] = True
+            partner[at[a + x]], partner[at[a + y]] = at[a + y], at[a + x]
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,28 @@ def test_chain_follows_valence_two_and_stops_at_junctions():
     assert len(chains) == 5
 
 
+def _chains_of(key, p, turn):
+    half, off = extract.chain(key, np.zeros(len(key), np.uint8), p, turn)
+    return [[int(key[half[a] >> 1, half[a] & 1])] + [int(key[x >> 1, 1 - (x & 1)]) for x in half[a:b]]
+            for a, b in zip(off[:-1], off[1:], strict=True)]
+
+
+def test_chain_goes_straight_on_at_junctions():
+    # node positions: a cross at 0 (arms 1, 2 along x and 3, 4 along y, 4 bent 30 degrees), a T at 10 (bar 11-10-12
+    # along x, stem 13 along y), a Y at 20 with arms 120 degrees apart (every pair turns by 60 degrees)
+    pos = {0: (0, 0), 1: (1, 0), 2: (-1, 0), 3: (0, 1), 4: (np.sin(np.radians(30)), -np.cos(np.radians(30))),
+           10: (5, 0), 11: (4, 0), 12: (6, 0), 13: (5, 1),
+           20: (9, 0), 21: (10, 0), 22: (9 - 0.5, np.sqrt(0.75)), 23: (9 - 0.5, -np.sqrt(0.75))}
+    key = np.array([[0, 1], [2, 0], [0, 3], [4, 0], [10, 11], [12, 10], [10, 13], [20, 21], [22, 20], [20, 23]])
+    p = np.array([[[*pos[a], 0.0], [*pos[b], 0.0]] for a, b in key], np.float64)
+    chains = [c if c[0] <= c[-1] else c[::-1] for c in _chains_of(key, p, 60.0)]
+    assert sorted(chains) == sorted([[1, 0, 2], [3, 0, 4], [11, 10, 12], [10, 13], [20, 21], [20, 22], [20, 23]])
+    # 0 degrees: every junction ends its chains (as without positions)
+    assert len(_chains_of(key, p, 0.0)) == len(key) == len(_chains_of(key, None, 60.0))
+    # a 25-degree limit keeps the cross's bent arm (30 degrees) apart
+    assert sorted(len(c) for c in _chains_of(key, p, 25.0)) == [2] * 6 + [3, 3]
+
+
 def test_chain_keeps_kinds_apart():
     key = np.array([[0, 1], [1, 2]])
     half, off = extract.chain(key, np.array([1, 2], np.uint8))
