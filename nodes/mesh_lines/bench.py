@@ -6,7 +6,9 @@ built-in torus, the shared meshes that exist (spot, bunny, ogre) and a bumpy tor
 here. Each stage's median over `--repeats` runs of the same frame (the first run, which builds the per-mesh
 topology cache, is reported apart as `first_ms`). With `--plotter` (the default) also plotter_lines (lines and
 hatching) per mesh on an A4 page and its pen-up travel as vpype counts it, in file order and after `linesort`
-(`pen_up`; vpype is in the [test] extra)."""
+(`pen_up`; vpype is in the [test] extra), and its hatching's cost (`hatching`: the stroke_hatching node's ms in the
+frame, and its streamlines compiled against the Python loop on the same inputs), with the compiled loop's first
+call in a new process reported apart (`hatching_first_call`: with an empty and with a filled Numba cache)."""
 
 from __future__ import annotations
 
@@ -118,7 +120,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             t0 = time.perf_counter()
             segs = object_segments(obj.mesh, eye_obj, True, True, True, p.crease_angle)
             t1 = time.perf_counter()
-            half, off = extract.chain(segs.key, segs.kind)
+            half, off = extract.chain(segs.key, segs.kind, segs.p, p.junction_turn)
             t2 = time.perf_counter()
             mv = view @ model
             sm = extract.sample(segs, half, off, extract.View(proj @ mv, mv, (size, size)), p.spacing)
@@ -187,25 +189,32 @@ def pen_up(svg_text: str) -> dict[str, Any] | None:
             "linemerge_linesort": stats(vpype_cli.execute("linemerge --tolerance 0.2mm linesort", read()))}
 
 
-def plotter(scene: Any, size: int, page: str = "A4") -> dict[str, Any]:
+def plotter(scene: Any, size: int, page: str = "A4", repeats: int = 3) -> dict[str, Any]:
     """plotter_lines (lines and hatching) on `scene` at `size`, written on `page`; its strokes per layer, the time
-    of the frame (curvature, hatching and the GPU drawing included) and its pen-up travel (`pen_up`)."""
+    of the frame (curvature, hatching and the GPU drawing included), its pen-up travel (`pen_up`) and `hatching`:
+    the stroke_hatching node's ms in that frame and its streamlines on the frame's inputs, compiled (median of
+    `repeats`) against the Python loop (stroke_hatching.bench.compare)."""
     from nodegraph import pipeline as pl
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg, parse_page, read_layers
+    from nodegraph.registry import node_module
 
+    hatch_bench = node_module("stroke_hatching", "bench")  # through the registry: no node imports a sibling
     pipe = pl.load("plotter_lines", size=(size, size), reference_size=size)
     pipe.scene = scene
     ex = Executor(pipe, None)
     try:
-        t0 = time.perf_counter()
-        strokes = ex.run(0).values[("hatch", "combined")]
-        ms = (time.perf_counter() - t0) * 1e3
+        with hatch_bench.recording() as calls:
+            t0 = time.perf_counter()
+            res = ex.run(0)
+            ms = (time.perf_counter() - t0) * 1e3
+        strokes = res.values[("hatch", "combined")]
     finally:
         ex.close()
     text = layered_svg(strokes, parse_page(page))
+    hatching = {"node_ms": round(res.stats["hatch"].ms, 1), **hatch_bench.compare(calls, repeats)}
     return {"page": page, "frame_ms": round(ms, 1),
-            "layers": {k: len(v) for k, v in read_layers(text).items()}, "pen": pen_up(text)}
+            "layers": {k: len(v) for k, v in read_layers(text).items()}, "pen": pen_up(text), "hatching": hatching}
 
 
 @click.command(help=__doc__.split("\n\n")[0].replace("`sketchgraph bench strokes`: ", ""))
@@ -221,6 +230,15 @@ def plotter(scene: Any, size: int, page: str = "A4") -> dict[str, Any]:
 def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | None, pictures: Path | None,
             with_plotter: bool) -> None:
     out: dict[str, Any] = {}
+    if with_plotter:
+        from nodegraph.registry import node_module
+
+        hatch_bench = node_module("stroke_hatching", "bench")
+        # before any frame: a fresh process's first compiled hatch call, with an empty Numba cache and a filled one
+        c = out["hatching_first_call"] = hatch_bench.compile_seconds()
+        click.echo(f"stroke_hatching first call in a new process (imports included): {c['cold_cache_s']} s with an "
+                   f"empty Numba cache (compiling), {c['warm_cache_s']} s with it filled")
+        hatch_bench.first_call()  # here too, so that no frame below counts it
     for name in meshes or MESHES:
         scene = _scene(name)
         if scene is None:
@@ -233,7 +251,11 @@ def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | 
                    f"{lp.get('p90')}, total {lp.get('total')}; ms: "
                    + ", ".join(f"{k} {v}" for k, v in m["ms"].items()) + f"; total {m['total_ms']} ms")
         if with_plotter:
-            pm = m["plotter"] = plotter(scene, size)
+            pm = m["plotter"] = plotter(scene, size, repeats=repeats)
+            hm = pm["hatching"]
+            click.echo(f"{name}: stroke_hatching {hm['streamlines']} streamlines, {hm['samples']} samples; node "
+                       f"{hm['node_ms']} ms in the frame; streamlines alone {hm['jit_ms']} ms compiled, "
+                       f"{hm['python_ms']} ms Python ({hm['speedup']}x), identical: {hm['identical']}")
             pen = pm["pen"]
             if pen is None:
                 click.echo(f"{name}: plotter_lines pen-up travel not measured (vpype is not installed)")

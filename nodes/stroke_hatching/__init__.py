@@ -3,6 +3,7 @@ over the visible surfaces, spaced by tone, cross-hatched in the darkest tones.""
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Literal
 
 import numpy as np
@@ -216,13 +217,23 @@ def surface_seeds(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.ndar
 
 def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[int, int], lo: float, hi: float,
           limit: float, stop_ratio: float, step: float, min_length: float, cell: float,
-          anchored: np.ndarray | None = None) -> list[np.ndarray]:
+          anchored: np.ndarray | None = None, engine: Literal["auto", "jit", "python"] = "auto") -> list[np.ndarray]:
     """One family of evenly spaced streamlines of `tensor` (streamlines.tensor_field) where brightness < limit,
-    each on the object it starts on; from `anchored` seeds (surface_seeds) in their order where given."""
+    each on the object it starts on; from `anchored` seeds (surface_seeds) in their order where given.
+    `engine`: "python" runs streamlines.Hatcher (the reference), "jit" the same loop compiled (module `jit`: the
+    same streamlines bit for bit), "auto" compiled where Numba is there."""
     w, h = size
     dirs = streamlines.principal(tensor)
     strength = tensor[..., 0] + tensor[..., 2]
     rows, cols = dirs.shape[:2]
+    if engine not in ("auto", "jit", "python"):
+        raise ValueError(f"engine: expected 'auto', 'jit' or 'python', got {engine!r}")
+    jit = _jit() if engine != "python" else None
+    if jit is None and engine == "jit":
+        raise RuntimeError("engine 'jit' needs numba, which could not be imported")
+    if jit is not None:
+        return _hatch_jit(jit, dirs, strength, bright, ids, size, lo, hi, limit, stop_ratio, step, min_length, cell,
+                          anchored)
     state = {"obj": 0}
 
     def at(x: float, y: float) -> tuple[int, int]:
@@ -265,6 +276,60 @@ def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[i
         state["obj"] = int(obj)
         hatcher.run(seeds[objs == obj])
     return hatcher.lines
+
+
+_JIT: Any = None  # the module `jit`, False where Numba cannot be imported or cache its code
+
+
+def _jit() -> Any:
+    """The compiled streamline loop (module `jit`), or None where Numba cannot be imported or finds no writable
+    place for its cache (a warning, once: the Python loop gives the same streamlines, slower)."""
+    global _JIT
+    if _JIT is None:
+        try:
+            from . import jit
+
+            _JIT = jit
+        except ImportError:
+            _JIT = False
+        except RuntimeError as exc:
+            _JIT = False
+            warnings.warn(f"stroke_hatching: the compiled streamlines are unavailable ({exc}); running the Python "
+                          "loop, same strokes, much slower. Set NUMBA_CACHE_DIR to a writable folder.",
+                          RuntimeWarning, stacklevel=3)
+    return _JIT or None
+
+
+def _hatch_jit(jit: Any, dirs: np.ndarray, strength: np.ndarray, bright: np.ndarray, ids: np.ndarray,
+               size: tuple[int, int], lo: float, hi: float, limit: float, stop_ratio: float, step: float,
+               min_length: float, cell: float, anchored: np.ndarray | None) -> list[np.ndarray]:
+    """hatch's seeds as the Python path makes them, grouped by object in the order it runs the groups, and the
+    streamlines grown by `jit.hatch_lines`."""
+    w, h = size
+    bright = np.ascontiguousarray(bright, np.float64)
+    ids = np.ascontiguousarray(ids, np.int64)
+    if bright.shape != (h, w) or ids.shape != (h, w):
+        raise ValueError(f"bright {bright.shape} and ids {ids.shape} must be (h, w) = {(h, w)}")
+    if anchored is not None:
+        r = np.clip(anchored[:, 1].astype(int), 0, h - 1)
+        c = np.clip(anchored[:, 0].astype(int), 0, w - 1)
+        use = anchored[bright[r, c] < limit]
+        seeds, objs = use[:, :2], use[:, 2].astype(np.int64)
+    else:
+        g = max(lo, 2.0)
+        ys, xs = np.mgrid[0.5 * g:h:g, 0.5 * g:w:g]
+        seeds = np.c_[xs.ravel(), ys.ravel()]
+        r = np.clip(seeds[:, 1].astype(int), 0, h - 1)
+        c = np.clip(seeds[:, 0].astype(int), 0, w - 1)
+        keep = (ids[r, c] > 0) & (bright[r, c] < limit)
+        order = np.argsort(bright[r[keep], c[keep]], kind="stable")
+        seeds, objs = seeds[keep][order], ids[r[keep], c[keep]][order]
+    group = np.argsort(objs, kind="stable")  # the Python path: np.unique's order, each object's seeds in order
+    xy, starts = jit.hatch_lines(np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(strength, np.float64),
+                                 ids, bright, np.ascontiguousarray(seeds[group], np.float64),
+                                 np.ascontiguousarray(objs[group]), float(limit), float(lo), float(hi), float(cell),
+                                 float(stop_ratio), float(step), float(min_length), 4000, anchored is None)
+    return [xy[a:b] for a, b in zip(starts[:-1], starts[1:], strict=True)]
 
 
 def to_strokes(lines: list[np.ndarray], size: tuple[int, int], depth: np.ndarray, ids: np.ndarray,

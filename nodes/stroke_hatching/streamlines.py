@@ -2,7 +2,8 @@
 streamlines of arbitrary density", 1997): a streamline grows both ways from a seed in steps of `step` pixels
 and stops where it comes closer than d_test = stop_ratio x d_sep(p) to another streamline (or to its own
 earlier part), leaves the region, or turns back; new seeds are taken d_sep(p) to either side of every accepted
-streamline's samples, then from a grid. d_sep varies over the image (by tone). Pure Python and NumPy."""
+streamline's samples, then from a grid. d_sep varies over the image (by tone). Pure Python and NumPy: the
+reference for the compiled loop that `hatch` runs (jit.py), which gives the same streamlines."""
 
 from __future__ import annotations
 

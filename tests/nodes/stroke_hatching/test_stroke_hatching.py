@@ -184,3 +184,57 @@ def test_surface_anchored_hatching_holds_to_the_surface():
     assert min(shares["surface"]) - max(shares["screen"]) > 0.2, shares
     again = _hatching("surface", _turned_torus(0.0))
     assert np.array_equal(again.xy, _hatching("surface", _turned_torus(0.0)).xy)
+
+
+def _two_object_field(w: int = 96, h: int = 72, cell: float = 4.0):
+    """A small scene for hatch(): circles around the middle (tensor of the tangent d d^T per cell), a brightness
+    ramp, two objects (left and right halves, a background strip at the top) and a dead cell (zero tensor)."""
+    rows, cols = int(np.ceil(h / cell)), int(np.ceil(w / cell))
+    gy, gx = (np.mgrid[0:rows, 0:cols] + 0.5) * cell
+    dx, dy = gx - w / 2, gy - h / 2
+    r = np.maximum(np.hypot(dx, dy), 1e-9)
+    t = np.stack([(dy / r) ** 2, -dx * dy / r ** 2, (dx / r) ** 2], axis=-1)
+    t[rows // 2, cols // 2] = 0.0
+    bright = np.tile(np.linspace(0.0, 0.9, w), (h, 1)) + np.linspace(0.0, 0.1, h)[:, None]
+    ids = np.where(np.arange(w)[None, :] < w // 2, 1, 2).repeat(h, axis=0).astype(np.int64)
+    ids[:6] = 0
+    return t, bright, ids, (w, h)
+
+
+def test_compiled_streamlines_equal_the_python_loop():
+    """hatch's compiled loop (jit.hatch_lines) against the Python Hatcher, the reference: the same streamlines,
+    sample for sample and bit for bit, for the queue of neighbour seeds and for fixed seeds, with short streamlines
+    dropped (min_length) and seeds off the image and on the background."""
+    t, bright, ids, size = _two_object_field()
+    rng = np.random.default_rng(3)
+    anchored = np.c_[rng.uniform(-5, size[0] + 5, 400), rng.uniform(-5, size[1] + 5, 400),
+                     rng.integers(1, 3, 400)].astype(np.float64)
+    cases = [dict(lo=3.0, hi=9.0, limit=0.8, stop_ratio=0.5, step=1.0, min_length=0.0, cell=4.0),
+             dict(lo=2.0, hi=6.0, limit=0.95, stop_ratio=0.7, step=1.5, min_length=12.0, cell=4.0),
+             dict(lo=4.0, hi=14.0, limit=0.6, stop_ratio=0.3, step=0.8, min_length=5.0, cell=4.0)]
+    n_lines = 0
+    for case in cases:
+        for seeds in (None, anchored):
+            ref = hatch(t, bright, ids, size, anchored=seeds, engine="python", **case)
+            got = hatch(t, bright, ids, size, anchored=seeds, engine="jit", **case)
+            assert len(got) == len(ref)
+            for a, b in zip(got, ref, strict=True):
+                assert a.dtype == np.float64 and np.array_equal(a, b)
+            n_lines += len(ref)
+    assert n_lines > 100
+
+
+def test_hatch_engines_and_the_python_fallback(monkeypatch):
+    import nodegraph_nodes.stroke_hatching as sh
+    import pytest
+
+    t, bright, ids, size = _two_object_field(40, 30)
+    args = (t, bright, ids, size, 3.0, 9.0, 0.8, 0.5, 1.0, 0.0, 4.0)
+    with pytest.raises(ValueError, match="engine"):
+        hatch(*args, engine="fast")
+    monkeypatch.setattr(sh, "_JIT", False)  # as where Numba cannot be imported
+    with pytest.raises(RuntimeError, match="numba"):
+        hatch(*args, engine="jit")
+    fallback = hatch(*args)
+    monkeypatch.undo()
+    assert [q.tolist() for q in fallback] == [q.tolist() for q in hatch(*args, engine="jit")]
