@@ -187,6 +187,12 @@ def camera_match_px(expected: Any, got: Any, size: tuple[int, int]) -> float:
 
 
 # -- the schedule and the figures (pure) ---------------------------------------------------------------------------
+def split_pipeline(pipeline: str) -> tuple[str, str | None]:
+    """`--pipeline` NAME or NAME:OUTPUT (e.g. plotter_lines:lines, its lines alone) -> (name, output or None)."""
+    name, _, output = pipeline.partition(":")
+    return name, output or None
+
+
 def sg_way(pipeline: str) -> str:
     return f"sketchgraph:{pipeline}"
 
@@ -322,14 +328,20 @@ def blender_worker(python: str) -> Iterator[BlenderWorker]:
 
 # -- sketchgraph's side ----------------------------------------------------------------------------------------------
 _COLD_SCRIPT = """
-import json, sys, time
+import json, sys, tempfile, time
 t0 = time.perf_counter()
 import nodegraph as ng
 t1 = time.perf_counter()
-pipe = ng.load(sys.argv[1], scene=sys.argv[2], size=(int(sys.argv[3]), int(sys.argv[4])),
+name, _, output = sys.argv[1].partition(":")
+pipe = ng.load(name, scene=sys.argv[2], size=(int(sys.argv[3]), int(sys.argv[4])),
                session=ng.Session(cache=False), view=sys.argv[5] or None, up=sys.argv[6] or None)
 t2 = time.perf_counter()
-pipe.render()
+if not output:
+    pipe.render()
+elif type(pipe.value(output)).__name__ == "Strokes":
+    pipe.write(tempfile.mkdtemp(prefix="peer_cold_") + "/lines.svg", output)
+else:
+    pipe.render(output)
 t3 = time.perf_counter()
 print(json.dumps({"import_s": t1 - t0, "load_s": t2 - t1, "first_render_s": t3 - t2}), flush=True)
 """
@@ -351,7 +363,9 @@ def sketchgraph_cold(pipeline: str, mesh: Path, size: tuple[int, int], view: str
 
 
 class SketchgraphSide:
-    """The pipelines of every mesh, loaded once in one session with no disk cache."""
+    """The pipelines of every mesh, loaded once in one session with no disk cache. A pipeline is a name or
+    NAME:OUTPUT (`split_pipeline`); an output whose value is strokes is written as the SVG file `sketchgraph run -o
+    F.svg` writes (inside the timing, as Freestyle's SVG Exporter writes its file inside Blender's render)."""
 
     def __init__(self, size: tuple[int, int], view: str | None, up: str | None) -> None:
         import nodegraph as ng
@@ -360,20 +374,44 @@ class SketchgraphSide:
         self.session = ng.Session(cache=False)
         self.size, self.view, self.up = size, view, up
         self.pipes: dict[tuple[str, str], Any] = {}
+        self.outputs: dict[tuple[str, str], str | None] = {}
+        self.folder = Path(tempfile.mkdtemp(prefix="peer_sg_"))
 
     def load(self, mesh: str, path: Path, pipeline: str) -> Any:
-        pipe = self.ng.load(pipeline, scene=str(path), size=self.size, session=self.session, view=self.view,
+        name, output = split_pipeline(pipeline)
+        pipe = self.ng.load(name, scene=str(path), size=self.size, session=self.session, view=self.view,
                             up=self.up)
         self.pipes[(mesh, pipeline)] = pipe
+        self.outputs[(mesh, pipeline)] = output
         return pipe
 
     def render(self, mesh: str, pipeline: str) -> float:
         """Seconds of one render that computes every node (the session's values dropped first, not timed); the
-        image is read back, as Blender's render ends with its result in memory."""
+        image is read back, as Blender's render ends with its result in memory, or strokes written as SVG."""
+        from ...values import Strokes
+
+        pipe, output = self.pipes[(mesh, pipeline)], self.outputs[(mesh, pipeline)]
         self.session.close()
         t0 = time.perf_counter()
-        self.pipes[(mesh, pipeline)].render()
+        if output is None:
+            pipe.render()
+        else:
+            value = pipe.value(output)
+            if isinstance(value, Strokes):
+                pipe.write(self.folder / f"{mesh}.svg", output)
+            else:
+                pipe.render(output)
         return time.perf_counter() - t0
+
+    def picture(self, mesh: str, pipeline: str, images: Path) -> Path:
+        """The pipeline's output written to `images` (a PNG, or the SVG of a strokes output)."""
+        from ...values import Strokes
+
+        pipe, output = self.pipes[(mesh, pipeline)], self.outputs[(mesh, pipeline)]
+        stem = f"{mesh}_sketchgraph_{pipeline.replace(':', '_')}"
+        if output is not None and isinstance(pipe.value(output), Strokes):
+            return Path(pipe.write(images / f"{stem}.svg", output))
+        return Path(pipe.write(images / f"{stem}.png", output))
 
     def renderer(self) -> str:
         return str(self.session.gl.renderer)
@@ -475,7 +513,7 @@ def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str,
                 written = []
                 for name in names:
                     for p in pipelines:
-                        written.append(str(sg.pipes[(name, p)].write(images / f"{name}_sketchgraph_{p}.png")))
+                        written.append(str(sg.picture(name, p, images)))
                     for s in setups:
                         written.append(bl.ask(op="save", name=name, setup=s,
                                               path=str((images / f"{name}_blender_{s}.png").absolute()))["path"])
@@ -526,8 +564,9 @@ def print_peer(result: dict[str, Any]) -> None:
               f"default: {', '.join(DEFAULT_MESHES)}).")
 @click.option("--meshes-dir", type=click.Path(path_type=Path), default=None,
               help="Folder of the shared test meshes (default: ../shared/meshes beside the checkout).")
-@click.option("--pipeline", "pipelines", multiple=True, help="A sketchgraph pipeline (repeatable; default: "
-              f"{', '.join(DEFAULT_PIPELINES)}).")
+@click.option("--pipeline", "pipelines", multiple=True, help="A sketchgraph pipeline, or NAME:OUTPUT for one "
+              "output (a strokes output is written as SVG inside the timing; e.g. plotter_lines:lines) (repeatable; "
+              f"default: {', '.join(DEFAULT_PIPELINES)}).")
 @click.option("--setup", "setups", multiple=True, type=click.Choice(SETUPS),
               help="Blender setups (default: cycles and workbench).")
 @click.option("--rounds", default=5, show_default=True, help="Interleaved rounds counted (after one not counted).")

@@ -16,6 +16,7 @@ from click.testing import CliRunner
 import nodegraph as ng
 from nodegraph.cli import main
 from nodegraph.errors import SketchgraphError
+from nodegraph.output.svg import read_layers
 from nodegraph.scene.scene import mesh_scene
 from nodegraph.tools.bench import peer
 
@@ -189,3 +190,19 @@ def test_the_interleaved_run_records_every_render_and_its_ratios(gl, tmp_path: P
         assert r["ratio"] == pytest.approx(m["median_s"][setup] / m["median_s"][sg])
     assert set(m["first_render_s"]) == {sg, cy, wb}
     assert "tall" in res.output and "cycles" in res.output
+
+
+def test_a_pipeline_output_of_strokes_is_timed_with_its_svg(gl, tmp_path: Path):
+    assert peer.split_pipeline("plotter_lines:lines") == ("plotter_lines", "lines")
+    assert peer.split_pipeline("nienhaus_sketchy") == ("nienhaus_sketchy", None)
+    mesh = _box_obj(tmp_path / "tall.obj")
+    side = peer.SketchgraphSide((64, 48), None, None)
+    try:
+        side.load("tall", mesh, "plotter_lines:lines")
+        assert side.render("tall", "plotter_lines:lines") > 0
+        written = side.folder / "tall.svg"
+        assert written.is_file() and set(read_layers(written.read_text())) >= {"crease"}
+        picture = side.picture("tall", "plotter_lines:lines", tmp_path / "pictures")
+        assert picture.suffix == ".svg" and picture.read_text() == written.read_text()
+    finally:
+        side.close()
