@@ -110,23 +110,36 @@ def write_png_rows(path: str | Path, rows: np.ndarray, w: int, h: int, c: int, l
     (or `GL.read_png_rows`, made on the GPU): they are deflated at `level` (`PNG_LEVEL`) without holding the
     interpreter lock, and the output is framed in the IHDR, IDAT and IEND chunks. Atomic; synced unless `sync`
     is False (`fsio.atomic_write_bytes`)."""
+    from ..fsio import atomic_write_bytes
+
+    p = Path(path)
+    return atomic_write_bytes(p, png_bytes(rows, w, h, c, level, name=str(p)), sync)
+
+
+def png_bytes(rows: np.ndarray, w: int, h: int, c: int, level: int = PNG_LEVEL, name: str = "png",
+              palette: np.ndarray | None = None) -> bytes:
+    """A PNG file's bytes (8 bits a channel; C = 1 grey, 3 RGB, 4 RGBA) from its row bytes, each row's filter
+    byte first (`png_rows`), deflated at `level` without holding the interpreter lock and framed in the IHDR,
+    IDAT and IEND chunks. With a `palette` ((N, 3) uint8, N <= 256; C = 1) the bytes are indices into it."""
     import struct
     import zlib
 
-    p = Path(path)
     data = memoryview(np.ascontiguousarray(rows, dtype=np.uint8)).cast("B")
     if c not in (1, 3, 4) or w < 1 or h < 1 or len(data) != h * (1 + w * c):
-        raise SketchgraphError(f"{p}: expected {h} rows of 1 + {w} x {c} bytes, got {len(data)} bytes")
+        raise SketchgraphError(f"{name}: expected {h} rows of 1 + {w} x {c} bytes, got {len(data)} bytes")
 
     def chunk(kind: bytes, payload: bytes) -> bytes:
         return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", zlib.crc32(kind + payload))
 
     colour = {1: 0, 3: 2, 4: 6}[c]
-    out = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
-           + chunk(b"IDAT", _deflate(data, level)) + chunk(b"IEND", b""))
-    from ..fsio import atomic_write_bytes
-
-    return atomic_write_bytes(p, out, sync)
+    plte = b""
+    if palette is not None:
+        entries = np.ascontiguousarray(palette, dtype=np.uint8)
+        if c != 1 or entries.ndim != 2 or entries.shape[1] != 3 or not 1 <= len(entries) <= 256:
+            raise SketchgraphError(f"{name}: a palette is (N <= 256, 3) uint8 for one channel of indices")
+        colour, plte = 3, chunk(b"PLTE", entries.tobytes())
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0)) + plte
+            + chunk(b"IDAT", _deflate(data, level)) + chunk(b"IEND", b""))
 
 
 def _verify(oiio: object, path: Path, w: int, h: int, c: int, problem: str = "") -> None:

@@ -30,8 +30,12 @@ class Server:
 
         self.token = token or new_token()
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
-        self.sock = socket.socket(family, socket.SOCK_STREAM)
+        # created as TCP by name: asyncio turns Nagle's algorithm off (TCP_NODELAY) only on sockets whose protocol
+        # says TCP, and with it on, a picture sent after a small message (a buffer's statistics) waited for the
+        # page's delayed acknowledgement, about 40 ms; set on the listening socket too (accepted ones inherit it)
+        self.sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.sock.bind((host, port))
         self.sock.listen(128)  # connections made after the address is printed wait here for uvicorn
         self.port = self.sock.getsockname()[1]
@@ -44,8 +48,8 @@ class Server:
         self.engine = Engine(pipeline_path, open_pipeline=open_pipeline, cache=cache, roots=roots, poll=poll,
                              frame=frame)
         self.app = make_app(self.engine, self.token, self.port, hosts)
-        # no per-message deflate: buffers go out as raw RGBA8 on the loopback, where compressing 2.5 MB costs
-        # more than sending it
+        # no per-message deflate: views go out as PNGs (already deflated, `engine.encode_png`), and deflating
+        # anything larger per message costs more than sending it on the loopback
         config = uvicorn.Config(self.app, log_level="warning", ws="websockets-sansio", lifespan="off",
                                 ws_max_size=1 << 20, ws_per_message_deflate=False)
         self.server = uvicorn.Server(config)

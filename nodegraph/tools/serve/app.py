@@ -73,7 +73,8 @@ class Guard:
 
 
 def pack_image(header: dict[str, Any], pixels: bytes) -> bytes:
-    """A binary websocket message: 4 bytes of header length (little endian), the JSON header, the RGBA bytes."""
+    """A binary websocket message: 4 bytes of header length (little endian), the JSON header, the view's PNG
+    (nothing where the header says `reuse`: the page holds that picture)."""
     head = json.dumps(header).encode()
     return struct.pack("<I", len(head)) + head + pixels
 

@@ -5,15 +5,18 @@ values of a parameter replace earlier ones, so a slider drag renders the latest 
 pipeline is loaded again with the edited values as overrides and run by a new executor that adopts the previous
 one's in-memory values (content addressed: only the nodes whose key changed compute again). The executor keeps
 every planned port (as `inspect --all` does, in the formats the ordinary run gives them), so looking at any
-buffer costs one read-back, kept for pixel probes until the buffer changes. Between requests the thread polls
-the pipeline and scene files and reloads when one changes.
+buffer costs one read-back, kept for pixel probes until the buffer changes. A view is drawn in 8 bits (fast
+paths per kind for a buffer shown whole) and sent as a PNG, which is kept with the view's settings until the
+buffer changes. Between requests the thread polls the pipeline and scene files and reloads when one changes.
 """
 
 from __future__ import annotations
 
 import json
+import secrets
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +34,7 @@ from . import yamledit
 
 MODES = ("auto", "rgb", "r", "g", "b", "a")
 MAX_BOX = 8192
+VIEW_CACHE_BYTES = 64 << 20  # drawn views kept (their PNG bytes), the least recently looked at dropped first
 
 
 @dataclass
@@ -55,6 +59,7 @@ class Client:
     wants_image: bool = True
     probe: tuple[int, int] | None = None
     stats_for: tuple[tuple[str, str], str] | None = None  # the port whose statistics are sent when idle
+    have: frozenset[str] = frozenset()  # the drawn views (`vid`) the page says it still holds, decoded
     asked: float = 0.0  # when the last view request arrived (perf_counter), for the header's `wait_ms`
 
 
@@ -88,6 +93,10 @@ class Engine:
         self._clients: dict[int, Client] = {}
         self._stamps: dict[Path, Any] = {}
         self._host: dict[tuple[str, str], tuple[str, np.ndarray]] = {}  # port -> (value key, GL-order data)
+        self._views: OrderedDict[tuple[Any, ...], tuple[dict[str, Any], bytes]] = OrderedDict()  # drawn views
+        self._views_bytes = 0
+        self._vids = 0  # drawn views so far: each gets an id (`vid`) the page keeps its decoded picture under
+        self._vid_prefix = f"{secrets.token_hex(4)}-"  # a page reconnected to another server holds none of its
         self._stats_key: Any = None
         self._stats_val: list[dict[str, Any]] = []
         self._extra: set[tuple[str, str]] = set()  # ports looked at that the ordinary run does not produce
@@ -131,6 +140,8 @@ class Engine:
                 self._pending_frame = int(msg.get("frame") or 0)
             elif op == "view" and client is not None:
                 client.view = _view(msg, client.view)
+                have = msg.get("have")
+                client.have = frozenset(str(v) for v in have[:64]) if isinstance(have, list) else frozenset()
                 client.wants_image = True
                 client.asked = time.perf_counter()
             elif op == "probe" and client is not None:
@@ -382,7 +393,7 @@ class Engine:
         value = self.result.values[ref]
         if not isinstance(value, (Tex, TexArray)):
             return value, None
-        key = f"{self.result.stats[ref[0]].key}:{self.frame}"
+        key = self._value_key(ref)
         hit = self._host.get(ref)
         if hit is not None and hit[0] == key:
             return value, hit[1]
@@ -397,7 +408,9 @@ class Engine:
             client.send({"type": "image", "port": client.view.port, "seq": self.seq, "empty": True,
                          "note": "nothing to show" if self.error is None else self.error})
             return
+        ran = False
         if ref not in self.result.values and ref not in self._extra:  # a port nothing reads: run it too
+            ran = True
             self._extra.add(ref)
             self._load_and_run()
             if self.result is None:  # that port cannot be made here: say why, and run without it
@@ -411,33 +424,83 @@ class Engine:
             self._broadcast_state()
         wait = (time.perf_counter() - client.asked) * 1000 if client.asked else 0.0
         client.asked = 0.0
-        header, pixels = self.image(ref, client.view)
+        header, pixels = self.image(ref, client.view, client.have)
         header["seq"] = self.seq
         header["wait_ms"] = round(wait, 2)  # from the view request's arrival to its drawing starting
+        if ran:
+            header["ran"] = True  # the port was computed for this view (its node ran again, with it planned)
         client.send(header if header.get("empty") else (header, pixels))
         if header.get("stats") is None and not header.get("empty"):
             client.stats_for = (ref, header["port"])
 
-    def image(self, ref: tuple[str, str], view: View) -> tuple[dict[str, Any], bytes]:
-        """A port drawn at the size it is shown: (header, RGBA8 bytes, row 0 at the top)."""
+    def image(self, ref: tuple[str, str], view: View, have: frozenset[str] = frozenset()) \
+            -> tuple[dict[str, Any], bytes]:
+        """A port drawn at the size it is shown: (header, a PNG of 8-bit RGB or grey, row 0 at the top). Drawn
+        views are kept (`VIEW_CACHE_BYTES`) until the port's value changes: looking again sends at once, and
+        where the page says it holds that view (`have`, the headers' `vid`) the header alone goes (`reuse`)."""
         from ...values import Tex
 
         t0 = time.perf_counter()
+        vkey = self._value_key(ref)
+        value = self.result.values.get(ref) if self.result is not None else None
+        # a texture is drawn at its size fitted to the box (never enlarged): zooming in past 1:1 is the same view
+        shown = _fit(value.size[1], value.size[0], view.width, view.height) if isinstance(value, Tex) \
+            else (view.height, view.width)
+        ckey = (ref, vkey, view.mode, view.exposure, view.lo, view.hi, shown)
+        hit = self._views.get(ckey) if vkey is not None else None
+        if hit is not None:
+            self._views.move_to_end(ckey)
+            reuse = hit[0].get("vid") in have
+            return {**hit[0], "read_ms": 0.0, "draw_ms": round((time.perf_counter() - t0) * 1000, 2),
+                    "encode_ms": 0.0, "cached": True, "reuse": reuse}, b"" if reuse else hit[1]
+        header, pixels, t1 = self._draw_view(ref, view)
+        t2 = time.perf_counter()
+        header["read_ms"] = round((t1 - t0) * 1000, 2)
+        header["draw_ms"] = round((t2 - t1) * 1000, 2)
+        if header.get("empty"):
+            return header, b""
+        payload = encode_png(pixels)
+        header["format"] = "png"
+        header["bytes"] = len(payload)
+        header["encode_ms"] = round((time.perf_counter() - t2) * 1000, 2)
+        if vkey is not None:
+            self._vids += 1
+            header["vid"] = f"{self._vid_prefix}{self._vids}"
+            self._keep_view(ckey, dict(header), payload)  # a copy: the sent header gains seq, wait_ms
+        return header, payload
+
+    def _value_key(self, ref: tuple[str, str]) -> str | None:
+        """What identifies a port's current value: its node's cache key and the frame (None: no value)."""
+        if self.result is None or ref not in self.result.values or ref[0] not in self.result.stats:
+            return None
+        return f"{self.result.stats[ref[0]].key}:{self.frame}"
+
+    def _keep_view(self, ckey: tuple[Any, ...], header: dict[str, Any], payload: bytes) -> None:
+        for k in [k for k in self._views if k[0] == ckey[0] and k[1] != ckey[1]]:  # that port's older values
+            self._views_bytes -= len(self._views.pop(k)[1])
+        self._views[ckey] = (header, payload)
+        self._views_bytes += len(payload)
+        while self._views_bytes > VIEW_CACHE_BYTES and len(self._views) > 1:
+            self._views_bytes -= len(self._views.popitem(last=False)[1][1])
+
+    def _draw_view(self, ref: tuple[str, str], view: View) -> tuple[dict[str, Any], np.ndarray, float]:
+        """(header, (H, W, 3) or (H, W) uint8 display picture, when the read-back ended)."""
+        from ...values import Tex
+
         value, host = self._host_of(ref)
         t1 = time.perf_counter()
         doc = self.pipe.nodes[ref[0]].outputs[ref[1]].doc if self.pipe is not None else ""
         port = f"{ref[0]}.{ref[1]}"
         fast = None
-        if isinstance(value, Tex) and host is not None and view.mode == "auto" and host.shape[2] == 4 \
-                and _fit(host.shape[0], host.shape[1], view.width, view.height) == host.shape[:2] \
-                and viz.classify(ref[1], 4, doc) == "color":
+        whole = host is not None and _fit(host.shape[0], host.shape[1], view.width, view.height) == host.shape[:2]
+        if isinstance(value, Tex) and whole and view.mode == "auto" and not view.exposure and host.shape[2] == 4 \
+                and viz.classify(ref[1], 4, doc) == "color":  # (an exposure goes `draw`'s way)
             fast = _fast_rgba8(host)
         if fast is not None:  # the usual final image, shown whole
             h, w = host.shape[:2]
             header = {"type": "image", "port": port, "width": w, "height": h, "full": (w, h), "note": "rgb",
-                      "kind": "color", "stats": None, "frame": self.frame, "read_ms": round((t1 - t0) * 1000, 2),
-                      "draw_ms": round((time.perf_counter() - t1) * 1000, 2)}
-            return header, fast.tobytes()
+                      "kind": "color", "stats": None, "frame": self.frame}
+            return header, fast, t1
         if isinstance(value, Tex) and host is not None:
             rgb, note, kind = draw(host, ref[1], doc, view)
             full = (host.shape[1], host.shape[0])
@@ -445,23 +508,17 @@ class Engine:
         else:
             panel = viz.visualize(host if host is not None else value, ref[1], doc)
             if panel.image is None:
-                return {"type": "image", "port": port, "empty": True, "note": panel.note, "kind": panel.kind}, b""
+                return ({"type": "image", "port": port, "empty": True, "note": panel.note, "kind": panel.kind},
+                        np.zeros((0, 0, 3), np.uint8), t1)
             img = panel.image
             full = (img.shape[1], img.shape[0])
             h, w = _fit(img.shape[0], img.shape[1], view.width, view.height)
             rgb = img if (h, w) == img.shape[:2] else (box_sum(img, h, w) / box_area(*img.shape[:2], h, w)[:, :, None])
             note, kind, stats = panel.note, panel.kind, []
         h, w = rgb.shape[:2]
-        rgba = np.empty((h, w, 4), np.uint8)
-        scaled = np.clip(np.asarray(rgb, np.float32), 0.0, 1.0) * np.float32(255.0)
-        scaled += np.float32(0.5)
-        rgba[:, :, :3] = scaled  # truncation after +0.5: rounded
-        rgba[:, :, 3] = 255
         header = {"type": "image", "port": port, "width": w, "height": h, "full": full, "note": note, "kind": kind,
-                  "stats": None if stats is None else _finite(stats), "frame": self.frame,
-                  "read_ms": round((t1 - t0) * 1000, 2),
-                  "draw_ms": round((time.perf_counter() - t1) * 1000, 2)}
-        return header, rgba.tobytes()
+                  "stats": None if stats is None else _finite(stats), "frame": self.frame}
+        return header, to_uint8(rgb, grey=kind == "grey"), t1
 
     def _stats(self, ref: tuple[str, str], host: np.ndarray) -> list[dict[str, Any]]:
         key = (ref, id(host))
@@ -525,13 +582,16 @@ def _fit(h: int, w: int, box_w: int, box_h: int) -> tuple[int, int]:
 
 
 def draw(host: np.ndarray, port: str, doc: str, view: View) -> tuple[np.ndarray, str, str]:
-    """A texture (GL order) drawn at the size of `view`'s box: (RGB float image, note, kind)."""
+    """A texture (GL order) drawn at the size of `view`'s box: (RGB float image, or an 8-bit picture (RGB or
+    grey) where a fast path drew it, note, kind)."""
     a = host[::-1]
     h, w, c = a.shape
     height, width = _fit(h, w, view.width, view.height)
     kind = viz.classify(port, c, doc)
     if view.mode == "auto":
         fast = _fast_color(a, height, width) if kind == "color" else None
+        if fast is None and (height, width) == (h, w) and kind in _FAST_WHOLE:
+            fast = _FAST_WHOLE[kind](a)
         if fast is not None:
             img, note = fast
         elif (height, width) == (h, w):  # shown whole: the port's own visualisation, nothing to average
@@ -582,6 +642,183 @@ def _fast_color(a: np.ndarray, height: int, width: int) -> tuple[np.ndarray, str
     return np.clip(mean, 0.0, 1.0), "rgb"
 
 
+def _u8(x: np.ndarray, own: bool = False) -> np.ndarray:
+    """Float display values as 8-bit ones, as `to_uint8` makes them (clipped to 0..1, x 255, rounded); `own`:
+    x is a float32 scratch array that may be worked in place."""
+    scaled = np.clip(x, np.float32(0.0), np.float32(1.0), out=x if own else None, dtype=np.float32)
+    scaled *= np.float32(255.0)
+    scaled += np.float32(0.5)
+    return scaled.astype(np.uint8)  # truncation after +0.5: rounded
+
+
+# `viz`'s drawings of a buffer shown whole whose values are all finite, with its float32 operations in its order
+# (so the same 8-bit values), without its masks and copies, as 8-bit pictures (grey where viz's is grey); None
+# for anything else (viz draws it)
+def _fast_grey(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    ch = a[:, :, 0]
+    if not np.isfinite(ch).all():
+        return None
+    lo, hi = float(ch.min()), float(ch.max())
+    if lo >= -1e-3 and hi <= 1.0 + 1e-3:
+        return _u8(ch), "grey, 0..1"
+    return _u8(viz._normalize(ch, lo, hi)), f"grey, normalized {lo:.4g}..{hi:.4g}"
+
+
+def _fast_depth(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    d = a[:, :, 0]
+    if not np.isfinite(d).all():
+        return None
+    background = (d == np.float32(0.0)) | (d == np.float32(1.0))  # no surface
+    if background.all():
+        background[:] = False
+    vals = d[~background]  # a masked reduction (`where=`) is slower than the copy
+    lo, hi = float(vals.min()), float(vals.max())
+    v = 1.0 - viz._normalize(d, lo, hi)  # near is bright; the background's values are replaced below
+    g = _u8(0.12 + 0.88 * v)
+    note = f"depth {lo:.4g}..{hi:.4g}, near bright"
+    if not background.any():
+        return g, note
+    g[background] = 0  # the surface's grey is 0.12 or more (31 or more): 0 is free for the background colour
+    return Indexed(g, _DEPTH_PALETTE), note
+
+
+def _fast_normals(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    if not np.isfinite(a).all():
+        return None
+    # all channels in whole-array passes (slicing three of four makes NumPy's inner loops three long), in place;
+    # a fourth channel is then made opaque: sent as RGBA
+    t = a * np.float32(0.5)
+    t += np.float32(0.5)
+    out = _u8(t, own=True)
+    if a.shape[2] == 4:
+        out[:, :, 3] = 255
+    return out, "normal xyz as rgb = n/2 + 1/2"
+
+
+@dataclass
+class Indexed:
+    """An 8-bit picture as indices into a palette ((N, 3) uint8): sent as a paletted PNG."""
+
+    index: np.ndarray
+    palette: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (*self.index.shape, 3)
+
+    dtype = np.dtype(np.uint8)
+
+    def rgb(self) -> np.ndarray:
+        return self.palette[self.index]
+
+
+_DEPTH_PALETTE = np.repeat(np.arange(256, dtype=np.uint8)[:, None], 3, axis=1)
+_DEPTH_PALETTE[0] = np.clip(viz.BACKGROUND * np.float32(255.0) + np.float32(0.5), 0, 255).astype(np.uint8)
+
+
+_HUE_STEPS = 1 << 16  # the wheel's colours at this many hues a turn: one step moves a channel by 6/65536 of v
+
+
+def _hue_table() -> np.ndarray:
+    """(steps + 1, 3) float32: 255 (1 - ramp) of red, green and blue (`viz.hsv_to_rgb`, saturation 1) at the
+    hue of each step, the first at -1/2 turn (arctan2's -pi)."""
+    h6 = (np.arange(_HUE_STEPS + 1, dtype=np.float64) / _HUE_STEPS - 0.5) * 6.0
+    table = np.empty((_HUE_STEPS + 1, 3), np.float64)
+    for c, offset in enumerate((5.0, 3.0, 1.0)):
+        k = np.mod(offset + h6, 6.0)
+        table[:, c] = 1.0 - np.clip(np.minimum(k, 4.0 - k), 0.0, 1.0)
+    return (table * 255.0).astype(np.float32)
+
+
+_HUE = _hue_table()
+
+
+def _wheel8(x: np.ndarray, y: np.ndarray, mag: np.ndarray, peak: float, out: np.ndarray) -> None:
+    """`viz.wheel` (hue = direction, brightness = |v| / peak, full saturation) in float32 into 8-bit `out`
+    (H, W, 3), its colours looked up at `_HUE_STEPS` hues a turn: a value moves by one step in a few pixels in
+    ten thousand. `mag` is |v| (float32), used up."""
+    if peak > 0:
+        mag *= np.float32(1.0 / peak)
+        np.minimum(mag, np.float32(1.0), out=mag)
+    else:
+        mag[:] = 0.0
+    hue = np.arctan2(y, x)  # -pi..pi
+    hue *= np.float32(_HUE_STEPS / (2.0 * np.pi))
+    hue += np.float32(_HUE_STEPS / 2.0 + 0.5)  # the nearest step
+    rgb = _HUE[hue.astype(np.intp)]  # (H, W, 3): 255 (1 - ramp)
+    rgb *= mag[:, :, None]
+    rgb += np.float32(0.5)
+    out[:] = rgb  # truncation after +0.5: rounded
+
+
+def _peak_mag(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, float]:
+    mag = np.hypot(x, y, dtype=np.float32)
+    return mag, float(mag.max()) if mag.size else 0.0
+
+
+def _fast_vector(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    x, y = a[:, :, 0], a[:, :, 1]
+    if not np.isfinite(a[:, :, :2]).all():
+        return None
+    mag, peak = _peak_mag(x, y)
+    out = np.empty(a.shape[:2] + (3,), np.uint8)
+    _wheel8(x, y, mag, peak, out)
+    return out, f"direction as hue, |v| as brightness (max {peak:.4g})"
+
+
+def _fast_vector2(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    if a.shape[2] < 4 or not np.isfinite(a).all():
+        return None
+    (m1, p1), (m2, p2) = _peak_mag(a[:, :, 0], a[:, :, 1]), _peak_mag(a[:, :, 2], a[:, :, 3])
+    peak = max(p1, p2)
+    h, w = a.shape[:2]
+    gap = max(1, w // 100)
+    out = np.empty((h, 2 * w + gap, 3), np.uint8)
+    out[:, w:w + gap] = _u8(viz.SHEET_BG)
+    _wheel8(a[:, :, 0], a[:, :, 1], m1, peak, out[:, :w])
+    _wheel8(a[:, :, 2], a[:, :, 3], m2, peak, out[:, w + gap:])
+    return out, f"xy | zw: direction as hue, |v| as brightness (max {peak:.4g})"
+
+
+def _fast_ids(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    """Object ids: each id's colour made once (viz's own arithmetic on a table of the ids 0..max), then looked
+    up per pixel; the same colours as `viz._ids`."""
+    ch = a[:, :, 0]
+    if not np.isfinite(ch).all():
+        return None
+    ids = np.rint(ch).astype(np.intp)
+    top = int(ids.max()) if ids.size else 0
+    if ids.size and (int(ids.min()) < 0 or top > 1 << 16):
+        return None
+    table, _ = viz._ids(np.arange(top + 1, dtype=np.float32)[None, :, None])
+    n = int(np.count_nonzero(np.bincount(ids.ravel(), minlength=top + 1)[1:]))
+    return _u8(table[0])[ids], f"{n} ids as colours, 0 black"
+
+
+def _fast_position(a: np.ndarray) -> tuple[np.ndarray, str] | None:
+    """Each of x, y, z normalised over the covered pixels (alpha > 0; all where there are 3 channels), the
+    uncovered black, as `viz._position`, one channel at a time."""
+    if not np.isfinite(a).all():
+        return None
+    planes = np.ascontiguousarray(np.moveaxis(a, 2, 0))  # one channel after another: contiguous passes
+    covered = planes[3] > 0 if a.shape[2] == 4 else None
+    out = np.empty(a.shape[:2] + (3,), np.uint8)
+    for c in range(3):
+        ch = planes[c]
+        if covered is None:
+            lo, hi = float(ch.min()), float(ch.max())
+        else:
+            vals = ch[covered]  # a masked reduction (`where=`) is slower than the copy
+            lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
+        g = _u8(viz._normalize(ch, lo, hi))
+        out[:, :, c] = g if covered is None else np.where(covered, g, np.uint8(0))
+    return out, "xyz normalized per channel over covered pixels"
+
+
+_FAST_WHOLE = {"grey": _fast_grey, "depth": _fast_depth, "normals": _fast_normals, "vector": _fast_vector,
+               "vector2": _fast_vector2, "ids": _fast_ids, "position": _fast_position}
+
+
 def _fast_rgba8(host: np.ndarray) -> np.ndarray | None:
     """An RGBA texture (GL order) whose values are all finite and whose colour lies within 0..1 as the RGBA8
     picture `viz`'s colour drawing gives (opaque, row 0 at the top), in a few whole-array passes; None for
@@ -594,12 +831,41 @@ def _fast_rgba8(host: np.ndarray) -> np.ndarray | None:
     hi = float(rows.max(axis=0).reshape(w, c)[:, :3].max())
     if lo < -1e-3 or hi > 1.0 + 1e-3:
         return None
-    scaled = np.clip(host[::-1], np.float32(0.0), np.float32(1.0))
-    scaled *= np.float32(255.0)
-    scaled += np.float32(0.5)
-    out = scaled.astype(np.uint8)  # truncation after +0.5: rounded
+    out = _u8(host[::-1])
     out[:, :, 3] = 255
     return out
+
+
+def to_uint8(rgb: np.ndarray, grey: bool = False) -> np.ndarray:
+    """A float display picture (H, W, 3) in 0..1 as 8-bit values (rounded); (H, W) where `grey` is asked and
+    the three channels agree everywhere (a grey picture sent as one channel). An 8-bit picture is kept."""
+    if isinstance(rgb, Indexed) or rgb.dtype == np.uint8:  # drawn as 8-bit values already
+        return rgb
+    out = _u8(rgb)
+    if grey and np.array_equal(out[:, :, 0], out[:, :, 1]) and np.array_equal(out[:, :, 1], out[:, :, 2]):
+        return np.ascontiguousarray(out[:, :, 0])
+    return out
+
+
+def encode_png(img: np.ndarray | Indexed) -> bytes:
+    """An 8-bit picture, (H, W) grey, (H, W, 3) RGB, (H, W, 4) RGBA or `Indexed`, row 0 at the top, as PNG
+    bytes: each row stored as its difference from the row above (PNG's "up" filter: flat and vertically smooth
+    areas become zeros) and deflated by ISA-L's level 1 (`output.imageio.png_bytes`). A view of 800x800 takes
+    about 1 ms here and mostly 6 to 60 KB, which the page decodes off its main thread; the raw 2.5 MB of RGBA
+    took 27 to 100 ms to cross the websocket into Chromium (docs/serve.md "Latency")."""
+    from ...output.imageio import png_bytes
+
+    palette = None
+    if isinstance(img, Indexed):
+        img, palette = img.index, img.palette
+    a = img if img.ndim == 3 else img[:, :, None]
+    h, w, c = a.shape
+    flat = np.ascontiguousarray(a).reshape(h, w * c)
+    rows = np.empty((h, 1 + w * c), np.uint8)
+    rows[:, 0] = 2  # filter type "up"; the first row's row above is zeros
+    rows[0, 1:] = flat[0]
+    np.subtract(flat[1:], flat[:-1], out=rows[1:, 1:])  # modulo 256, as PNG defines it
+    return png_bytes(rows, w, h, c, level=1, name="view", palette=palette)
 
 
 def channel_stats(host: np.ndarray) -> list[dict[str, Any]]:

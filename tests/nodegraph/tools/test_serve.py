@@ -168,7 +168,29 @@ def test_click_a_port_shows_its_buffer(page):
     page.wait_for_function("window.sg.probe && window.sg.probe.values", timeout=10000)
     vals = page.evaluate("window.sg.probe.values")
     assert abs(sum(v * v for v in vals[:3]) - 1.0) < 0.02
+    # the canvas there shows that normal as n/2 + 1/2 in 8 bits: the PNG the page decoded kept the values
+    shown = page.evaluate("""([x, y]) => { const c = document.getElementById('view');
+        const r = c.getBoundingClientRect(), px = Math.floor(x - r.left), py = Math.floor(y - r.top);
+        return Array.from(c.getContext('2d').getImageData(px, py, 1, 1).data); }""",
+                          [box["x"] + box["width"] / 2, box["y"] + box["height"] / 2])
+    assert shown[3] == 255
+    assert all(abs(shown[k] - round((vals[k] * 0.5 + 0.5) * 255)) <= 1 for k in range(3)), (shown, vals)
     _shot(page, "serve-normals.png")
+    first = page.evaluate("window.sg.lastImage")
+    page.click('[data-port="sprite.color"]')
+    page.wait_for_function("window.sg.lastImage.port === 'sprite.color'", timeout=10000)
+    # looking again: the view drawn before is kept by the server, and the page holds its decoded picture, so the
+    # server answers with the header alone
+    page.click('[data-port="gbuf.normal"]')
+    page.wait_for_function("window.sg.lastImage.port === 'gbuf.normal'", timeout=10000)
+    again = page.evaluate("window.sg.lastImage")
+    assert again["cached"] and again["reuse"] and again["sum"] == first["sum"]
+    assert not first["cached"] and not first["reuse"]
+    again_px = page.evaluate("""([x, y]) => { const c = document.getElementById('view');
+        const r = c.getBoundingClientRect(), px = Math.floor(x - r.left), py = Math.floor(y - r.top);
+        return Array.from(c.getContext('2d').getImageData(px, py, 1, 1).data); }""",
+                             [box["x"] + box["width"] / 2, box["y"] + box["height"] / 2])
+    assert again_px == shown
     page.click('[data-port="sprite.color"]')
     page.wait_for_function("window.sg.lastImage.port === 'sprite.color'", timeout=10000)
 
@@ -311,3 +333,101 @@ def test_channel_stats_match_float64():
         assert abs(s["mean"] - flat[:, k].mean()) < 1e-12
     host[0, 0, 2] = np.nan
     assert channel_stats(host)[2]["nan"] == 1
+
+
+# -- the view as sent: 8-bit drawings against viz's float drawing, PNG bytes against an independent decoder -----
+def _viz_u8(kind, a):
+    import numpy as np
+
+    from nodegraph.tools import viz
+
+    img, note = viz._DRAW[kind](a)
+    return np.rint(np.clip(img.astype(np.float64), 0, 1) * 255).astype(np.uint8), note
+
+
+def test_fast_whole_drawings_match_viz():
+    import numpy as np
+
+    from nodegraph.tools.serve.engine import _FAST_WHOLE, Indexed
+
+    rng = np.random.default_rng(7)
+    cases = []
+    for kind, c in (("grey", 1), ("depth", 1), ("normals", 4), ("normals", 3), ("position", 4)):
+        a = rng.random((29, 41, c), dtype=np.float32)
+        cases.append((kind, a))
+        cases.append((kind, a * 6 - 2))  # outside 0..1: normalised (grey), clipped (normals)
+    d = rng.random((29, 41, 1), dtype=np.float32)
+    d[:7] = 1.0  # far plane and
+    d[:, :5] = 0.0  # cleared depth: no surface, drawn in the background colour
+    cases.append(("depth", d))
+    cases.append(("depth", np.ones((9, 8, 1), np.float32)))  # no surface at all: all of it counts
+    for kind, c in (("vector", 2), ("vector2", 4)):  # colour wheels: float32 angles, hues looked up in a table
+        v = (rng.random((29, 41, c), dtype=np.float32) * 2 - 1) * 0.01
+        v[3, 4] = 0.0  # no direction: black
+        v[0, 0, 0], v[0, 0, 1] = -0.01, 0.0  # arctan2's +-pi: cyan either way
+        cases.append((kind, v))
+    ids = rng.integers(0, 9, (29, 41, 1)).astype(np.float32)
+    ids[0, :3] = 8.4  # rounded to the nearest id
+    cases.append(("ids", ids))
+    pos = rng.normal(size=(29, 41, 4)).astype(np.float32)
+    pos[:, :, 3] = rng.random((29, 41)) > 0.3  # alpha: covered or not
+    cases += [("position", pos), ("position", pos[:, :, :3].copy())]
+    for kind, a in cases:
+        flipped = a[::-1]  # as `draw` passes it: row 0 at the top
+        got, note = _FAST_WHOLE[kind](flipped)
+        want, want_note = _viz_u8(kind, flipped)
+        if isinstance(got, Indexed):
+            got = got.rgb()
+        if got.ndim == 2:
+            got = np.repeat(got[:, :, None], 3, axis=2)
+        assert note == want_note
+        # viz rounds its float32 values; float64 rounding of the same values differs only exactly at .5
+        assert np.abs(got[:, :, :3].astype(int) - want).max() <= 1, kind
+        assert (got[:, :, :3] == want).mean() > 0.99, kind
+        if got.shape[2] == 4:
+            assert (got[:, :, 3] == 255).all()
+    bad = rng.random((6, 5, 4), dtype=np.float32)
+    bad[2, 3, 3] = np.nan  # anything not finite goes viz's way (NaN painted magenta)
+    assert all(_FAST_WHOLE[k](bad if k in ("normals", "vector2", "position") else bad[:, :, 3:] if k != "vector"
+                              else bad[:, :, 2:]) is None for k in _FAST_WHOLE)
+
+
+def test_view_png_decodes_to_what_was_drawn():
+    import io
+
+    import numpy as np
+
+    image = pytest.importorskip("PIL.Image")
+    from nodegraph.tools.serve.engine import _DEPTH_PALETTE, Indexed, encode_png
+
+    rng = np.random.default_rng(8)
+    pictures = [rng.integers(0, 256, (37, 23), dtype=np.uint8),  # grey
+                rng.integers(0, 256, (37, 23, 3), dtype=np.uint8),  # RGB
+                rng.integers(0, 256, (37, 23, 4), dtype=np.uint8),  # RGBA
+                np.zeros((1, 1, 3), np.uint8)]
+    smooth = np.add.outer(np.arange(64), np.arange(48)).astype(np.uint8)  # the "up" filter's case
+    pictures.append(np.dstack([smooth, smooth.T[:48, :64].T, 255 - smooth]))
+    for pic in pictures:
+        got = np.asarray(image.open(io.BytesIO(encode_png(pic))))
+        assert got.shape == pic.shape and (got == pic).all()
+    index = rng.integers(0, 256, (19, 31), dtype=np.uint8)
+    got = np.asarray(image.open(io.BytesIO(encode_png(Indexed(index, _DEPTH_PALETTE)))).convert("RGB"))
+    assert (got == _DEPTH_PALETTE[index]).all()
+    assert (_DEPTH_PALETTE[0] == [13, 18, 46]).all()  # viz.BACKGROUND (0.05, 0.07, 0.18) in 8 bits
+    assert (_DEPTH_PALETTE[1:, 0] == np.arange(1, 256)).all()
+
+
+def test_view_cache_drops_old_values_and_the_least_recent(monkeypatch, tmp_path):
+    from nodegraph.tools.serve import engine as eng
+
+    e = eng.Engine(tmp_path / "p.yaml", open_pipeline=lambda _: None)
+    monkeypatch.setattr(eng, "VIEW_CACHE_BYTES", 250)
+    a, b = ("n", "a"), ("n", "b")
+    e._keep_view((a, "k1", "auto"), {}, b"x" * 100)
+    e._keep_view((a, "k1", "r"), {}, b"x" * 100)  # another drawing of the same value: both kept
+    assert len(e._views) == 2 and e._views_bytes == 200
+    e._keep_view((a, "k2", "auto"), {}, b"x" * 100)  # the port's value changed: its older drawings go
+    assert list(e._views) == [(a, "k2", "auto")] and e._views_bytes == 100
+    e._keep_view((b, "k1", "auto"), {}, b"x" * 100)
+    e._keep_view((b, "k1", "r"), {}, b"x" * 100)  # over the budget: the least recently kept goes first
+    assert list(e._views) == [(b, "k1", "auto"), (b, "k1", "r")] and e._views_bytes == 200

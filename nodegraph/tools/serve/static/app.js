@@ -18,8 +18,13 @@ function send(msg) {
   if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(msg));
 }
 
+// a view request: the port, the size it is shown at, how it is drawn, and the drawn views the page holds
+function viewMsg(box, have = true) {
+  return { op: "view", port: viewedPort, ...box, ...displaySettings(), have: have ? viewer.held() : [] };
+}
+
 const viewer = new Viewer($("view"), $("canvas-box"), {
-  request: (box) => send({ op: "view", port: viewedPort, ...box, ...displaySettings() }),
+  request: (box) => send(viewMsg(box)),
   probe: (x, y) => send({ op: "probe", x, y }),
 });
 
@@ -31,11 +36,12 @@ function displaySettings() {
 
 function viewPort(port) {
   viewedPort = port;
+  viewer.zoom = null; // the new port is shown fitted: its request goes out first, the page's own work after
+  send(viewMsg(viewer.box()));
   $("port").textContent = port || "";
   $("probe").textContent = "";
   sg.probe = null;
   viewer.reset();
-  send({ op: "view", port, ...viewer.box(), ...displaySettings() });
   for (const el of document.querySelectorAll("#graph .port.out")) el.classList.toggle("viewed", el.dataset.port === port);
 }
 
@@ -81,15 +87,24 @@ function render(state) {
   }
 }
 
-function onImage(buf) {
+async function onImage(buf) {
   const recv = performance.now();
   const view = new DataView(buf);
   const n = view.getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
   if (header.port !== viewedPort && viewedPort !== null) return; // an answer to an older request
-  const pixels = new Uint8ClampedArray(buf, 4 + n);
-  viewer.show(header, pixels);
-  $("note").textContent = `${header.full[0]}×${header.full[1]} shown at ${header.width}×${header.height} · ${header.note}`;
+  const png = new Uint8Array(buf, 4 + n);
+  let bitmap;
+  try {
+    bitmap = await viewer.show(header, png, header.reuse ? 0 : checksum(png));
+  } catch (err) {
+    $("note").textContent = `the picture of ${header.port} could not be decoded: ${err}`;
+    return;
+  }
+  if (bitmap === "missing") { send(viewMsg(viewer.box(), false)); return; } // dropped meanwhile: ask for it whole
+  if (!bitmap) return; // a newer picture came while this one was decoded
+  const shown = performance.now();
+  $("note").textContent = $("note").title = `${header.full[0]}×${header.full[1]} shown at ${header.width}×${header.height} · ${header.note}`;
   if (header.stats) showStats(header.stats);
   requestAnimationFrame(() => {
     const now = performance.now();
@@ -100,8 +115,10 @@ function onImage(buf) {
     }
     sg.images += 1;
     sg.lastImage = { port: header.port, seq: header.seq, width: header.width, height: header.height,
-                     sum: checksum(pixels), at: now, recv, read_ms: header.read_ms, draw_ms: header.draw_ms,
-                     wait_ms: header.wait_ms };
+                     sum: bitmap.sum, at: now, recv, shown, read_ms: header.read_ms, draw_ms: header.draw_ms,
+                     encode_ms: header.encode_ms || 0,
+                     wait_ms: header.wait_ms, ran: !!header.ran, cached: !!header.cached,
+                     reuse: !!header.reuse };
   });
 }
 
@@ -126,7 +143,7 @@ function connect() {
   ws.onopen = () => {
     sg.open = true;
     $("status").textContent = "connected";
-    send({ op: "view", port: viewedPort, ...viewer.box(), ...displaySettings() });
+    send(viewMsg(viewer.box()));
   };
   ws.onclose = () => { sg.open = false; $("status").textContent = "disconnected"; };
   ws.onmessage = (ev) => {
@@ -152,7 +169,7 @@ function connect() {
 }
 
 for (const id of ["mode", "exposure", "lo", "hi"]) {
-  $(id).addEventListener("input", () => send({ op: "view", port: viewedPort, ...viewer.box(), ...displaySettings() }));
+  $(id).addEventListener("input", () => send(viewMsg(viewer.box())));
 }
 $("fit").addEventListener("click", () => { viewer.reset(); });
 $("one").addEventListener("click", () => viewer.oneToOne());

@@ -6,7 +6,11 @@ export class Viewer {
     this.box_ = box;
     this.hooks = hooks;
     this.ctx = canvas.getContext("2d");
-    this.off = document.createElement("canvas");
+    this.bitmap = null; // the picture as sent (decoded by the browser, off the main thread)
+    this.owned = false; // whether this.bitmap is outside the kept pictures (closed when replaced)
+    this.kept = new Map(); // vid -> decoded picture, the least recently shown first (the server sends a
+    // header alone for a view the page says it holds)
+    this.shownSeq = 0; // the newest picture asked to be shown: an older decode finishing later is dropped
     this.full = null; // [w, h] of the buffer
     this.zoom = null; // screen (CSS) pixels per buffer pixel; null: fit
     this.pan = [0, 0];
@@ -66,27 +70,61 @@ export class Viewer {
     this.request();
   }
 
-  show(header, pixels) {
+  held() { return [...this.kept.keys()]; }
+
+  // the picture is a PNG (8-bit grey, RGB, RGBA or paletted, no colour profile): the browser decodes it off the
+  // main thread, and its values reach the canvas as sent; or, for `header.reuse`, the picture kept under
+  // header.vid. Resolves to the picture shown, "missing" for a reuse of a picture no longer kept, or null when a
+  // newer picture was shown meanwhile.
+  async show(header, png, sum) {
+    const seq = ++this.shownSeq;
+    let bitmap;
+    if (header.reuse) {
+      bitmap = this.kept.get(header.vid);
+      if (!bitmap) return "missing";
+      this.kept.delete(header.vid);
+      this.kept.set(header.vid, bitmap); // the most recently shown last
+    } else {
+      bitmap = await createImageBitmap(new Blob([png], { type: "image/png" }),
+                                       { premultiplyAlpha: "none", colorSpaceConversion: "none" });
+      bitmap.sum = sum;
+      if (seq !== this.shownSeq) { bitmap.close(); return null; }
+      if (header.vid) this.keep(header.vid, bitmap);
+    }
+    if (this.bitmap && this.owned && this.bitmap !== bitmap) this.bitmap.close();
+    this.bitmap = bitmap;
+    this.owned = !header.vid;
     this.full = header.full;
-    this.off.width = header.width;
-    this.off.height = header.height;
-    this.off.getContext("2d").putImageData(new ImageData(pixels, header.width, header.height), 0, 0);
     this.draw();
+    return bitmap;
   }
 
-  clear() { this.full = null; this.draw(); }
+  keep(vid, bitmap) {
+    this.kept.set(vid, bitmap);
+    this.keptBytes = (this.keptBytes || 0) + bitmap.width * bitmap.height * 4;
+    // 96 MB of pictures (37 of 800x800: every port of a pipeline, looked at in turn, stays)
+    while (this.kept.size > 1 && this.keptBytes > 96 * 1024 * 1024) {
+      const [old, bm] = this.kept.entries().next().value;
+      this.kept.delete(old);
+      this.keptBytes -= bm.width * bm.height * 4;
+      if (bm === this.bitmap) this.owned = true; // closed when it is replaced
+      else bm.close();
+    }
+  }
+
+  clear() { this.shownSeq += 1; this.full = null; this.draw(); }
 
   draw() {
     const ctx = this.ctx;
     const dpr = window.devicePixelRatio || 1;
     ctx.setTransform(1, 0, 0, 1, 0, 0);
     ctx.clearRect(0, 0, this.canvas.width, this.canvas.height);
-    if (!this.full) return;
+    if (!this.full || !this.bitmap) return;
     const s = this.scale();
     const [ox, oy] = this.offset();
-    ctx.imageSmoothingEnabled = s * dpr < this.off.width / this.full[0];
+    ctx.imageSmoothingEnabled = s * dpr < this.bitmap.width / this.full[0];
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.drawImage(this.off, ox, oy, this.full[0] * s, this.full[1] * s);
+    ctx.drawImage(this.bitmap, ox, oy, this.full[0] * s, this.full[1] * s);
   }
 
   at(e) {
