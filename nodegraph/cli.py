@@ -119,10 +119,17 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         from . import distributed as dist
         from .output import film
 
-        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up, fill=fill)
-        opened = spec.open()
+        for given, option in ((png_level, "--png-level"), (page, "--page")):
+            if given is not None:
+                raise SketchgraphError(f"{option} is not passed to cluster workers: drop it, or render without "
+                                       "--scheduler")
+        if fps is not None:
+            fps = film.check_fps(fps)
+        spec = dist.PipeSpec.make(pipeline, overrides, size, scene, output_name, view=view, up=up, fill=fill,
+                                  camera=camera, fps=fps)
+        opened = spec.open()  # --camera and --fps applied, as every worker applies them
         dist.ref_of(opened, output_name)  # load-time errors before a cluster starts
-        frame_list, rate = film.prepare(opened, out, frames, None, None)  # the scene's own animation and fps
+        frame_list, rate = film.prepare(opened, out, frames, fps, None)
         pattern = out or f"out/{Path(pipeline).stem}.png"
         from .output.film import check_target
 
@@ -130,7 +137,7 @@ def run(pipeline: str, out: str | None, output_name: str | None, frames: str | N
         root: Any = False if no_cache else cache_dir
         with dist.connect(scheduler, cache_root=root) as client:
             report = dist.render_frames(client, spec, frame_list, pattern, chunk=chunk, resume=resume,
-                                        progress=not quiet, cache_root=root, fps=rate)
+                                        progress=not quiet, cache_root=root, fps=rate, crf=crf)
         if not quiet:
             click.echo(report.format())
             click.echo(f"wrote {len(frame_list)} frames to {frame_path(pattern, frame_list[0], True).parent}"
@@ -426,17 +433,19 @@ def graph(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: st
               "127.0.0.1 lets other machines reach the page; they still need the token).")
 @click.option("--port", default=8765, show_default=True, help="Port to listen on (0: any free port).")
 @click.option("--frame", default=0, show_default=True, help="Frame shown first.")
+@click.option("--no-prefetch", is_flag=True, help="Do not compute every port of the planned nodes when idle "
+              "(a port the ordinary run does not make is then computed on its first view).")
 @cache_options
 def serve(pipeline: str, overrides: tuple[str, ...], size: str | None, scene: str | None, out_dir: Path | None,
-          host: str, port: int, frame: int, no_cache: bool, cache_dir: Path | None, view: str | None = None,
-          up: str | None = None, fill: float | None = None) -> None:
+          host: str, port: int, frame: int, no_prefetch: bool, no_cache: bool, cache_dir: Path | None,
+          view: str | None = None, up: str | None = None, fill: float | None = None) -> None:
     """A live authoring view in the browser: the graph, every buffer, parameters that re-render as you drag
     (docs/serve.md). Prints the page's address with its token."""
     from .tools.serve import serve as run_server
 
     run_server(pipeline, overrides=overrides, size=size, scene=scene, out_dir=out_dir, view=view, up=up, fill=fill,
                cache=open_cache(no_cache, cache_dir), host=host, port=port, frame=frame,
-               echo=click.echo)
+               prefetch=not no_prefetch, echo=click.echo)
 
 
 @main.command()

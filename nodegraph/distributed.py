@@ -101,11 +101,14 @@ class PipeSpec:
     lens: tuple[str | None, float | None, float | None] = (None, None, None)
     # --animation, --animation-end as given where the spec was made (scene.views.ANIMATION, ANIMATION_END)
     play: tuple[str | None, str | None] = (None, None)
+    camera: str | None = None  # --camera: a glTF (or scene YAML) camera by name or index
+    fps: float | None = None  # --fps: the animation sampled at this rate
 
     @classmethod
     def make(cls, source: str | Path, overrides: Sequence[str] = (), size: str | None = None,
              scene: str | None = None, output: str | None = None, view: str | None = None,
-             up: str | None = None, fill: float | None = None) -> PipeSpec:
+             up: str | None = None, fill: float | None = None, camera: str | None = None,
+             fps: float | None = None) -> PipeSpec:
         src = str(source)
         if Path(src).exists():
             src = str(Path(src).resolve())
@@ -114,14 +117,19 @@ class PipeSpec:
         from .scene.views import ANIMATION, ANIMATION_END, LENS
 
         return cls(src, tuple(overrides), size, scene, output, view, up, fill, lens=LENS.get(),
-                   play=(ANIMATION.get(), ANIMATION_END.get()))
+                   play=(ANIMATION.get(), ANIMATION_END.get()), camera=camera, fps=fps)
 
     def open(self) -> Any:
+        from .scene.animation import with_fps
+        from .scene.scene import select_camera
         from .scene.views import lens, playing
 
         with lens(*self.lens), playing(*self.play):
-            return render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view,
+            pipe = render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view,
                                         up=self.up, fill=self.fill)
+            if pipe.scene is not None and (self.camera is not None or self.fps is not None):
+                pipe.scene = with_fps(select_camera(pipe.scene, self.camera), self.fps)
+            return pipe
 
 
 def ref_of(pipe: Any, output: str | None) -> tuple[str, str]:
@@ -1026,16 +1034,16 @@ def render_frames(client: Any, spec: PipeSpec, frames: Sequence[int], out: str |
                   chunk: int | None = None, resume: bool = False, progress: bool = False,
                   cache_root: str | Path | None | bool = None, retries: int = RETRIES,
                   on_frame: Callable[[int, Path], None] | None = None, sink: FrameSink | None = None,
-                  fps: float = 24.0, resources: dict[str, float] | None = None) -> RunReport:
-    """Render `frames` of `spec` to `out` (a frame pattern, or a video file through `sink`), on the cluster
-    behind `client`. `on_frame(frame, path)` is called in frame order as frames arrive."""
+                  fps: float = 24.0, resources: dict[str, float] | None = None, crf: int | None = None) -> RunReport:
+    """Render `frames` of `spec` to `out` (a frame pattern, or a video file through `sink`, encoded at `fps` with
+    `crf`), on the cluster behind `client`. `on_frame(frame, path)` is called in frame order as frames arrive."""
     out = Path(out)
     if out.suffix.lower() in VIDEO_SUFFIXES:
         tmp = video_frames_dir(out)
         run = FrameRun(client, spec, frames, tmp / "f_########.png", chunk=chunk, resume=resume, progress=progress,
                        cache_root=cache_root, retries=retries, resources=resources, many=True)
         if sink is None:
-            sink = open_sink(out, fps, run.pipe.size)
+            sink = open_sink(out, fps, run.pipe.size, crf)
         from .output.imageio import read, to_uint8
 
         try:

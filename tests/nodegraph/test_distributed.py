@@ -296,3 +296,44 @@ def test_a_task_writes_each_frame_as_the_frame_rendered_alone(gl, tmp_path: Path
         else:
             np.testing.assert_array_equal(imageio.read(got), imageio.read(one))
     assert len({file_sha256(Path(i["path"])) for i in res["frames"]}) == len(frames)  # the box moves
+
+
+def test_the_spec_carries_camera_and_fps_to_the_workers(tmp_path: Path) -> None:
+    from tests import gltf_files as gf
+
+    cams = gf.two_cameras(tmp_path / "cams.glb")
+    spec = dist.PipeSpec.make("nienhaus_sketchy", scene=str(cams), size="64x48", camera="side")
+    eye = np.linalg.inv(spec.open().scene.camera_at(0).view_matrix())[:3, 3]
+    np.testing.assert_allclose(eye, [5.0, 0.0, 0.0], atol=1e-6)  # the 'side' camera's node, not 'front' at z = 5
+    moving = gf.animated_box(tmp_path / "box.glb")
+    plain = dist.PipeSpec.make("nienhaus_sketchy", scene=str(moving), size="64x48").open().scene.animation.fps
+    spec = dist.PipeSpec.make("nienhaus_sketchy", scene=str(moving), size="64x48", fps=7.5)
+    assert spec.open().scene.animation.fps == 7.5 != plain
+
+
+@pytest.mark.parametrize("option", [["--png-level", "3"], ["--page", "A4"]])
+def test_options_workers_do_not_take_are_refused_before_a_cluster_starts(option: list[str], tmp_path: Path,
+                                                                          monkeypatch) -> None:
+    monkeypatch.setattr(dist, "connect", lambda *a, **k: pytest.fail("a cluster was started"))
+    res = CliRunner().invoke(main, ["run", "nienhaus_sketchy", "--size", "32x32", "--scheduler", "local:1",
+                                    "-o", str(tmp_path / "f_####.png"), "--frames", "0:2", *option])
+    assert res.exit_code != 0 and f"{option[0]} is not passed to cluster workers" in res.output
+    assert len(res.output.strip().splitlines()) == 1
+
+
+@pytest.mark.slow  # a Dask cluster
+def test_camera_and_fps_reach_the_workers(cluster, tmp_path: Path) -> None:
+    from tests import gltf_files as gf
+
+    client, root = cluster
+    moving = gf.animated_box(tmp_path / "box.glb")
+    args = ["--size", "48x32", "--fps", "6", "--frames", "0:3", "--no-cache", "-q"]
+    res = CliRunner().invoke(main, ["run", "nienhaus_sketchy", "--scene", str(moving), *args,
+                                    "-o", str(tmp_path / "serial" / "f_####.png")])
+    assert res.exit_code == 0, res.output
+    spec = dist.PipeSpec.make("nienhaus_sketchy", scene=str(moving), size="48x32", fps=6.0)
+    dist.render_frames(client, spec, [0, 1, 2], tmp_path / "cluster" / "f_####.png", cache_root=False)
+    same_files(tmp_path / "serial", tmp_path / "cluster", [0, 1, 2])
+    other = dist.PipeSpec.make("nienhaus_sketchy", scene=str(moving), size="48x32")  # the file's own rate
+    dist.render_frames(client, other, [2], tmp_path / "own" / "f_####.png", cache_root=False)
+    assert (tmp_path / "own" / "f_0002.png").read_bytes() != (tmp_path / "serial" / "f_0002.png").read_bytes()
