@@ -57,7 +57,7 @@ from .output.frames_manifest import FramesManifest, file_sha256, frame_digest
 from .values import Tex
 
 PLUGIN_NAME = "sketchgraph"
-VIDEO_SUFFIXES = (".mp4", ".gif", ".mov", ".webm", ".mkv")
+VIDEO_SUFFIXES = (".mp4", ".gif", ".webm")  # the film writer's formats (output.film.FILM_FORMATS)
 RETRIES = 2
 """`retries=` of every task: unexpected exceptions (an OS error on the shared filesystem) are tried again.
 A dead worker's tasks are rescheduled by the scheduler (`distributed.scheduler.allowed-failures`)."""

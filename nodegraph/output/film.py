@@ -75,15 +75,22 @@ def is_film(path: str | Path) -> bool:
 
 def check_target(pattern: str, frames: list[int] | range | None = None) -> None:
     """Before anything renders: the files `pattern` names for `frames` (one image, a sequence or a film) can be
-    written, as `fsio.check_output` checks (no part of the folder is a file, no target is a folder or a device,
-    the folder takes new files), each fault one line (`fsio.OutputPathError`); then temporary files that killed
+    written: its extension one the writers take (an image, `.svg` for strokes, a film), then as
+    `fsio.check_output` checks (no part of the folder is a file, no target is a folder or a device, the folder
+    takes new files), each fault one line (`fsio.OutputPathError`); then temporary files that killed
     runs left for these outputs are removed (`fsio.clean_stale_temps`: ours by name, their process gone)."""
     import os
     import stat
 
     from ..fsio import OutputPathError, check_output, clean_stale_temps, show_path
+    from .imageio import WRITABLE
     from .write import frame_name_re, frame_path
 
+    ext = Path(str(pattern)).suffix.lower()
+    kinds = (*WRITABLE, ".svg", *FILM_FORMATS)
+    if ext not in kinds:
+        raise OutputPathError(f"{pattern}: cannot write '{ext or 'no extension'}' files; use one of "
+                              f"{', '.join(kinds)}")
     frames = frames if frames else [0]
     many = len(frames) > 1 and not is_film(pattern)
     first = frame_path(pattern, frames[0], many)

@@ -243,3 +243,11 @@ def test_a_failed_sequence_reports_its_own_error_not_a_failed_sync(tmp_path, mon
     seq = film.SequenceWriter(str(tmp_path / "f_####.png"), resume=False)
     with pytest.raises(fsio.OutputError, match="cannot sync"):
         seq.close()
+
+
+@pytest.mark.parametrize("name", ["film.mov", "film.mkv", "f_####.bmp", "noext"])
+def test_an_output_no_writer_takes_is_refused_before_anything_renders(name: str, tmp_path) -> None:
+    res = CliRunner().invoke(main, ["run", "nienhaus_sketchy", "--size", "16x16", "--frames", "0:2",
+                                    "-o", str(tmp_path / name)])
+    assert res.exit_code != 0 and "cannot write" in res.output and "use one of .png" in res.output
+    assert len(res.output.strip().splitlines()) == 1 and not list(tmp_path.iterdir())
