@@ -293,7 +293,7 @@ def inspect(pipeline: str, port: str | None, out: str | None, frame: int, all_: 
     ref = pipe.parse_ref(port)
     from .output.film import check_target
 
-    check_target(out or f"out/{ref[0]}.{ref[1]}.exr")  # -o faults as one line before anything renders
+    check_target(out or f"out/{ref[0]}.{ref[1]}.exr", writers=False)  # -o faults as one line before anything renders
     ex = Executor(pipe, cache, requested=[ref])
     try:
         with _node_progress(quiet):

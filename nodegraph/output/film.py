@@ -73,9 +73,10 @@ def is_film(path: str | Path) -> bool:
     return Path(str(path)).suffix.lower() in FILM_FORMATS
 
 
-def check_target(pattern: str, frames: list[int] | range | None = None) -> None:
+def check_target(pattern: str, frames: list[int] | range | None = None, writers: bool = True) -> None:
     """Before anything renders: the files `pattern` names for `frames` (one image, a sequence or a film) can be
-    written: its extension one the writers take (an image, `.svg` for strokes, a film), then as
+    written: its extension one the writers take (an image, `.svg` for strokes, a film; not checked with
+    `writers=False`, for `inspect`, which also writes other values' files), then as
     `fsio.check_output` checks (no part of the folder is a file, no target is a folder or a device, the folder
     takes new files), each fault one line (`fsio.OutputPathError`); then temporary files that killed
     runs left for these outputs are removed (`fsio.clean_stale_temps`: ours by name, their process gone)."""
@@ -88,7 +89,7 @@ def check_target(pattern: str, frames: list[int] | range | None = None) -> None:
 
     ext = Path(str(pattern)).suffix.lower()
     kinds = (*WRITABLE, ".svg", *FILM_FORMATS)
-    if ext not in kinds:
+    if writers and ext not in kinds:
         raise OutputPathError(f"{pattern}: cannot write '{ext or 'no extension'}' files; use one of "
                               f"{', '.join(kinds)}")
     frames = frames if frames else [0]
