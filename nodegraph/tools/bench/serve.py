@@ -1,6 +1,7 @@
 """Latency of `sketchgraph serve` as a user sees it, in a real headless Chromium (Debian's, driven by Playwright).
 
-    sketchgraph bench serve [--size 800x800] [--changes 30] [--param edges.normal_threshold] [--json F] [PIPELINE ...]
+    sketchgraph bench serve [--size 800x800] [--changes 30] [--param edges.normal_threshold] [--no-prefetch]
+                            [--json F] [PIPELINE ...]
 
 For each pipeline (default: nienhaus_sketchy, the design's example, and pencil) a server is started on
 127.0.0.1 with a fresh cache folder and the page opened at a size where the final image is shown whole, one
@@ -10,9 +11,16 @@ buffer pixel per screen pixel. Figures, each the median and 90th percentile:
   recomputes what it reaches.
 - **drag**: a drag of `--drag-steps` input events 16 ms apart (a 60 Hz pointer); the latency of its last value,
   and how many renders the server made for the drag (changes coalesce to the latest value).
+- **change after a pause**: changes each made 0.2 to 0.45 s after the previous one was drawn, so that many
+  arrive while the server's idle prefetch (after 0.2 s of quiet) is running a step; with the server's own
+  record of how long a message waited for the step in progress (`prefetch_delays_ms`).
 - **view**: from clicking an output port in the graph to its buffer drawn, for every port of the planned nodes:
-  the first time (one read-back from the GPU and the drawing; a port the ordinary run does not make is computed
-  first, and such ports are also reported apart) and again (the drawn view is kept until the buffer changes).
+  the first time and again (the drawn view is kept until the buffer changes). Before each first view the bench
+  waits `VIEW_PAUSE_S` (0.5 s), as a user clicks a port seconds after a change, not within milliseconds: the
+  server's idle prefetch has by then planned every port, so a first view is one read-back from the GPU and the
+  drawing. First views are also reported apart by whether the ordinary run makes the port (`made` in the
+  server's state); a view that still had to compute its port (the header's `ran`) is listed in
+  `computed_on_view`.
   Each view's parts are kept too (`view_ports_ms`): the server's wait, read-back and drawing (from the image
   header), the rest until the page has the bytes, the page's decoding and drawing, and the wait for the next
   animation frame.
@@ -43,6 +51,8 @@ COMPUTES = "(id) => window.sg.state.nodes.find(n => n.id === id).computes"
 # not make), read-back, drawing and PNG encoding; the rest until the page received the bytes (the request's way
 # there, the send, the transfer); the page's decoding and drawing on the canvas; and the wait for the next
 # animation frame (where the picture is on screen)
+VIEW_PAUSE_S = 0.5  # before each first view: a user clicks a port well after the change it follows
+CHANGE_PAUSES_S = (0.2, 0.45)  # the range of pauses before each "change after a pause"
 VIEW_PARTS = ("server_wait", "server_read", "server_draw", "server_encode", "transfer", "page_decode",
               "page_frame")
 
@@ -56,11 +66,12 @@ def _stats(values: list[float]) -> dict[str, Any]:
             "max_ms": round(float(a.max()), 2)}
 
 
-def _start(pipeline: str, size: str, cache: Path, out: Path) -> tuple[subprocess.Popen, str]:
+def _start(pipeline: str, size: str, cache: Path, out: Path, prefetch: bool = True) -> tuple[subprocess.Popen, str]:
     root = Path(__file__).resolve().parents[3]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(root), os.environ.get("PYTHONPATH")]))}
     proc = subprocess.Popen([sys.executable, "-m", "nodegraph.cli", "serve", pipeline, "--port", "0", "--size", size,
-                             "--cache-dir", str(cache), "--out-dir", str(out)], stdout=subprocess.PIPE,
+                             "--cache-dir", str(cache), "--out-dir", str(out),
+                             *([] if prefetch else ["--no-prefetch"])], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, env=env, cwd=out)
     line = proc.stdout.readline() if proc.stdout else ""
     m = re.search(r"http://\S+\?token=\S+", line)
@@ -70,12 +81,19 @@ def _start(pipeline: str, size: str, cache: Path, out: Path) -> tuple[subprocess
     return proc, m.group(0)
 
 
+def _server_state(url: str) -> dict[str, Any]:
+    import urllib.request
+
+    with urllib.request.urlopen(url.replace("/?token=", "/api/state?token="), timeout=30) as r:
+        return json.loads(r.read())
+
+
 def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: int, param: str,
-              values: tuple[float, float]) -> dict[str, Any]:
+              values: tuple[float, float], prefetch: bool = True) -> dict[str, Any]:
     node, _, name = param.partition(".")
     w, h = (int(v) for v in size.lower().split("x"))
     with tempfile.TemporaryDirectory(prefix="bench-serve-") as tmp:
-        proc, url = _start(pipeline, size, Path(tmp) / "cache", Path(tmp))
+        proc, url = _start(pipeline, size, Path(tmp) / "cache", Path(tmp), prefetch)
         try:
             page = browser.new_page(viewport={"width": w + 1000, "height": h + 260}, device_scale_factor=1)
             page.goto(url)
@@ -92,6 +110,16 @@ def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: 
                 slider.fill(str(values[i % 2]))
                 page.wait_for_function(f"window.sg.lastImage.seq >= {seq}", timeout=60000)
             timings = page.evaluate("window.sg.timings.map(t => t.ms)")[2:]  # the first two warm up
+            # changes after a pause: many of them arrive during a prefetch step
+            page.evaluate("window.sg.timings = []")
+            lo_p, hi_p = CHANGE_PAUSES_S
+            for i in range(changes):
+                page.wait_for_timeout(1000 * (lo_p + (hi_p - lo_p) * i / max(1, changes - 1)))
+                seq = page.evaluate("window.sg.seq") + 1
+                slider.fill(str(values[i % 2]))
+                page.wait_for_function(f"window.sg.lastImage.seq >= {seq}", timeout=60000)
+            paused = page.evaluate("window.sg.timings.map(t => t.ms)")
+            delays = _server_state(url)["prefetch"]["delays_ms"]
             # drags: input events 16 ms apart, then the last value's latency
             drags, renders = [], []
             for d in range(max(1, changes // 6)):
@@ -116,11 +144,14 @@ def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: 
             state = page.evaluate("window.sg.state")
             planned = {n["id"] for n in state["nodes"] if n["status"] not in ("not planned", "not run")}
             ports = [p for p in ports if p.split(".")[0] in planned]
+            made = set(state.get("made", []))
             first, again, parts = [], [], {"first": [], "again": []}
             per_port: dict[str, list[list[float]]] = {}
             computed: set[str] = set()  # ports the ordinary run does not make: computed on their first look
             for rnd, part in ((first, parts["first"]), (again, parts["again"])):
                 for port in ports:
+                    if rnd is first:
+                        page.wait_for_timeout(1000 * VIEW_PAUSE_S)
                     t = page.evaluate("""async (port) => {
                         const t0 = performance.now();
                         window.sgView(port);
@@ -140,6 +171,7 @@ def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: 
                         if t[-1]:
                             computed.add(port)
             run_ms = state["run_ms"]
+            pre = _server_state(url)["prefetch"]
             page.close()
         finally:
             proc.terminate()
@@ -147,12 +179,17 @@ def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: 
                 proc.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 proc.kill()
-    return {"pipeline": pipeline, "size": size, "final": final, "shown": shown, "param": param,
+    return {"pipeline": pipeline, "prefetch": prefetch, "size": size, "final": final, "shown": shown, "param": param,
             "values": list(values), "change": _stats(timings), "drag": {**_stats(drags), "steps": drag_steps,
                                                                          "renders": renders},
             "view_first": _stats(first), "view_again": _stats(again), "ports": len(first),
-            "view_first_made": _stats([per_port[p][0][0] for p in per_port if p not in computed]),
-            "view_first_computed": _stats([per_port[p][0][0] for p in per_port if p in computed]),
+            "change_after_pause": _stats(paused), "prefetch_delays_ms": _stats(delays),
+            "prefetch_steps_ms": _stats(pre["steps_ms"]),
+            "memory_mb": {"ordinary_run": round(pre["memory_run_bytes"] / 2**20, 1),
+                          "all_ports": round(pre["memory_bytes"] / 2**20, 1)},
+            "view_pause_s": VIEW_PAUSE_S,
+            "view_first_made": _stats([per_port[p][0][0] for p in per_port if p in made]),
+            "view_first_not_made": _stats([per_port[p][0][0] for p in per_port if p not in made]),
             "computed_on_view": sorted(computed),
             "view_parts_median_ms": {rnd: {k: round(float(np.median([p[i] for p in got])), 2) if got else None
                                            for i, k in enumerate(VIEW_PARTS)}
@@ -162,7 +199,7 @@ def bench_one(browser: Any, pipeline: str, size: str, changes: int, drag_steps: 
 
 
 def run(pipelines: list[str], size: str, changes: int, drag_steps: int, param: str,
-        values: tuple[float, float]) -> dict[str, Any]:
+        values: tuple[float, float], prefetch: bool = True) -> dict[str, Any]:
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         raise SketchgraphError("bench serve needs chromium (Debian: apt-get install chromium)")
@@ -175,7 +212,7 @@ def run(pipelines: list[str], size: str, changes: int, drag_steps: int, param: s
         browser = p.chromium.launch(executable_path=chromium, headless=True, args=["--no-sandbox"])
         try:
             for pipe in pipelines:
-                out["results"].append(bench_one(browser, pipe, size, changes, drag_steps, param, values))
+                out["results"].append(bench_one(browser, pipe, size, changes, drag_steps, param, values, prefetch))
         finally:
             browser.close()
     return out
@@ -190,7 +227,7 @@ def report(data: dict[str, Any]) -> str:
     for r in data["results"]:
         c, d, f, a = r["change"], r["drag"], r["view_first"], r["view_again"]
         lines.append(f"{r['pipeline']} {r['size']} ({r['final']} shown at {r['shown'][0]}x{r['shown'][1]}), "
-                     f"{r['param']}:")
+                     f"{r['param']}{'' if r.get('prefetch', True) else ', no prefetch'}:")
         lines.append(f"  change -> final image drawn: median {_ms(c, 'median_ms'):.1f} ms, "
                      f"p90 {_ms(c, 'p90_ms'):.1f} ms ({c['n']} changes)")
         lines.append(f"  end of a {d['steps']}-step drag -> drawn: median {_ms(d, 'median_ms'):.1f} ms, "
@@ -198,9 +235,17 @@ def report(data: dict[str, Any]) -> str:
         lines.append(f"  buffer view ({r['ports']} ports): first median {_ms(f, 'median_ms'):.1f} ms, p90 "
                      f"{_ms(f, 'p90_ms'):.1f} ms; again median {_ms(a, 'median_ms'):.1f} ms, "
                      f"p90 {_ms(a, 'p90_ms'):.1f} ms")
-        m, k = r["view_first_made"], r["view_first_computed"]
+        m, k = r["view_first_made"], r["view_first_not_made"]
+        how = ", prefetched" if r.get("prefetch", True) else ""
         lines.append(f"  first view of a port the run made ({m['n']}): median {_ms(m, 'median_ms'):.1f} ms; of one "
-                     f"computed for the view ({k['n']}): median {_ms(k, 'median_ms'):.1f} ms")
+                     f"it does not make ({k['n']}{how}): median {_ms(k, 'median_ms'):.1f} ms; computed on "
+                     f"view: {r['computed_on_view'] or 'none'}")
+        q, dl, st = r["change_after_pause"], r["prefetch_delays_ms"], r["prefetch_steps_ms"]
+        lines.append(f"  change after a pause: median {_ms(q, 'median_ms'):.1f} ms, p90 {_ms(q, 'p90_ms'):.1f} ms; "
+                     f"messages that waited for a prefetch step ({dl['n']}): median {_ms(dl, 'median_ms'):.1f} ms, "
+                     f"max {_ms(dl, 'max_ms'):.1f} ms; prefetch steps: median {_ms(st, 'median_ms'):.1f} ms, "
+                     f"max {_ms(st, 'max_ms'):.1f} ms; GPU memory held: {r['memory_mb']['ordinary_run']} MB after a "
+                     f"change, {r['memory_mb']['all_ports']} MB with every port")
         lines.append(f"  a view's parts (medians, ms): {r['view_parts_median_ms']}")
     return "\n".join(lines)
 
@@ -214,11 +259,12 @@ def report(data: dict[str, Any]) -> str:
 @click.option("--param", default="edges.normal_threshold", show_default=True, help="NODE.PARAM the slider moves.")
 @click.option("--values", default=(0.3, 0.6), nargs=2, type=float, show_default=True,
               help="The two values changes alternate between (a drag goes from one to the other).")
+@click.option("--no-prefetch", is_flag=True, help="Serve with `--no-prefetch` (for comparison).")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(pipelines: tuple[str, ...], size: str, changes: int, drag_steps: int, param: str,
-            values: tuple[float, float], json_path: Path | None) -> None:
+            values: tuple[float, float], no_prefetch: bool, json_path: Path | None) -> None:
     t0 = time.perf_counter()
-    data = run(list(pipelines) or list(DEFAULT_PIPELINES), size, changes, drag_steps, param, values)
+    data = run(list(pipelines) or list(DEFAULT_PIPELINES), size, changes, drag_steps, param, values, not no_prefetch)
     data["wall_s"] = round(time.perf_counter() - t0, 1)
     click.echo(report(data))
     text = json.dumps(data, indent=2)

@@ -23,7 +23,7 @@ class Server:
 
     def __init__(self, pipeline_path: Path, open_pipeline: Callable[[tuple[str, ...]], Any], *, cache: Any = None,
                  roots: list[Path] | None = None, host: str = "127.0.0.1", port: int = 8765, frame: int = 0,
-                 poll: float = 0.25, token: str | None = None):
+                 poll: float = 0.25, token: str | None = None, prefetch: bool = True):
         import uvicorn
 
         from .app import make_app, new_token
@@ -46,7 +46,7 @@ class Server:
             hosts = {f"127.0.0.1:{self.port}", f"localhost:{self.port}", f"[::1]:{self.port}"}
         self.url = f"http://{shown}:{self.port}/?token={self.token}"
         self.engine = Engine(pipeline_path, open_pipeline=open_pipeline, cache=cache, roots=roots, poll=poll,
-                             frame=frame)
+                             frame=frame, prefetch=prefetch)
         self.app = make_app(self.engine, self.token, self.port, hosts)
         # no per-message deflate: views go out as PNGs (already deflated, `engine.encode_png`), and deflating
         # anything larger per message costs more than sending it on the loopback
@@ -68,7 +68,7 @@ class Server:
 
 def serve(pipeline: str, *, overrides: tuple[str, ...] = (), size: str | None = None, scene: str | None = None,
           out_dir: Path | None = None, view: str | None = None, up: str | None = None, fill: float | None = None,
-          cache: Any = None, host: str = "127.0.0.1", port: int = 8765, frame: int = 0,
+          cache: Any = None, host: str = "127.0.0.1", port: int = 8765, frame: int = 0, prefetch: bool = True,
           echo: Callable[[str], None] = print) -> None:
     """Serve a pipeline (a path or a shipped pipeline's name) until interrupted."""
     from ...errors import SketchgraphError
@@ -93,7 +93,7 @@ def serve(pipeline: str, *, overrides: tuple[str, ...] = (), size: str | None = 
         return open_pipeline(str(path), tuple(overrides) + extra, size, scene, out_dir=out, allow_outside=False,
                              view=view, up=up, fill=fill)
 
-    server = Server(path, load, cache=cache, roots=roots, host=host, port=port, frame=frame)
+    server = Server(path, load, cache=cache, roots=roots, host=host, port=port, frame=frame, prefetch=prefetch)
     echo(f"serving {path.name} at {server.url}")
     echo("(Ctrl-C stops it)")
     server.run()

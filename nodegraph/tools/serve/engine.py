@@ -8,6 +8,15 @@ every planned port (as `inspect --all` does, in the formats the ordinary run giv
 buffer costs one read-back, kept for pixel probes until the buffer changes. A view is drawn in 8 bits (fast
 paths per kind for a buffer shown whole) and sent as a PNG, which is kept with the view's settings until the
 buffer changes. Between requests the thread polls the pipeline and scene files and reloads when one changes.
+
+Idle prefetch: a change plans only the ports the ordinary run makes (planning every port would make each change
+compute them all). Once the result is delivered and no message has come for `QUIET_S`, the thread plans the
+remaining output ports of the planned nodes, one node per step (a new executor adopting the previous one's
+values: only that node computes), looking for messages between steps, until every port is held; a port that
+cannot be made here is skipped. A later click is then a read-back and a drawing. The next change keeps the
+prefetched ports whose node's key it leaves unchanged (memory hits), so only what it reaches is prefetched
+again. Prefetch computes are counted apart from the page's compute counts. Pipelines with side-effect nodes
+(files written) are not prefetched: every run would write again.
 """
 
 from __future__ import annotations
@@ -35,6 +44,10 @@ from . import yamledit
 MODES = ("auto", "rgb", "r", "g", "b", "a")
 MAX_BOX = 8192
 VIEW_CACHE_BYTES = 64 << 20  # drawn views kept (their PNG bytes), the least recently looked at dropped first
+# the quiet period before an idle prefetch: longer than the gaps between a drag's messages (16 to 50 ms; a change
+# renders in 70 to 100 ms here, so a drag keeps the thread busy throughout), short against the seconds before a
+# user clicks a port after a change
+QUIET_S = 0.2
 
 
 @dataclass
@@ -67,7 +80,8 @@ class Engine:
     """Loads, runs and shows one pipeline; `start()` runs the render thread."""
 
     def __init__(self, pipeline: str | Path, *, open_pipeline: Callable[[tuple[str, ...]], Pipeline],
-                 cache: Any = None, roots: list[Path] | None = None, poll: float = 0.25, frame: int = 0):
+                 cache: Any = None, roots: list[Path] | None = None, poll: float = 0.25, frame: int = 0,
+                 prefetch: bool = True):
         self.path = Path(pipeline).resolve()
         self._open = open_pipeline
         self.cache = cache
@@ -100,6 +114,21 @@ class Engine:
         self._stats_key: Any = None
         self._stats_val: list[dict[str, Any]] = []
         self._extra: set[tuple[str, str]] = set()  # ports looked at that the ordinary run does not produce
+        # idle prefetch (see the module's docstring)
+        self.prefetch = prefetch
+        self._base: Any = None  # the ordinary run's plan
+        self._made: list[tuple[str, str]] = []  # the ports the ordinary run makes
+        self._full: set[tuple[str, str]] = set()  # ports prefetched (kept requested while their values are held)
+        self._failed: set[tuple[str, str, str]] = set()  # (node, port, key): could not be prefetched
+        self._single: set[tuple[str, str]] = set()  # (node, key): a step failed; its ports go one at a time
+        self._bad: set[tuple[str, str]] = set()  # ports that failed under some key: tried alone, after the rest
+        self._shown: tuple[set[str], dict[str, Any]] = (set(), {})  # the ordinary run's plan order and stats
+        self._last_msg = 0.0  # monotonic time of the last message (probes aside) or the last work done
+        self._prefetching = False
+        self._arrived: float | None = None  # perf_counter when a message first arrived during a prefetch step
+        self.prefetch_counts: dict[str, int] = {}  # node -> computes by prefetch steps
+        self.prefetch_steps: list[float] = []  # each step's ms (the last 200)
+        self.prefetch_delays: list[float] = []  # ms a message waited for the step in progress (the last 200)
         self._stop = False
         self._thread: threading.Thread | None = None
         self.ready = threading.Event()
@@ -130,6 +159,10 @@ class Engine:
         op = msg.get("op")
         with self._lock:
             client = self._clients.get(cid)
+            if op != "probe":  # the cursor over the picture does not put off the prefetch
+                self._last_msg = time.monotonic()
+                if self._prefetching and self._arrived is None:
+                    self._arrived = time.perf_counter()
             if op == "set":
                 node, param = str(msg.get("node")), str(msg.get("param"))
                 self._pending[(node, param)] = msg.get("value")
@@ -164,10 +197,21 @@ class Engine:
         next_poll = 0.0
         while True:
             with self._lock:
-                while not self._stop and not self._has_work() and time.monotonic() < next_poll:
-                    self._lock.wait(timeout=max(0.0, next_poll - time.monotonic()))
+                while True:
+                    due = min(next_poll, self._prefetch_due())
+                    if self._stop or self._has_work() or time.monotonic() >= due:
+                        break
+                    self._lock.wait(timeout=max(0.0, due - time.monotonic()))
                 if self._stop:
                     break
+                prefetch = not self._has_work() and time.monotonic() < next_poll
+                if prefetch:
+                    self._prefetching, self._arrived = True, None
+            if prefetch:
+                self._prefetch_step()
+                continue
+            with self._lock:
+                work = self._has_work()
                 pending, self._pending = self._pending, {}
                 seq = self._pending_seq
                 frame, self._pending_frame = self._pending_frame, None
@@ -181,6 +225,9 @@ class Engine:
             except Exception as exc:  # noqa: BLE001 - the server stays up; the page shows the error
                 self.error = _line(exc)
                 self._broadcast_state()
+            if work or reload:
+                with self._lock:
+                    self._last_msg = max(self._last_msg, time.monotonic())
             self.ready.set()
         self._close()
 
@@ -267,14 +314,17 @@ class Engine:
         for f in scene_files(pipe.scene_spec, scene_base):
             self._stamps[f] = _stamp(f)
         base = plan(pipe)
-        ports = all_ports(pipe)
-        ports += sorted(r for r in self._extra if r not in ports and r[0] in pipe.nodes
-                        and r[1] in pipe.nodes[r[0]].outputs)
+        made = all_ports(pipe)
+        ports = made + sorted(r for r in self._extra if r not in made and r[0] in pipe.nodes
+                              and r[1] in pipe.nodes[r[0]].outputs)
         ex = Executor(pipe, self.cache, mode="loop", requested=ports, gl=self._gl, like=base)
+        kept = self._kept_ports(ex, pipe, ports)
+        if kept:  # prefetched ports the change leaves as they were: held, so planning them costs nothing
+            ex = Executor(pipe, self.cache, mode="loop", requested=ports + kept, gl=self._gl, like=base)
         ex.adopt_memory(self._ex, self.frame)
         if self._ex is not None:
             self._ex.close()
-        self._ex, self.pipe = ex, pipe
+        self._ex, self.pipe, self._base, self._made, self._full = ex, pipe, base, made, set(kept)
         try:
             result = ex.run(self.frame)
         except SketchgraphError as exc:
@@ -283,10 +333,114 @@ class Engine:
             return
         self.error = None
         self.result = result
+        self._shown = (set(ex.plan.order), result.stats)
         for nid in result.computed():
             self.counts[nid] = self.counts.get(nid, 0) + 1
             self.last_ms[nid] = result.stats[nid].ms
         self.run_ms = (time.perf_counter() - t0) * 1000
+
+    def _kept_ports(self, ex: Any, pipe: Pipeline, ports: list[tuple[str, str]]) -> list[tuple[str, str]]:
+        """The prefetched ports whose values the previous executor holds under the keys `ex` gives them (a
+        pass-through port: its source's value)."""
+        old = self._ex
+        if old is None or not self._full:
+            return []
+        keys = ex.keys(self.frame)
+        have = set(ports)
+
+        def held(ref: tuple[str, str]) -> bool:
+            for _ in range(64):
+                src = old.plan.aliases.get(ref)
+                if src is None:
+                    break
+                ref = src
+            return ref[0] in keys and (keys[ref[0]], ref[1]) in old._memory
+
+        return sorted(r for r in self._full if r not in have and r[0] in keys and r[1] in pipe.nodes[r[0]].outputs
+                      and held(r))
+
+    # -- idle prefetch ----------------------------------------------------------------------------------
+    def _prefetch_next(self) -> tuple[str, list[tuple[str, str]]] | None:
+        """The next planned node (topological order) with output ports not held, and those ports (one, where a
+        step with all of them failed); None when every port is held or was found not to be makeable."""
+        pipe, result, base = self.pipe, self.result, self._base
+        if not self.prefetch or pipe is None or result is None or base is None or self._ex is None \
+                or self.error is not None:
+            return None
+        if any(pipe.nodes[nid].side_effect for nid in self._ex.plan.order):
+            return None
+        for nid in base.order:
+            st = result.stats.get(nid)
+            if st is None:
+                continue
+            want = [(nid, p) for p in pipe.nodes[nid].outputs
+                    if (nid, p) not in result.values and (nid, p, st.key) not in self._failed]
+            if want:
+                good = [r for r in want if r not in self._bad]
+                return nid, want[:1] if (nid, st.key) in self._single or not good else good
+        return None
+
+    def _prefetch_due(self) -> float:
+        """When (monotonic) the next prefetch step may run: inf when there is nothing to prefetch."""
+        if self._prefetch_next() is None:
+            return float("inf")
+        return self._last_msg + QUIET_S
+
+    def _prefetch_step(self) -> None:
+        """Plan the next node's ports not held (`_prefetch_next`) and run: only that node computes. Where that
+        fails, the node's ports go one at a time, and a port that cannot be made here is remembered under the
+        node's key and left out; the run goes back to the ports held before."""
+        from ...executor import Executor
+
+        t0 = time.perf_counter()
+        step = self._prefetch_next()
+        nid = step[0] if step is not None else None
+        try:
+            if step is None:
+                return
+            pipe, old = self.pipe, self._ex
+            ports = list(old.plan.requested)
+            key = self.result.stats[nid].key
+            want = [r for r in step[1] if r not in ports]
+            if not want:  # (cannot happen: a requested port is held) never the same step again
+                self._failed.update((n, p, key) for n, p in step[1])
+                return
+            ex = Executor(pipe, self.cache, mode="loop", requested=ports + want, gl=self._gl, like=self._base)
+            ex.adopt_memory(old, self.frame)
+            old.close()
+            self._ex = ex
+            try:
+                result = ex.run(self.frame)
+            except Exception:  # noqa: BLE001 - a port that cannot be made here: skipped quietly
+                if len(want) > 1:
+                    self._single.add((nid, key))  # which one: each alone from now on
+                else:
+                    self._failed.add((*want[0], key))
+                    self._bad.add(want[0])
+                back = Executor(pipe, self.cache, mode="loop", requested=ports, gl=self._gl, like=self._base)
+                back.adopt_memory(ex, self.frame)
+                ex.close()
+                self._ex = back
+                try:
+                    self.result = back.run(self.frame)  # what was held: memory hits
+                except SketchgraphError as exc:
+                    self.error, self.result = _line(exc), None
+                return
+            if self._gl is not None:
+                self._gl.finish()  # the step's GPU work inside the step: a change after it does not wait for it
+            self.result = result
+            self._full.update(want)
+            for n in result.computed():
+                self.prefetch_counts[n] = self.prefetch_counts.get(n, 0) + 1
+        finally:
+            with self._lock:
+                self._prefetching = False
+                end = time.perf_counter()
+                if nid is not None:
+                    self.prefetch_steps = [*self.prefetch_steps[-199:], round((end - t0) * 1000, 2)]
+                if self._arrived is not None:
+                    self.prefetch_delays = [*self.prefetch_delays[-199:], round((end - self._arrived) * 1000, 2)]
+                    self._arrived = None
 
     def _drop_stale_edits(self) -> Pipeline | None:
         kept: dict[str, dict[str, Any]] = {}
@@ -351,8 +505,9 @@ class Engine:
         if pipe is None:
             return out
         g = pipe.graph()
-        planned = set(self._ex.plan.order) if self._ex is not None else set()
-        stats = self.result.stats if self.result is not None else {}
+        # as the ordinary run left them: prefetch steps change neither the statuses nor the counts shown
+        planned = self._shown[0] if self._ex is not None else set()
+        stats = self._shown[1] if self.result is not None else {}
         for col, gen in enumerate(nx.topological_generations(g)):
             for row, nid in enumerate(sorted(gen)):
                 node = pipe.nodes[nid]
@@ -364,6 +519,7 @@ class Engine:
                     "outputs": {p: {"type": str(spec.type), "doc": spec.doc} for p, spec in node.outputs.items()},
                     "status": (st.status if st is not None else "not run") if nid in planned else "not planned",
                     "ms": round(self.last_ms.get(nid, 0.0), 3), "computes": self.counts.get(nid, 0),
+                    "prefetch_computes": self.prefetch_counts.get(nid, 0),
                     "params": node.params.model_dump(mode="json"),
                     "schema": _schema(type(node.params)),
                     "doc": " ".join((getattr(node, "doc", None) or type(node).__doc__ or "").split())[:400],
@@ -371,7 +527,20 @@ class Engine:
         out["edges"] = [{"from": f"{s}.{sp}", "to": f"{n}.{p}"} for n, conns in pipe.connections.items()
                         for p, (s, sp) in conns.items()]
         out["outputs"] = {name: ".".join(ref) for name, ref in pipe.outputs.items()}
+        out["made"] = [f"{n}.{p}" for n, p in self._made]  # the ports the ordinary run makes
+        out["prefetch"] = {"pending": self._prefetch_next() is not None, "quiet_ms": QUIET_S * 1000,
+                           "steps_ms": list(self.prefetch_steps), "delays_ms": list(self.prefetch_delays),
+                           "memory_run_bytes": self._held_bytes(self._made),
+                           "memory_bytes": self._held_bytes(list(self.result.values) if self.result else [])}
         return out
+
+    def _held_bytes(self, refs: list[tuple[str, str]]) -> int:
+        """The bytes of the distinct values these ports hold (a pass-through port holds its source's)."""
+        from ...values import nbytes
+
+        values = self.result.values if self.result is not None else {}
+        seen = {id(values[r]): values[r] for r in refs if r in values}
+        return sum(nbytes(v) for v in seen.values())
 
     def _ref(self, port: str | None) -> tuple[str, str] | None:
         pipe = self.pipe

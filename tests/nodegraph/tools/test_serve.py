@@ -431,3 +431,82 @@ def test_view_cache_drops_old_values_and_the_least_recent(monkeypatch, tmp_path)
     e._keep_view((b, "k1", "auto"), {}, b"x" * 100)
     e._keep_view((b, "k1", "r"), {}, b"x" * 100)  # over the budget: the least recently kept goes first
     assert list(e._views) == [(b, "k1", "auto"), (b, "k1", "r")] and e._views_bytes == 200
+
+
+# -- the idle prefetch, in process (the render thread and GL, no browser) --------------------------------------
+def _engine(tmp_path, size="96x96"):
+    from nodegraph.render import open_pipeline
+    from nodegraph.tools.serve.engine import Engine
+
+    pipe = tmp_path / "nienhaus_sketchy.yaml"
+    shutil.copy(ROOT / "pipelines" / "nienhaus_sketchy.yaml", pipe)
+
+    def load(extra):
+        return open_pipeline(str(pipe), extra, size, None, out_dir=tmp_path, allow_outside=False)
+
+    return Engine(pipe, open_pipeline=load, roots=[tmp_path])
+
+
+def _wait(cond, what, timeout=60.0):
+    deadline = time.monotonic() + timeout
+    while not cond():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.02)
+
+
+def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
+    import threading
+
+    from nodegraph.tools.serve.engine import QUIET_S
+
+    e = _engine(tmp_path)
+    got: list = []
+    lock = threading.Lock()
+
+    def send(msg):
+        with lock:
+            got.append(msg[0] if isinstance(msg, tuple) else msg)
+
+    def images(port):
+        with lock:
+            return [m for m in got if m.get("type") == "image" and m.get("port") == port]
+
+    e.add_client(1, send)
+    e.start()
+    try:
+        _wait(lambda: e.result is not None and images("sprite.color"), "the first image")
+        made = {(n, p) for n, p in e._made}
+        assert ("gbuf", "normal") not in made  # a port the ordinary run does not make
+        _wait(lambda: e._prefetch_next() is None, "the first prefetch")
+        counts = dict(e.counts)
+        t_set = time.monotonic()
+        e.submit(1, {"op": "set", "node": "edges", "param": "normal_threshold", "value": 0.2, "seq": 1})
+        _wait(lambda: e.seq == 1 and len(images("sprite.color")) >= 2, "the change's image")
+        # the change alone computes what it reaches, and plans only the ordinary ports of those nodes
+        assert {n: e.counts[n] - counts.get(n, 0) for n in e.counts} == {"gbuf": 0, "edges": 1, "noise": 0,
+                                                                       "sketch": 1}  # (sprite passes through)
+        assert ("edges", "profile") not in e.result.values
+        assert ("gbuf", "normal") in e.result.values  # prefetched before, and the change left gbuf's key alone
+        pre = dict(e.prefetch_counts)
+        _wait(lambda: e._prefetch_next() is None, "the prefetch after the change")
+        assert time.monotonic() - t_set >= QUIET_S  # not before the quiet period
+        # the prefetch computed again only the changed nodes with ports the ordinary run does not make
+        assert {n: e.prefetch_counts.get(n, 0) - pre.get(n, 0) for n in ("gbuf", "noise", "edges", "sketch")} \
+            == {"gbuf": 0, "noise": 0, "edges": 1, "sketch": 1}
+        assert e.counts == {**counts, "edges": counts["edges"] + 1, "sketch": counts["sketch"] + 1}
+        # (the compute counts the page shows: the ordinary runs only)
+        runs, pre = dict(e.counts), dict(e.prefetch_counts)
+        ex = e._ex
+        for port in ("edges.profile", "gbuf.normal", "sketch.offsets"):
+            n = len(images(port))
+            e.submit(1, {"op": "view", "port": port, "width": 96, "height": 96})
+            _wait(lambda port=port, n=n: len(images(port)) > n, f"the view of {port}")
+            head = images(port)[-1]
+            assert not head.get("empty") and not head.get("ran"), head
+        assert e.counts == runs and e.prefetch_counts == pre and e._ex is ex  # nothing ran again
+        st = e.state()
+        assert not st["prefetch"]["pending"]
+        assert st["prefetch"]["memory_bytes"] > st["prefetch"]["memory_run_bytes"] > 0
+        assert {n["id"]: n["computes"] for n in st["nodes"]} == {n: runs.get(n, 0) for n in e.pipe.nodes}
+    finally:
+        e.stop()
