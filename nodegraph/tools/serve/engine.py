@@ -13,7 +13,9 @@ Idle prefetch: a change plans only the ports the ordinary run makes (planning ev
 compute them all). Once the result is delivered and no message has come for `QUIET_S`, the thread plans the
 remaining output ports of the planned nodes, one node per step (a new executor adopting the previous one's
 values: only that node computes), looking for messages between steps, until every port is held; a port that
-cannot be made here is skipped. A later click is then a read-back and a drawing. The next change keeps the
+cannot be made here is skipped. Then, a step at a time, each held texture port is drawn and encoded as the pages
+would ask for it on a click (their box, mode, exposure and range), and kept with the drawn views (the read-back is
+not kept): a later click sends the kept PNG. The next change keeps the
 prefetched ports whose node's key it leaves unchanged (memory hits), so only what it reaches is prefetched
 again. Prefetch computes are counted apart from the page's compute counts. Pipelines with side-effect nodes
 (files written) are not prefetched: every run would write again.
@@ -120,6 +122,7 @@ class Engine:
         self._made: list[tuple[str, str]] = []  # the ports the ordinary run makes
         self._full: set[tuple[str, str]] = set()  # ports prefetched (kept requested while their values are held)
         self._failed: set[tuple[str, str, str]] = set()  # (node, port, key): could not be prefetched
+        self._undrawable: set[tuple[str, str]] = set()  # held ports the idle drawing leaves to a click
         self._single: set[tuple[str, str]] = set()  # (node, key): a step failed; its ports go one at a time
         self._bad: set[tuple[str, str]] = set()  # ports that failed under some key: tried alone, after the rest
         self._shown: tuple[set[str], dict[str, Any]] = (set(), {})  # the ordinary run's plan order and stats
@@ -191,6 +194,7 @@ class Engine:
 
         try:
             self._gl = glmod.get()  # created here: this thread owns it
+            self._gl.ctx.__enter__()  # current on this thread (the process's context may come from another one)
         except SketchgraphError as exc:
             self.error = _line(exc)
             self._gl = None
@@ -380,11 +384,53 @@ class Engine:
                 return nid, want[:1] if (nid, st.key) in self._single or not good else good
         return None
 
+    def _predraw_next(self) -> tuple[tuple[str, str], View] | None:
+        """Once every port is held: the next held texture port not yet drawn as a page would ask for it on a click
+        (its current box, mode, exposure and range with that port), and that view; None when all are drawn."""
+        if not self.prefetch or self.result is None or self.pipe is None or self.error is not None:
+            return None
+        if self._prefetch_next() is not None:
+            return None
+        from ...values import Tex
+
+        views = {(c.view.width, c.view.height, c.view.mode, c.view.exposure, c.view.lo, c.view.hi)
+                 for c in list(self._clients.values())}
+        for ref, value in self.result.values.items():
+            # textures only: their drawing takes milliseconds (a texture array's montage or a chart can take a
+            # second or two at 800x800, and a change arriving meanwhile would wait for it)
+            if not isinstance(value, Tex) or ref in self._undrawable:
+                continue
+            vkey = self._value_key(ref)
+            for w, h, mode, exposure, lo, hi in sorted(views, key=str):
+                shown = _fit(value.size[1], value.size[0], w, h)
+                if (ref, vkey, mode, exposure, lo, hi, shown) not in self._views:
+                    return ref, View(f"{ref[0]}.{ref[1]}", w, h, mode, exposure, lo, hi)
+        return None
+
     def _prefetch_due(self) -> float:
-        """When (monotonic) the next prefetch step may run: inf when there is nothing to prefetch."""
-        if self._prefetch_next() is None:
+        """When (monotonic) the next prefetch step may run: inf when there is nothing to prefetch or draw."""
+        if self._prefetch_next() is None and self._predraw_next() is None:
             return float("inf")
         return self._last_msg + QUIET_S
+
+    def _predraw_step(self) -> bool:
+        """Draw and keep one held port's view (`_predraw_next`) so that clicking it sends the kept PNG; the
+        read-back is not kept unless a page shows that port (the probe and statistics read it again). False
+        when there was nothing to draw."""
+        nxt = self._predraw_next()
+        if nxt is None:
+            return False
+        ref, view = nxt
+        shown = {self._ref(c.view.port) for c in list(self._clients.values())}
+        try:
+            header, _ = self.image(ref, view)
+            if header.get("empty"):
+                self._undrawable.add(ref)
+        except Exception:  # noqa: BLE001 - a view that cannot be drawn here is drawn (and explained) on a click
+            self._undrawable.add(ref)
+        if ref not in shown:
+            self._host.pop(ref, None)
+        return True
 
     def _prefetch_step(self) -> None:
         """Plan the next node's ports not held (`_prefetch_next`) and run: only that node computes. Where that
@@ -397,6 +443,8 @@ class Engine:
         nid = step[0] if step is not None else None
         try:
             if step is None:
+                if self._predraw_step():
+                    nid = "(draw)"
                 return
             pipe, old = self.pipe, self._ex
             ports = list(old.plan.requested)
