@@ -840,6 +840,13 @@ def get() -> GL:
     return _CONTEXT
 
 
+def create() -> GL:
+    """A GL context of its own (not the process's), current on the calling thread: for a thread that renders
+    apart from the rest of the process (`serve`'s render thread). EGL lets a context be current on one thread
+    at a time, so such a thread cannot share the process's context with the thread that made it."""
+    return GL(_create())
+
+
 def _create() -> Any:
     try:
         import moderngl

@@ -262,20 +262,26 @@ def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[i
             state["obj"] = int(obj)
             hatcher.run_fixed(use[use[:, 2] == obj, :2])
         return hatcher.lines
+    seeds, objs = grid_seeds(bright, ids, (w, h), lo, limit)
+    for obj in np.unique(objs):
+        state["obj"] = int(obj)
+        hatcher.run(seeds[objs == obj])
+    return hatcher.lines
+
+
+def grid_seeds(bright: np.ndarray, ids: np.ndarray, size: tuple[int, int], lo: float,
+               limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """The screen-anchored seeds: a grid of max(lo, 2) px kept on objects darker than `limit`, darkest first
+    (the dense regions are laid out before the light ones reach into them), and each seed's object id."""
+    w, h = size
     g = max(lo, 2.0)
     ys, xs = np.mgrid[0.5 * g:h:g, 0.5 * g:w:g]
     seeds = np.c_[xs.ravel(), ys.ravel()]
     r = np.clip(seeds[:, 1].astype(int), 0, h - 1)
     c = np.clip(seeds[:, 0].astype(int), 0, w - 1)
     keep = (ids[r, c] > 0) & (bright[r, c] < limit)
-    seeds = seeds[keep]
-    # darkest first: the dense regions are laid out before the light ones reach into them
     order = np.argsort(bright[r[keep], c[keep]], kind="stable")
-    seeds, objs = seeds[order], ids[r[keep], c[keep]][order]
-    for obj in np.unique(objs):
-        state["obj"] = int(obj)
-        hatcher.run(seeds[objs == obj])
-    return hatcher.lines
+    return seeds[keep][order], ids[r[keep], c[keep]][order]
 
 
 _JIT: Any = None  # the module `jit`, False where Numba cannot be imported or cache its code
@@ -316,14 +322,7 @@ def _hatch_jit(jit: Any, dirs: np.ndarray, strength: np.ndarray, bright: np.ndar
         use = anchored[bright[r, c] < limit]
         seeds, objs = use[:, :2], use[:, 2].astype(np.int64)
     else:
-        g = max(lo, 2.0)
-        ys, xs = np.mgrid[0.5 * g:h:g, 0.5 * g:w:g]
-        seeds = np.c_[xs.ravel(), ys.ravel()]
-        r = np.clip(seeds[:, 1].astype(int), 0, h - 1)
-        c = np.clip(seeds[:, 0].astype(int), 0, w - 1)
-        keep = (ids[r, c] > 0) & (bright[r, c] < limit)
-        order = np.argsort(bright[r[keep], c[keep]], kind="stable")
-        seeds, objs = seeds[keep][order], ids[r[keep], c[keep]][order]
+        seeds, objs = grid_seeds(bright, ids, (w, h), lo, limit)
     group = np.argsort(objs, kind="stable")  # the Python path: np.unique's order, each object's seeds in order
     xy, starts = jit.hatch_lines(np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(strength, np.float64),
                                  ids, bright, np.ascontiguousarray(seeds[group], np.float64),

@@ -193,8 +193,7 @@ class Engine:
         from ...gpu import gl as glmod
 
         try:
-            self._gl = glmod.get()  # created here: this thread owns it
-            self._gl.ctx.__enter__()  # current on this thread (the process's context may come from another one)
+            self._gl = glmod.create()  # a context of its own, made (and current) on this thread, which owns it
         except SketchgraphError as exc:
             self.error = _line(exc)
             self._gl = None
@@ -534,6 +533,9 @@ class Engine:
             self._ex.clear_memory()
             self._ex.close()
             self._ex = None
+        if self._gl is not None:  # the thread's own context (`glmod.create`), with everything made in it
+            self._gl.ctx.release()
+            self._gl = None
 
     # -- what the page is told ------------------------------------------------------------------------
     def _broadcast_state(self) -> None:

@@ -435,8 +435,12 @@ def test_view_cache_drops_old_values_and_the_least_recent(monkeypatch, tmp_path)
 
 # -- the idle prefetch, in process (the render thread and GL, no browser) --------------------------------------
 def _engine(tmp_path, size="96x96"):
+    from nodegraph.gpu import gl as glmod
     from nodegraph.render import open_pipeline
     from nodegraph.tools.serve.engine import Engine
+
+    glmod.get()  # the process's context current on this (the main) thread, as the rest of the suite leaves it:
+    # the engine's render thread makes a context of its own
 
     pipe = tmp_path / "nienhaus_sketchy.yaml"
     shutil.copy(ROOT / "pipelines" / "nienhaus_sketchy.yaml", pipe)
@@ -454,12 +458,10 @@ def _wait(cond, what, timeout=60.0):
         time.sleep(0.02)
 
 
-def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
+def _client(e):
+    """Client 1 of engine `e`, its messages collected: returns images(port), the image headers sent for `port`."""
     import threading
 
-    from nodegraph.tools.serve.engine import QUIET_S
-
-    e = _engine(tmp_path)
     got: list = []
     lock = threading.Lock()
 
@@ -472,6 +474,14 @@ def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
             return [m for m in got if m.get("type") == "image" and m.get("port") == port]
 
     e.add_client(1, send)
+    return images
+
+
+def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
+    from nodegraph.tools.serve.engine import QUIET_S
+
+    e = _engine(tmp_path)
+    images = _client(e)
     e.start()
     try:
         _wait(lambda: e.result is not None and images("sprite.color"), "the first image")
@@ -513,21 +523,8 @@ def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
 
 
 def test_idle_drawing_makes_a_first_view_a_kept_picture(tmp_path):
-    import threading
-
     e = _engine(tmp_path)
-    got: list = []
-    lock = threading.Lock()
-
-    def send(msg):
-        with lock:
-            got.append(msg[0] if isinstance(msg, tuple) else msg)
-
-    def images(port):
-        with lock:
-            return [m for m in got if m.get("type") == "image" and m.get("port") == port]
-
-    e.add_client(1, send)
+    images = _client(e)
     e.start()
     try:
         e.submit(1, {"op": "view", "port": "sprite.color", "width": 96, "height": 96})  # the page's box
