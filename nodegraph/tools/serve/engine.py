@@ -704,7 +704,7 @@ class Engine:
 
     def _draw_view(self, ref: tuple[str, str], view: View) -> tuple[dict[str, Any], np.ndarray, float]:
         """(header, (H, W, 3) or (H, W) uint8 display picture, when the read-back ended)."""
-        from ...values import Tex
+        from ...values import Tex, TexArray
 
         value, host = self._host_of(ref)
         t1 = time.perf_counter()
@@ -720,10 +720,15 @@ class Engine:
             header = {"type": "image", "port": port, "width": w, "height": h, "full": (w, h), "note": "rgb",
                       "kind": "color", "stats": None, "frame": self.frame}
             return header, fast, t1
+        strip = draw_array(host, ref[1], doc, view) if isinstance(value, TexArray) and host is not None \
+            and host.ndim == 4 else None
         if isinstance(value, Tex) and host is not None:
             rgb, note, kind = draw(host, ref[1], doc, view)
             full = (host.shape[1], host.shape[0])
             stats = None  # sent after the picture (`stats_message`): they are not on the way to the screen
+        elif strip is not None:
+            rgb, note, kind, full = strip
+            stats = []
         else:
             panel = viz.visualize(host if host is not None else value, ref[1], doc)
             if panel.image is None:
@@ -839,6 +844,34 @@ def draw(host: np.ndarray, port: str, doc: str, view: View) -> tuple[np.ndarray,
     g = np.clip((mean - lo) / (hi - lo), 0.0, 1.0) if hi > lo else (mean > lo).astype(np.float64)
     img = np.repeat(g, 3, axis=2).astype(np.float32)
     return img, f"channel {view.mode.upper()}, {lo:.4g}..{hi:.4g}", "grey"
+
+
+def draw_array(host: np.ndarray, port: str, doc: str, view: View, per_row: int = 16,
+               gap: int = 2) -> tuple[np.ndarray, str, str, tuple[int, int]] | None:
+    """A texture array (L, H, W, C; GL order) as `viz.visualize_array`'s strip of layers, shrunk to fit `view`'s
+    box: each layer reduced to its tile's size first and then coloured (`reduce_and_colour`, as a shrunk texture
+    is), instead of colouring every layer whole. (RGB float image, note, kind, the whole strip's (W, H)); None
+    where the strip is shown whole or the view is not `auto` (the exact path draws it)."""
+    n, h, w, c = host.shape
+    cols, rows = min(n, per_row), -(-n // per_row)
+    full_w, full_h = cols * (w + gap) - gap, rows * (h + gap) - gap
+    shown_h, shown_w = _fit(full_h, full_w, view.width, view.height)
+    if view.mode != "auto" or view.exposure or (shown_h, shown_w) == (full_h, full_w) or n == 0:
+        return None
+    s = min(shown_h / full_h, shown_w / full_w)
+    th, tw, g = max(1, int(h * s)), max(1, int(w * s)), max(1, round(gap * s))
+    while tw > 1 and cols * (tw + g) - g > shown_w:  # (a gap is at least a pixel: the tiles give way)
+        tw -= 1
+    while th > 1 and rows * (th + g) - g > shown_h:
+        th -= 1
+    kind = viz.classify(port, c, doc)
+    out = np.empty((rows * (th + g) - g, cols * (tw + g) - g, 3), np.float32)
+    out[:] = viz.SHEET_BG
+    for i in range(n):
+        r, k = divmod(i, per_row)
+        tile, _ = reduce_and_colour(np.asarray(host[i][::-1], np.float32), kind, th, tw)
+        out[r * (th + g):r * (th + g) + th, k * (tw + g):k * (tw + g) + tw] = tile
+    return out, f"{n} layers ({kind})", "strip", (full_w, full_h)
 
 
 def _box_mean32(a: np.ndarray, height: int, width: int) -> np.ndarray:

@@ -540,3 +540,32 @@ def test_idle_drawing_makes_a_first_view_a_kept_picture(tmp_path):
             assert head["width"] == 96 and head["height"] == 96
     finally:
         e.stop()
+
+
+def test_a_texture_array_strip_is_reduced_before_it_is_coloured():
+    import numpy as np
+
+    from nodegraph.tools import viz
+    from nodegraph.tools.serve.engine import View, draw_array
+
+    colours = np.array([[0.2, 0.4, 0.6, 1.0], [0.9, 0.1, 0.3, 1.0], [0.5, 0.5, 0.5, 1.0]], np.float32)
+    host = np.broadcast_to(colours[:, None, None, :], (3, 200, 100, 4)).copy()  # 3 layers, each one colour
+    host[1, :100] = [0.0, 0.0, 0.0, 1.0]  # layer 1: its lower half (GL order: row 0 at the bottom) black
+    img, note, kind, full = draw_array(host, "color", "", View(width=61, height=400))
+    assert full == (3 * 102 - 2, 200) and kind == "strip" and note == "3 layers (color)"
+    # the strip fits the box's width, scale 61 / 304: tiles 40 x 20 px, gaps of 1 px (2 x 0.2 rounded up to a pixel);
+    # 3 tiles of 20 and 2 gaps are 62 px, one too many, so the tiles give way to 19 px
+    th, tw, g = 40, 19, 1
+    assert img.shape == (th, 3 * (tw + g) - g, 3)
+    for i in (0, 2):
+        want = np.broadcast_to(colours[i, :3], (th, tw, 3))
+        np.testing.assert_allclose(img[:, i * (tw + g):i * (tw + g) + tw], want, atol=1e-6)
+    tile = img[:, tw + g:2 * tw + g]  # shown top-down: the upper half the layer's colour, the lower half black
+    upper = np.broadcast_to(colours[1, :3], (th // 2 - 1, tw, 3))
+    np.testing.assert_allclose(tile[: th // 2 - 1], upper, atol=1e-6)
+    np.testing.assert_allclose(tile[th // 2 + 1:], 0.0, atol=1e-6)
+    np.testing.assert_allclose(img[:, tw:tw + g], np.broadcast_to(viz.SHEET_BG, (th, g, 3)))  # the gap
+    assert draw_array(host, "color", "", View(width=400, height=400)) is None  # shown whole: the exact path
+    many = np.zeros((32, 256, 256, 1), np.float32)  # 32 layers in rows of 16 into an 800-px box: within it
+    strip = draw_array(many, "tones", "", View(width=800, height=800))[0]
+    assert strip.shape[1] <= 800 and strip.shape[0] <= 800
