@@ -193,6 +193,12 @@ def split_pipeline(pipeline: str) -> tuple[str, str | None]:
     return name, output or None
 
 
+def strokes_output(pipe: Any, output: str) -> bool:
+    """Whether a loaded pipeline's output (a name or NODE.PORT) carries strokes (by its port type: nothing runs)."""
+    nid, port = pipe.pipeline.outputs[output] if output in pipe.pipeline.outputs else pipe.pipeline.parse_ref(output)
+    return pipe.pipeline.nodes[nid].outputs[port].type.kind == "Strokes"
+
+
 def sg_way(pipeline: str) -> str:
     return f"sketchgraph:{pipeline}"
 
@@ -336,12 +342,11 @@ name, _, output = sys.argv[1].partition(":")
 pipe = ng.load(name, scene=sys.argv[2], size=(int(sys.argv[3]), int(sys.argv[4])),
                session=ng.Session(cache=False), view=sys.argv[5] or None, up=sys.argv[6] or None)
 t2 = time.perf_counter()
-if not output:
-    pipe.render()
-elif type(pipe.value(output)).__name__ == "Strokes":
+from nodegraph.tools.bench.peer import strokes_output
+if output and strokes_output(pipe, output):
     pipe.write(tempfile.mkdtemp(prefix="peer_cold_") + "/lines.svg", output)
 else:
-    pipe.render(output)
+    pipe.render(output or None)
 t3 = time.perf_counter()
 print(json.dumps({"import_s": t1 - t0, "load_s": t2 - t1, "first_render_s": t3 - t2}), flush=True)
 """
@@ -375,6 +380,7 @@ class SketchgraphSide:
         self.size, self.view, self.up = size, view, up
         self.pipes: dict[tuple[str, str], Any] = {}
         self.outputs: dict[tuple[str, str], str | None] = {}
+        self.svg: set[tuple[str, str]] = set()  # (mesh, pipeline) whose output is strokes: written as SVG
         self.folder = Path(tempfile.mkdtemp(prefix="peer_sg_"))
 
     def load(self, mesh: str, path: Path, pipeline: str) -> Any:
@@ -383,35 +389,28 @@ class SketchgraphSide:
                             up=self.up)
         self.pipes[(mesh, pipeline)] = pipe
         self.outputs[(mesh, pipeline)] = output
+        if output is not None and strokes_output(pipe, output):
+            self.svg.add((mesh, pipeline))
         return pipe
 
     def render(self, mesh: str, pipeline: str) -> float:
         """Seconds of one render that computes every node (the session's values dropped first, not timed); the
         image is read back, as Blender's render ends with its result in memory, or strokes written as SVG."""
-        from ...values import Strokes
-
         pipe, output = self.pipes[(mesh, pipeline)], self.outputs[(mesh, pipeline)]
         self.session.close()
         t0 = time.perf_counter()
-        if output is None:
-            pipe.render()
+        if (mesh, pipeline) in self.svg:
+            pipe.write(self.folder / f"{mesh}.svg", output)
         else:
-            value = pipe.value(output)
-            if isinstance(value, Strokes):
-                pipe.write(self.folder / f"{mesh}.svg", output)
-            else:
-                pipe.render(output)
+            pipe.render(output)
         return time.perf_counter() - t0
 
     def picture(self, mesh: str, pipeline: str, images: Path) -> Path:
         """The pipeline's output written to `images` (a PNG, or the SVG of a strokes output)."""
-        from ...values import Strokes
-
         pipe, output = self.pipes[(mesh, pipeline)], self.outputs[(mesh, pipeline)]
         stem = f"{mesh}_sketchgraph_{pipeline.replace(':', '_')}"
-        if output is not None and isinstance(pipe.value(output), Strokes):
-            return Path(pipe.write(images / f"{stem}.svg", output))
-        return Path(pipe.write(images / f"{stem}.png", output))
+        suffix = ".svg" if (mesh, pipeline) in self.svg else ".png"
+        return Path(pipe.write(images / f"{stem}{suffix}", output))
 
     def renderer(self) -> str:
         return str(self.session.gl.renderer)
