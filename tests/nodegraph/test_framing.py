@@ -140,6 +140,47 @@ def test_front_keeps_the_convention_unless_the_other_end_shows_more_detail() -> 
     assert "do not say which end" in choice.note()
 
 
+def test_the_front_lies_in_the_upright_mirror_plane() -> None:
+    """The boxes figure is mirror-symmetric left to right, and its nose and feet make it a little less so front to
+    back: too little for a clean mirror plane (`mirror_axis`), enough for the finer `mirror_distance`; turned to
+    face +-X its front axis is X."""
+    fig = figure()
+    p = framing.surface_samples(fig.vertices, fig.faces)
+    scale = float(np.linalg.norm(np.ptp(p, axis=0)))
+    assert framing.mirror_axis([framing.asymmetry(p, k, scale) for k in range(3)]) is None
+    assert framing.mirror_distance(p, 2, scale) >= framing.FRONT_MIRROR_RATIO * framing.mirror_distance(p, 0, scale)
+    assert framing.upright_mirror(p, scale) == 0
+    for turn in (TO_X_FRONT, np.linalg.inv(TO_X_FRONT)):
+        turned = fig.transformed(turn)
+        choice = framing.front_choice(turned.vertices, turned.faces)
+        assert choice.across_z and abs(choice.front[0]) == 1.0
+        d, lines = _framed(turned)
+        assert abs(d[0]) > abs(d[2]) and len(lines) == 1 and "mirror-symmetric across z" in lines[0]
+
+
+def test_a_flat_cut_out_has_no_upright_mirror() -> None:
+    """A thin plate is its own mirror image across its thin axis, whichever way it faces: no front from that."""
+    for size in ((1.0, 1.5, 0.02), (0.02, 1.5, 1.0)):
+        plate = primitives.box(size)
+        p = framing.surface_samples(plate.vertices, plate.faces)
+        assert framing.upright_mirror(p, float(np.linalg.norm(np.ptp(p, axis=0)))) is None
+
+
+def test_the_orientation_bench_judges_wild_files_as_distributed(tmp_path: Path) -> None:
+    """A file named as one of WILD_KNOWN's (here the boxes figure written Z-up, its front -Y, as nefertiti.obj)
+    is stood up by its known up and judged as the file has it: a Z-up OBJ is an up-turned presentation."""
+    write_obj(tmp_path / "nefertiti.obj", figure(), TO_Z_UP)
+    result = orientation.run(meshes_dir=None, only=("nefertiti",), n_rotations=1, variants=("plain",),
+                             wild_dir=tmp_path)
+    assert result["meshes"] == {"wild": ["nefertiti"]}
+    (row,) = result["as_distributed"]
+    assert row["file"] == "nefertiti.obj" and row["kind"] == "up turned" and row["true_up"] == "z"
+    assert row["up_ok"] == (row["up"] == "z")
+    assert result["summary"]["wild: as distributed"]["files"] == 1
+    ident = [r for r in result["rows"] if r["kind"] == "convention"]
+    assert len(ident) == 2 and all(r["up_ok"] for r in ident)  # stood up (Y-up) as an OBJ, and as the STL
+
+
 def test_a_head_facing_away_is_seen_from_its_face_and_the_line_says_so() -> None:
     head = orientation.face()  # a nose, eyes under brows and a mouth toward +Z
     d, lines = _framed(head)
