@@ -276,7 +276,7 @@ class Rasterize(Node):
                      scene_diag: float) -> Any:
         """`motion`: the geometry drawn again as the main pass draws it (own depth buffer, the same enlargement
         and culling), each fragment writing the previous frame's window position and depth of its surface point.
-        Alpha cut-outs (glTF MASK) are not cut here: motion covers the whole triangles."""
+        Alpha cut-outs (glTF MASK) are cut as the main pass cuts them."""
         gl = ctx.gl
         w, h = ctx.size
         view, world, proj = now
@@ -296,15 +296,22 @@ class Rasterize(Node):
             for obj in objects:
                 prev = prev_scene.objects[obj.index] if obj.index < len(prev_scene.objects) else obj
                 prev_mesh = prev.mesh if prev.mesh.n_vertices == obj.mesh.n_vertices else obj.mesh
-                vao, diag, prev_diag, local = _motion_geometry(gl, prog, obj.mesh, prev_mesh, crease, enlarging)
+                surface = _surface(obj)
+                if surface is not None and surface.material.alpha_mode != "MASK":
+                    surface = None  # only a cut-out changes what the motion pass covers
+                oprog = prog if surface is None else ctx.program(MOTION_SHADER, _surface_defines(surface))
+                vao, diag, prev_diag, local = _motion_geometry(gl, oprog, obj.mesh, prev_mesh, crease, enlarging,
+                                                               surface is not None)
                 model = np.asarray(obj.transform, dtype=np.float64)
                 prev_model = np.asarray(prev.transform, dtype=np.float64)
                 u_view, u_model = origin.relative_matrices(view, model, world, local)
                 p_view, p_model = origin.relative_matrices(prev_view, prev_model, prev_world, local)
-                bind(prog, {}, {"u_mvp": proj @ (u_view @ u_model), "u_prev_mvp": prev_proj @ (p_view @ p_model),
-                                "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0,
-                                "u_prev_enlarge": self._enlarge(prev_diag, prev_model, scene_diag) if enlarging
-                                else 0.0, "u_size": (float(w), float(h))})
+                tex, surface_uniforms = _surface_bindings(gl, surface)
+                bind(oprog, tex, {**surface_uniforms, "u_mvp": proj @ (u_view @ u_model),
+                                  "u_prev_mvp": prev_proj @ (p_view @ p_model),
+                                  "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0,
+                                  "u_prev_enlarge": self._enlarge(prev_diag, prev_model, scene_diag) if enlarging
+                                  else 0.0, "u_size": (float(w), float(h))})
                 state.cull(_cull_face(obj, self.params.backfaces))
                 vao.render(gl.ctx.TRIANGLES)
         return target
@@ -326,10 +333,11 @@ def previous_scene(scene: Any, frame: int) -> tuple[Any, int]:
     return source.at(frame - 1), frame - 1
 
 
-def _motion_geometry(gl: Any, prog: Any, mesh: Any, prev_mesh: Any, crease_angle: float, enlarging: bool
-                     ) -> tuple[Any, float, float, np.ndarray]:
+def _motion_geometry(gl: Any, prog: Any, mesh: Any, prev_mesh: Any, crease_angle: float, enlarging: bool,
+                     surface: bool = False) -> tuple[Any, float, float, np.ndarray]:
     """The motion pass's vertex array over a mesh and its previous frame's pose (same faces), the two
-    diagonals, and the positions' origin (both poses relative to the current one's)."""
+    diagonals, and the positions' origin (both poses relative to the current one's). `surface`: with the glTF
+    surface's texture coordinates and vertex colours (`_surface_arrays`), for a cut-out."""
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
@@ -341,13 +349,17 @@ def _motion_geometry(gl: Any, prog: Any, mesh: Any, prev_mesh: Any, crease_angle
             prev_smooth = smooth if prev_mesh is mesh else enlarge_normals(prev_mesh, crease_angle)
         else:
             smooth = prev_smooth = np.zeros_like(pos)
+        indices, extra = ra.indices, {}
+        if surface:
+            vertex, indices, extra = _surface_arrays(mesh, ra)
+            pos, prev_pos, smooth, prev_smooth = pos[vertex], prev_pos[vertex], smooth[vertex], prev_smooth[vertex]
         return MeshArrays({"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f"), "in_prev": (prev_pos, "3f"),
-                           "in_prev_smooth": (prev_smooth, "3f")}, ra.indices,
+                           "in_prev_smooth": (prev_smooth, "3f"), **extra}, indices,
                           meta={"diag": mesh.diagonal(), "prev_diag": prev_mesh.diagonal(), "origin": local})
 
-    key = ("rasterize.motion", mesh.content_hash(), prev_mesh.content_hash(), float(crease_angle), enlarging)
-    slot = ("rasterize.motion", mesh.rest.content_hash(), float(crease_angle), enlarging) \
-        if mesh.rest is not None else None
+    kind = "rasterize.motion.surface" if surface else "rasterize.motion"
+    key = (kind, mesh.content_hash(), prev_mesh.content_hash(), float(crease_angle), enlarging)
+    slot = (kind, mesh.rest.content_hash(), float(crease_angle), enlarging) if mesh.rest is not None else None
     entry = gl.mesh_buffers(key, build, slot)
     return entry.vao(prog), entry.meta["diag"], entry.meta["prev_diag"], entry.meta["origin"]
 

@@ -232,3 +232,27 @@ def test_warp_and_visible_both_by_hand():
     depth[0, 2] = 0.4  # the point is now behind a nearer surface there: hidden
     assert not mo.visible_both(motion, depth)[1, 1]
     assert mo.warping_error(prev + 1.0, prev, np.zeros((3, 4, 4)), np.ones((3, 4))) == pytest.approx(1.0)
+
+
+def test_alpha_mask_cut_outs_are_cut_in_the_motion_pass(gl, tmp_path):
+    """A glTF quad whose texture's alpha is 1, 0, 0.78, 0.39 by column (cutoff 0.5): the motion pass covers the
+    kept columns only, as the G-buffer does; the cut ones are background (all 0) there too."""
+    tex = np.zeros((4, 4, 4), np.uint8)
+    tex[..., :3] = 128
+    tex[..., 3] = np.array([[255, 0, 200, 100]] * 4, np.uint8)
+    path = gf.textured_quad(tmp_path / "mask.gltf", tex, alpha_mode="MASK", cutoff=0.5)
+    probe = tmp_path / "probe.yaml"
+    probe.write_text(PROBE)
+    with ng.Session(cache=False) as session:  # square: the quad fills the picture (tests/gltf_files.py)
+        pipe = session.load(probe, scene=str(path), size=(64, 64))
+        m, ids = pipe.inspect("gbuf.motion", frame=0), pipe.inspect("gbuf.object_id", frame=0)[..., 0]
+    w = m.shape[1] // 4
+    for c, kept in enumerate((True, False, True, False)):
+        block = (slice(2, -2), slice(w * c + 2, w * (c + 1) - 2))
+        if kept:
+            assert np.all(m[block][..., 3] == 1.0) and np.all(ids[block] > 0)
+        else:
+            assert not m[block].any() and not ids[block].any()
+    assert np.array_equal(m[..., 3] > 0, ids > 0)  # pixel for pixel the G-buffer's coverage
+    cov = m[..., 3] > 0
+    np.testing.assert_allclose(m[cov][:, :2], pixel_centres(cov), atol=2e-3)
