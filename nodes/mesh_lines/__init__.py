@@ -44,11 +44,12 @@ class MeshLines(Node):
     chained across faces (through points two segments of one kind share; where three or more meet, along the
     straightest pair turning by less than `junction_turn`, as Freestyle chooses at a junction), sampled every
     `spacing` pixels, and each sample is tested against the linear depth buffer: visible where a pixel within one
-    pixel of it is background or no nearer than its depth x (1 - `depth_tolerance`). Strokes are split where visibility
+    pixel of it (the 2 x 2 pixels whose centres surround it) is background or no nearer than its depth x
+    (1 - `depth_tolerance`). Strokes are split where visibility
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "2"
+    version = "3"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -79,7 +80,8 @@ class MeshLines(Node):
         spacing: float = Field(1.0, gt=0.05, le=64, description="Stroke samples are at most this many pixels "
                                "apart (visibility is tested at each).")
         depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A sample is hidden where every pixel "
-                                       "within one pixel of it is nearer by more than this fraction of its depth.")
+                                       "of the 2 x 2 whose centres surround it is nearer by more than this "
+                                       "fraction of its depth.")
         hidden: bool = Field(False, description="Keep hidden strokes (visible = False: their own layers).")
         width: float = Field(1.0, gt=0, le=64, description="Stroke width in pixels at the reference size (times "
                              "px_scale).")

@@ -309,20 +309,22 @@ class View:
 
 def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolerance: float) -> np.ndarray:
     """Per sample: 1 visible, 0 hidden, -1 off the canvas. `zbuf` (H, W): linear view depth, row 0 at the
-    bottom, 0 = background. A sample is visible where some pixel within one pixel of it (3 x 3) is background
-    or no nearer than depth x (1 - tolerance): a line on a silhouette sees the background or its own surface
-    beside it, a line behind a nearer surface sees only that surface."""
-    from scipy.ndimage import maximum_filter
-
+    bottom, 0 = background. A sample is visible where one of the 2 x 2 pixels whose centres surround it is
+    background or no nearer than depth x (1 - tolerance): a line on a silhouette sees the background or its own
+    surface beside it, a line behind a nearer surface sees only that surface. (A 3 x 3 block around the sample's
+    pixel reaches up to 1.5 px: a contour passing behind the surface stayed visible up to 3 px past the point where
+    a ray cast hides it, and the bunny's precision against the ray-cast reference was 0.973-0.976 from two of four
+    views; with 2 x 2 it is 0.987-0.998.)"""
     h, w = zbuf.shape
-    far = np.where(zbuf > 0.0, zbuf, np.inf)
-    near_max = maximum_filter(far, size=3, mode="constant", cval=np.inf)
+    far = np.pad(np.where(zbuf > 0.0, zbuf, np.inf), 1, constant_values=np.inf)
     ix = np.floor(xy[:, 0]).astype(np.int64)
     iy = np.floor(xy[:, 1]).astype(np.int64)
     on = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h) & (depth > 0.0)
     state = np.full(len(xy), -1, np.int8)
-    ok = near_max[iy[on], ix[on]] >= depth[on] * (1.0 - tolerance)
-    state[on] = ok.astype(np.int8)
+    x0 = np.floor(xy[on, 0] - 0.5).astype(np.int64) + 1  # the 2 x 2 pixels whose centres surround the sample
+    y0 = np.floor(xy[on, 1] - 0.5).astype(np.int64) + 1
+    near_max = np.maximum(np.maximum(far[y0, x0], far[y0, x0 + 1]), np.maximum(far[y0 + 1, x0], far[y0 + 1, x0 + 1]))
+    state[on] = (near_max >= depth[on] * (1.0 - tolerance)).astype(np.int8)
     return state
 
 

@@ -73,18 +73,12 @@ def test_torus_800():
     check(measure("builtin:torus", 800))
 
 
-BUNNY_SHORT = pytest.mark.xfail(strict=True, reason=(
-    "the bunny seen three-quarter from its face (its default view) or from behind: precision 0.976 and 0.973; "
-    "the samples off by more than 1 px (1.0-3.4 px) are stroke ends where a contour passes behind the surface, "
-    "kept visible by the G-buffer test within its tolerance where the ray cast hides them"))
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(("name", "k", "view"), [
-    ("spot.obj", 32, None), ("spot.obj", 32, "back"), ("stanford-bunny.obj", 16, "right"),
-    ("stanford-bunny.obj", 16, "front"), pytest.param("stanford-bunny.obj", 16, None, marks=BUNNY_SHORT),
-    pytest.param("stanford-bunny.obj", 16, "back", marks=BUNNY_SHORT)])
+    ("spot.obj", 32, None), ("spot.obj", 32, "back"), ("stanford-bunny.obj", 16, None),
+    ("stanford-bunny.obj", 16, "back"), ("stanford-bunny.obj", 16, "right"), ("stanford-bunny.obj", 16, "front")])
 def test_shared_meshes_800(name, k, view):
     """k: the reference's barycentric grid per face (points well under a pixel apart on these meshes); view: the
-    mesh's default framing (None) or a named view of it."""
+    mesh's default framing (None) or a named view of it (from behind, the bunny's ears and back cross each other: a
+    3 x 3 visibility window left stroke ends 1-3 px past where the ray cast hides them, precision 0.973)."""
     check(measure(str(shared_mesh(name)), 800, k, view))
