@@ -148,7 +148,7 @@ def test_the_front_lies_in_the_upright_mirror_plane() -> None:
     p = framing.surface_samples(fig.vertices, fig.faces)
     scale = float(np.linalg.norm(np.ptp(p, axis=0)))
     assert framing.mirror_axis([framing.asymmetry(p, k, scale) for k in range(3)]) is None
-    assert framing.mirror_distance(p, 2, scale) >= framing.FRONT_MIRROR_RATIO * framing.mirror_distance(p, 0, scale)
+    assert framing.mirror_distance(p, 2, scale) >= framing.MIRROR_RATIO * framing.mirror_distance(p, 0, scale)
     assert framing.upright_mirror(p, scale) == 0
     for turn in (TO_X_FRONT, np.linalg.inv(TO_X_FRONT)):
         turned = fig.transformed(turn)
@@ -156,6 +156,22 @@ def test_the_front_lies_in_the_upright_mirror_plane() -> None:
         assert choice.across_z and abs(choice.front[0]) == 1.0
         d, lines = _framed(turned)
         assert abs(d[0]) > abs(d[2]) and len(lines) == 1 and "mirror-symmetric across z" in lines[0]
+
+
+def test_a_figure_lying_with_its_left_right_axis_up_is_stood_up() -> None:
+    """The boxes figure turned so that its left-right axis is Y, its up Z and its front X, as an OBJ: its mirror
+    plane lies across Y by `mirror_plane` (not clean by `asymmetry`'s 4 % count), so Y is not up; it stands along Z."""
+    turn = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # x -> y, y -> z, z -> x
+    fig = figure()
+    v = fig.vertices @ turn.T
+    p = framing.surface_samples(v, fig.faces)
+    scale = float(np.linalg.norm(np.ptp(p, axis=0)))
+    assert framing.mirror_axis([framing.asymmetry(p, k, scale) for k in range(3)]) is None
+    assert framing.mirror_plane(p, scale) == 1
+    o = framing.orient(v, fig.faces, ".obj")
+    assert o.up == "z" and o.evidence["mirror"] == "y"
+    assert o.notes[0].startswith("stood up along z: the mesh is mirror-symmetric across y")
+    assert np.allclose(framing.up_rotation(o.up)[:3, :3].T @ o.front, turn @ [0.0, 0.0, 1.0])  # its front: +X
 
 
 def test_a_flat_cut_out_has_no_upright_mirror() -> None:
