@@ -730,10 +730,23 @@ def completed(client: Any, futures: Sequence[Any], timeout: float | None = None,
         yield fut
 
 
+def watched_result(fut: Any, watch: WorkerWatch) -> Any:
+    """`fut.result()`, with `watch.check()` every WATCH_INTERVAL while it waits. A finished task whose result
+    lived on a worker lost before the client gathered it is scheduled again ("Couldn't gather ... rescheduling"),
+    and with no worker left `result()` would wait forever."""
+    while True:
+        try:
+            return fut.result(timeout=WATCH_INTERVAL)
+        except TimeoutError:
+            if getattr(fut, "status", None) in ("error", "cancelled"):
+                raise  # the task's own error, not the wait
+            watch.check()
+
+
 def result(client: Any, future: Any, timeout: float | None = None) -> Any:
     """`future.result()`, failing with one line once the cluster has had no live worker for `timeout` s."""
     for fut in completed(client, [future], timeout):
-        return fut.result()
+        return watched_result(fut, WorkerWatch(client, timeout))
     raise AssertionError("unreachable")
 
 
@@ -942,9 +955,10 @@ class FrameRun:
             def left() -> str:
                 return f"{len(self.frames) - len(done)} of {len(self.frames)} frames not rendered (--resume goes on)"
 
+            watch = WorkerWatch(self.client, left=left)
             for fut in completed(self.client, futures, left=left):
                 try:
-                    res = fut.result()
+                    res = watched_result(fut, watch)
                 except SketchgraphError:
                     raise
                 except Exception as exc:  # noqa: BLE001 - one line, as a local run prints

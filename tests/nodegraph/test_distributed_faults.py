@@ -172,6 +172,43 @@ def test_worker_threads_reads_the_current_worker_api() -> None:
 
 
 @pytest.mark.slow
+class _LostResult:
+    """A future that finished, whose result lived on a worker lost before it was gathered: its result() waits
+    for a rerun that no worker will make (every call times out)."""
+
+    status = "pending"
+
+    def __init__(self) -> None:
+        self.waits = 0
+
+    def result(self, timeout: float | None = None) -> object:
+        assert timeout is not None, "an unbounded wait would hang"
+        self.waits += 1
+        raise TimeoutError
+
+
+class _NoWorkers:
+    def __init__(self, after: int) -> None:
+        self.checks, self.after = 0, after
+
+    def check(self) -> None:
+        self.checks += 1
+        if self.checks >= self.after:
+            raise SketchgraphError("tcp://127.0.0.1:1: no live workers for 3 s (all lost, or none joined)")
+
+
+def test_a_result_lost_with_its_worker_fails_by_the_watch() -> None:
+    """The race the cluster test below can hit: the only worker dies after its task finished and before the
+    client gathered the result. The wait is cut into WATCH_INTERVAL pieces, the watch checked between them."""
+    fut, watch = _LostResult(), _NoWorkers(after=3)
+    with pytest.raises(SketchgraphError, match="no live workers"):
+        dist.watched_result(fut, watch)
+    assert fut.waits == 3 and watch.checks == 3
+    fut.status = "error"  # a task that raised TimeoutError itself: its error, not a wait
+    with pytest.raises(TimeoutError):
+        dist.watched_result(fut, _NoWorkers(after=1))
+
+
 def test_a_real_two_thread_worker_is_refused_before_rendering(dask_cluster: DaskCluster, tmp_path: Path) -> None:
     c = dask_cluster
     c.add_worker(nthreads=2)
