@@ -722,9 +722,12 @@ class Engine:
             return header, fast, t1
         strip = draw_array(host, ref[1], doc, view) if isinstance(value, TexArray) and host is not None \
             and host.ndim == 4 else None
+        layout = None
         if isinstance(value, Tex) and host is not None:
             rgb, note, kind = draw(host, ref[1], doc, view)
-            full = (host.shape[1], host.shape[0])
+            n, gap = panels(host.shape[1], kind, view.mode)
+            full = (n * host.shape[1] + (n - 1) * gap, host.shape[0])  # the picture's size in buffer pixels
+            layout = [n, host.shape[1], gap] if n > 1 else None
             stats = None  # sent after the picture (`stats_message`): they are not on the way to the screen
         elif strip is not None:
             rgb, note, kind, full = strip
@@ -742,6 +745,8 @@ class Engine:
         h, w = rgb.shape[:2]
         header = {"type": "image", "port": port, "width": w, "height": h, "full": full, "note": note, "kind": kind,
                   "stats": None if stats is None else _finite(stats), "frame": self.frame}
+        if layout is not None:  # [panels, panel width, gap]: the page maps a point of panel i onto the buffer
+            header["panels"] = layout
         return header, to_uint8(rgb, grey=kind == "grey"), t1
 
     def _stats(self, ref: tuple[str, str], host: np.ndarray) -> list[dict[str, Any]]:
@@ -805,13 +810,25 @@ def _fit(h: int, w: int, box_w: int, box_h: int) -> tuple[int, int]:
     return max(1, round(h * s)), max(1, round(w * s))
 
 
+def panels(w: int, kind: str, mode: str = "auto") -> tuple[int, int]:
+    """(panels side by side, the gap between them in buffer pixels) of a `w`-wide texture's picture: two for
+    two 2D vectors per pixel (the sketch's offsets: viz's `vector2`, a gap of w // 100, at least 1) drawn in
+    `auto` mode, else one."""
+    if kind == "vector2" and mode == "auto":
+        return 2, max(1, w // 100)
+    return 1, 0
+
+
 def draw(host: np.ndarray, port: str, doc: str, view: View) -> tuple[np.ndarray, str, str]:
     """A texture (GL order) drawn at the size of `view`'s box: (RGB float image, or an 8-bit picture (RGB or
-    grey) where a fast path drew it, note, kind)."""
+    grey) where a fast path drew it, note, kind). A picture of several panels (`panels`) fits the box as a
+    whole: each panel is drawn at the size that leaves room for the others."""
     a = host[::-1]
     h, w, c = a.shape
-    height, width = _fit(h, w, view.width, view.height)
     kind = viz.classify(port, c, doc)
+    n, gap = panels(w, kind, view.mode)
+    s = min(1.0, view.width / (n * w + (n - 1) * gap), view.height / h)
+    height, width = (h, w) if s >= 1.0 else (max(1, round(h * s)), max(1, round(w * s)))
     if view.mode == "auto":
         fast = _fast_color(a, height, width) if kind == "color" else None
         if fast is None and (height, width) == (h, w) and kind in _FAST_WHOLE:

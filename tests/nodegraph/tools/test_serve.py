@@ -196,6 +196,45 @@ def test_click_a_port_shows_its_buffer(page):
 
 
 @pytest.mark.slow
+def test_two_panel_offsets_keep_their_shape_and_probe_both_panels(page):
+    """The sketch's offsets (xy | zw, two colour wheels side by side) are shown at the two panels' own aspect,
+    and a point of the right panel probes the same buffer pixel as the left panel's."""
+    page.click('[data-port="sketch.offsets"]')
+    page.wait_for_function("window.sg.lastImage.port === 'sketch.offsets'", timeout=15000)
+    img = page.evaluate("window.sg.lastImage")
+    full_w, full_h = 2 * 400 + 4, 400
+    assert abs(img["width"] / img["height"] - full_w / full_h) < 0.02, img  # not squashed into the square
+    assert page.inner_text("#note").startswith(f"{full_w}×{full_h} shown at")
+    box = page.locator("#view").bounding_box()
+    s = min(box["width"] / full_w, box["height"] / full_h)
+    ox, oy = (box["width"] - full_w * s) / 2, (box["height"] - full_h * s) / 2
+    for picture_x, buffer_x in ((100, 100), (404 + 250, 250)):  # left panel, right panel
+        page.mouse.move(box["x"] + ox + (picture_x + 0.5) * s, box["y"] + oy + 200.5 * s)
+        # (the mouse moves to whole CSS pixels, about 1.2 buffer pixels at this scale: within one pixel)
+        page.wait_for_function(f"window.sg.probe && Math.abs(window.sg.probe.x - {buffer_x}) <= 1 && "
+                               "window.sg.probe.values", timeout=10000)
+        probe = page.evaluate("window.sg.probe")
+        assert abs(probe["y"] - 200) <= 1 and len(probe["values"]) == 4
+    page.click('[data-port="sprite.color"]')
+    page.wait_for_function("window.sg.lastImage.port === 'sprite.color'", timeout=10000)
+
+
+def test_a_two_panel_picture_fits_the_box_as_a_whole():
+    import numpy as np
+
+    from nodegraph.tools.serve.engine import View, draw, panels
+
+    host = np.random.default_rng(3).normal(size=(60, 100, 4)).astype(np.float32)
+    assert panels(100, "vector2") == (2, 1) and panels(100, "vector2", "r") == (1, 0) and panels(100, "color") == (1, 0)
+    img, _, kind = draw(host, "offsets", "", View(width=150, height=300))
+    assert kind == "vector2" and img.shape[:2] == (45, 151)  # each panel at 0.75 of 100 x 60, and the gap
+    img, _, _ = draw(host, "offsets", "", View(width=1000, height=1000))
+    assert img.shape[:2] == (60, 201)  # shown whole
+    img, _, kind = draw(host, "offsets", "", View(width=150, height=300, mode="r"))
+    assert kind == "grey" and img.shape[:2] == (60, 100)  # one channel: one panel
+
+
+@pytest.mark.slow
 def test_slider_rerenders_only_what_it_reaches(page):
     before = page.evaluate("window.sg.lastImage.sum")
     counts = {n["id"]: n["computes"] for n in _state(page)["nodes"]}

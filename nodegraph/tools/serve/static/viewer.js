@@ -95,6 +95,7 @@ export class Viewer {
     this.bitmap = bitmap;
     this.owned = !header.vid;
     this.full = header.full;
+    this.panels = header.panels || null; // [n, panel width, gap]: panels side by side, each the whole buffer
     this.draw();
     return bitmap;
   }
@@ -134,6 +135,15 @@ export class Viewer {
     return [Math.floor((e.clientX - r.left - ox) / s), Math.floor((e.clientY - r.top - oy) / s)];
   }
 
+  // the buffer pixel under a picture point: a point of panel i is the same pixel of the buffer as in panel 0;
+  // null in the gap between panels
+  pixel([x, y]) {
+    if (!this.panels) return [x, y];
+    const [n, w, gap] = this.panels;
+    const i = Math.floor(x / (w + gap)), px = x - i * (w + gap);
+    return i >= 0 && i < n && px < w ? [px, y] : null;
+  }
+
   onWheel(e) {
     if (!this.full) return;
     e.preventDefault();
@@ -160,8 +170,9 @@ export class Viewer {
 
   onMove(e) {
     if (!this.full) return;
-    const [x, y] = this.at(e);
+    const p = this.pixel(this.at(e));
+    if (p === null) return;
     if (this.pendingProbe === null) requestAnimationFrame(() => { const [px, py] = this.pendingProbe; this.pendingProbe = null; this.hooks.probe(px, py); });
-    this.pendingProbe = [x, y];
+    this.pendingProbe = p;
   }
 }
