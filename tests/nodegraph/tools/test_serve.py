@@ -147,6 +147,18 @@ def test_graph_lists_every_node(page, served):
         assert page.text_content(f'[data-node="{nid}"] .type') == spec["nodes"][nid]["type"]
     assert {n["id"]: n["computes"] for n in state["nodes"] if n["status"] == "computed"} == \
         {"gbuf": 1, "edges": 1, "noise": 1, "sketch": 1}
+    # the columns wrap to the pane's width: nothing to scroll sideways, every node box inside the pane
+    fits = page.evaluate("""() => { const p = document.getElementById('graph-pane'), r = p.getBoundingClientRect();
+        const boxes = [...document.querySelectorAll('#graph [data-node] rect')].map(e => e.getBoundingClientRect());
+        return { over: p.scrollWidth - p.clientWidth, inside: boxes.every(b => b.right <= r.right + 0.5),
+                 bands: Number(document.getElementById('graph').dataset.bands) }; }""")
+    columns = 1 + max(n["col"] for n in state["nodes"])
+    assert fits["over"] <= 0 and fits["inside"] and fits["bands"] >= 1, fits
+    assert fits["bands"] > 1 or columns <= 2  # the default 1500-px page fits two columns a band
+    page.set_viewport_size({"width": 2400, "height": 900})  # a wider pane: one band, drawn again on the resize
+    page.wait_for_function("document.getElementById('graph').dataset.bands === '1'", timeout=5000)
+    page.set_viewport_size({"width": 1500, "height": 900})
+    page.wait_for_function(f"document.getElementById('graph').dataset.bands === '{fits['bands']}'", timeout=5000)
 
 
 @pytest.mark.slow

@@ -55,6 +55,18 @@ function resetParam(node, param) {
   send({ op: "reset", node, param });
 }
 
+function graph(state) {
+  graph.width = $("graph-pane").clientWidth;
+  drawGraph($("graph"), state, { selected: selectedNode, viewed: viewedPort,
+    onPort: (port) => viewPort(port),
+    onNode: (id) => { selectedNode = id; render(sg.state); } });
+}
+
+// the graph's columns wrap to the pane's width: drawn again when the pane changes width
+new ResizeObserver(() => {
+  if (sg.state && $("graph-pane").clientWidth !== graph.width) graph(sg.state);
+}).observe($("graph-pane"));
+
 function render(state) {
   $("file").textContent = state.file;
   const err = $("error");
@@ -71,9 +83,7 @@ function render(state) {
     const first = Object.values(state.outputs)[0];
     if (first) { viewedPort = first; $("port").textContent = first; }
   }
-  drawGraph($("graph"), state, { selected: selectedNode, viewed: viewedPort,
-    onPort: (port) => viewPort(port),
-    onNode: (id) => { selectedNode = id; render(sg.state); } });
+  graph(state);
   const node = state.nodes.find((n) => n.id === selectedNode);
   $("params-title").textContent = node ? `${node.id} (${node.type})` : "parameters (click a node)";
   buildControls($("params"), node, state.edits[node ? node.id : ""] || {}, { set: setParam, reset: resetParam });
