@@ -268,36 +268,27 @@ def mirror_distance(points: np.ndarray, axis: int, scale: float) -> float:
     return float(d.mean()) / scale
 
 
-def upright_mirror(points: np.ndarray, scale: float) -> int | None:
-    """Of the two horizontal axes of a stood-up (Y-up) surface (`points`), the one whose mid-plane is its mirror
-    plane, left to right: 0 (X) or 2 (Z) when its `mirror_distance` is at most 1 / MIRROR_RATIO of the
-    other's; None when neither is, or when the surface is thin along one of them (under THIN of the other: a flat
-    cut-out is its own mirror image across its thin axis, whichever way it faces)."""
+def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1, 2)) -> int | None:
+    """Of `axes`, the one whose mid-plane is the surface's (`points`) mirror plane: its `mirror_distance` at most
+    1 / MIRROR_RATIO of every other's, of the axes along which the surface is not thin (under THIN of the largest
+    extent along `axes`: a flat or slender subject mirrors itself across its thickness whatever it shows); None
+    when none is, or fewer than two axes are not thin."""
     ext = np.ptp(points, axis=0)
-    if not min(ext[0], ext[2]) >= THIN * max(ext[0], ext[2]):
+    top = max(float(ext[k]) for k in axes)
+    kept = [k for k in axes if ext[k] >= THIN * top]
+    if len(kept) < 2:
         return None
-    dx, dz = mirror_distance(points, 0, scale), mirror_distance(points, 2, scale)
-    if MIRROR_RATIO * dx <= dz:
-        return 0
-    if MIRROR_RATIO * dz <= dx:
-        return 2
-    return None
-
-
-def mirror_plane(points: np.ndarray, scale: float) -> int | None:
-    """The axis whose mid-plane is the surface's (`points`) mirror plane: its `mirror_distance` at most
-    1 / MIRROR_RATIO of every other axis's, of the axes along which the surface is not thin (under THIN of its
-    largest extent: a flat or slender subject mirrors itself across its thickness whatever it shows); None when
-    no axis is, or fewer than two axes are not thin."""
-    ext = np.ptp(points, axis=0)
-    axes = [k for k in range(3) if ext[k] >= THIN * float(ext.max())]
-    if len(axes) < 2:
-        return None
-    d = {k: mirror_distance(points, k, scale) for k in axes}
-    best = min(axes, key=d.__getitem__)
-    if all(MIRROR_RATIO * d[best] <= d[k] for k in axes if k != best):
+    d = {k: mirror_distance(points, k, scale) for k in kept}
+    best = min(kept, key=d.__getitem__)
+    if all(MIRROR_RATIO * d[best] <= d[k] for k in kept if k != best):
         return best
     return None
+
+
+def upright_mirror(points: np.ndarray, scale: float) -> int | None:
+    """The mirror plane of a stood-up (Y-up) surface, left to right: `mirror_plane` of its horizontal axes, 0 (X)
+    or 2 (Z), or None."""
+    return mirror_plane(points, scale, (0, 2))
 
 
 def mirror_axis(asym: Any) -> int | None:
