@@ -1,6 +1,9 @@
 #version 330
 // G-buffer pass (Nienhaus & Döllner §3.1, §4.2). Each enabled output is a define giving its
 // colour-attachment location, so a pass writes only the buffers the plan needs.
+#ifdef SURFACE
+#include "surface.glsl"
+#endif
 #if defined VERTEX_SHADER
 // The matrices are multiplied once on the CPU in float64 (u_view u_model and u_proj u_view u_model), not per
 // vertex: on llvmpipe a per-vertex mat4 x mat4 is a measurable share of a dense mesh's draw.
@@ -22,20 +25,9 @@ uniform mat4 u_model_view;   // u_view u_model: view-space position, for the pun
 out vec3 v_view_pos;
 #endif
 out float v_view_depth;
-#ifdef SURFACE
-// a glTF surface (nodegraph/scene/meshes.py Surface): texture coordinates through KHR_texture_transform's
-// matrix (its first two rows), and the vertex colour
-in vec2 in_uv;
-in vec4 in_vcolor;
-uniform vec3 u_uv_row0;
-uniform vec3 u_uv_row1;
-out vec2 v_uv;
-out vec4 v_vcolor;
-#endif
 void main() {
 #ifdef SURFACE
-    v_uv = vec2(dot(u_uv_row0, vec3(in_uv, 1.0)), dot(u_uv_row1, vec3(in_uv, 1.0)));
-    v_vcolor = in_vcolor;
+    surface_pass();
 #endif
 #if ENLARGE
     vec3 p = in_pos + in_smooth * u_enlarge;
@@ -73,13 +65,6 @@ uniform vec3 u_factors;
 uniform float u_object_id;
 uniform float u_ambient;
 #ifdef SURFACE
-in vec2 v_uv;
-in vec4 v_vcolor;
-uniform vec4 u_factor;       // baseColorFactor, linear RGBA
-uniform sampler2D t_base;    // the base colour texture, stored sRGB: it reads (and filters) linear
-uniform vec2 u_mirror;       // 1 where the sampler's wrap mode is MIRRORED_REPEAT (s, t)
-uniform float u_cutoff;      // alphaCutoff (MASK)
-
 vec3 display(vec3 c) {       // linear -> sRGB-encoded display values, what u_color holds
     c = clamp(c, 0.0, 1.0);
     return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
@@ -87,14 +72,7 @@ vec3 display(vec3 c) {       // linear -> sRGB-encoded display values, what u_co
 
 // factor x vertex colour x texture, in linear values, as display values; a MASK cut-out discards the fragment
 vec3 surface_albedo() {
-    vec4 c = u_factor;
-#if VCOLOR
-    c *= v_vcolor;
-#endif
-#if TEXTURE
-    vec2 uv = mix(v_uv, 1.0 - abs(mod(v_uv, 2.0) - 1.0), u_mirror);
-    c *= textureGrad(t_base, uv, dFdx(v_uv), dFdy(v_uv));
-#endif
+    vec4 c = surface_base();
 #if MASK
     if (c.a < u_cutoff) discard;
 #endif
