@@ -709,16 +709,17 @@ class WorkerWatch:
 
 
 def completed(client: Any, futures: Sequence[Any], timeout: float | None = None,
-              left: Callable[[], str] | None = None) -> Iterator[Any]:
+              left: Callable[[], str] | None = None, watch: WorkerWatch | None = None) -> Iterator[Any]:
     """`futures` as they finish (like `distributed.as_completed`), failing with one line once the cluster has
     had no live worker for `timeout` seconds (`NO_WORKERS_TIMEOUT`): a scheduler keeps tasks that no worker can
-    run waiting forever."""
+    run waiting forever. `watch`: the WorkerWatch to check (its time without workers shared with the caller's
+    `watched_result` waits); else one of its own."""
     import queue
 
     done: queue.SimpleQueue[Any] = queue.SimpleQueue()
     for fut in futures:
         fut.add_done_callback(done.put)
-    watch = WorkerWatch(client, timeout, left)
+    watch = watch or WorkerWatch(client, timeout, left)
     for _ in range(len(futures)):
         while True:
             try:
@@ -745,8 +746,9 @@ def watched_result(fut: Any, watch: WorkerWatch) -> Any:
 
 def result(client: Any, future: Any, timeout: float | None = None) -> Any:
     """`future.result()`, failing with one line once the cluster has had no live worker for `timeout` s."""
-    for fut in completed(client, [future], timeout):
-        return watched_result(fut, WorkerWatch(client, timeout))
+    watch = WorkerWatch(client, timeout)
+    for fut in completed(client, [future], watch=watch):
+        return watched_result(fut, watch)
     raise AssertionError("unreachable")
 
 
@@ -956,7 +958,7 @@ class FrameRun:
                 return f"{len(self.frames) - len(done)} of {len(self.frames)} frames not rendered (--resume goes on)"
 
             watch = WorkerWatch(self.client, left=left)
-            for fut in completed(self.client, futures, left=left):
+            for fut in completed(self.client, futures, watch=watch):
                 try:
                     res = watched_result(fut, watch)
                 except SketchgraphError:
