@@ -13,6 +13,10 @@ import numpy as np
 DEPTH_TOL = 0.01
 """visible_both's default: the previous depth buffer may differ from the point's previous depth by 1% of its view
 depth (window depth z = A - B / d: |dz| = (1 - z) |dd| / d where far >> near)."""
+DEPTH_JUMP = 0.05
+"""motion_boundaries' default: two neighbouring covered pixels lie on different surfaces (an occluding contour
+between them) where their view depths differ by more than 5% of the nearer one's. A surface between them would
+have to be within about 3 degrees of edge-on at 256 px across a 45-degree view (less at larger sizes)."""
 
 
 def _corners(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -83,12 +87,53 @@ def visible_both(motion: np.ndarray, prev_depth: np.ndarray, tol: float = DEPTH_
     return surface_ok | background_ok
 
 
+def displacement(motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(u, v): each pixel's backward displacement in pixels (window x right, y up): where its point was in the
+    previous frame minus where it is; 0 on the background (the sheet does not move)."""
+    x, y, _ = _source(motion)
+    h, w = x.shape
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+    return x - (cols + 0.5), y - (h - rows - 0.5)
+
+
+def motion_boundaries(motion: np.ndarray, depth: np.ndarray, jump: float = DEPTH_JUMP) -> np.ndarray:
+    """(h, w) bool: the pixels on either side of an occluding contour in this frame, where the motion is
+    discontinuous: a pixel and one of its four neighbours differ in coverage (an outline over the sheet), or are
+    both covered at view depths (`depth`, rasterize.linear_depth) more than `jump` of the nearer one apart (a
+    part in front of another). A pixel there straddles two surfaces that move apart, and its one motion vector
+    follows one of them (an antialiased outline mixes both; a line drawn along the contour moves with the contour,
+    not with either surface), so the warping error leaves it out. This is the exact-geometry counterpart of the
+    motion-boundary test in the non-occlusion mask of Ruder et al. 2016 that Lai et al. 2018 measure over (a large
+    gradient of optical flow); smooth motion, however sheared, is never a boundary here."""
+    covered = np.asarray(motion, dtype=np.float64)[..., 3] > 0.5
+    d = np.asarray(depth, dtype=np.float64)
+    if d.ndim == 3:
+        d = d[..., 0]
+    out = np.zeros(covered.shape, bool)
+    for axis in (0, 1):
+        a = [slice(None), slice(None)]
+        b = [slice(None), slice(None)]
+        a[axis], b[axis] = slice(None, -1), slice(1, None)
+        ca, cb, da, db = covered[tuple(a)], covered[tuple(b)], d[tuple(a)], d[tuple(b)]
+        edge = (ca != cb) | (ca & cb & (np.abs(da - db) > jump * np.minimum(da, db)))
+        out[tuple(a)] |= edge
+        out[tuple(b)] |= edge
+    return out
+
+
+def reliable(motion: np.ndarray, prev_depth: np.ndarray, depth: np.ndarray, tol: float = DEPTH_TOL) -> np.ndarray:
+    """(h, w) bool: the pixels the warping error is measured over: visible in both frames (`visible_both`) and
+    off this frame's motion boundaries (`motion_boundaries`, from its linear `depth`)."""
+    return visible_both(motion, prev_depth, tol) & ~motion_boundaries(motion, depth)
+
+
 def warping_error(frame: np.ndarray, prev_frame: np.ndarray, motion: np.ndarray, prev_depth: np.ndarray,
-                  tol: float = DEPTH_TOL) -> float:
-    """Mean over pixels visible in both frames of |frame - warp(prev_frame, motion)|, averaged over the channels
-    given (Lai et al. 2018 after Bonneel et al. 2015, with the exact motion instead of optical flow); NaN where no
-    pixel is visible in both."""
-    mask = visible_both(motion, prev_depth, tol)
+                  depth: np.ndarray | None = None, tol: float = DEPTH_TOL) -> float:
+    """Mean of |frame - warp(prev_frame, motion)| over the pixels visible in both frames, and off the motion
+    boundaries where this frame's linear `depth` is given (`reliable`), averaged over the channels given (Lai et
+    al. 2018 after Bonneel et al. 2015, with the exact motion instead of optical flow); NaN where no pixel
+    counts."""
+    mask = visible_both(motion, prev_depth, tol) if depth is None else reliable(motion, prev_depth, depth, tol)
     if not mask.any():
         return float("nan")
     diff = np.abs(np.asarray(frame, dtype=np.float64) - warp(prev_frame, motion))

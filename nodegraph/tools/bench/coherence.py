@@ -3,13 +3,16 @@ error between consecutive frames along the exact screen-space motion (`rasterize
 
 For each pair of consecutive frames (t - 1, t) of a shot,
 
-    E_t = mean over the pixels visible in both frames of |L_t - warp(L_{t-1}, motion_t)|
+    E_t = mean over the reliable pixels of |L_t - warp(L_{t-1}, motion_t)|
 
 where L is the luminance (Rec. 709 weights, the image composited over white where it has alpha, values 0..1),
-`warp` reads the previous frame bilinearly where the pixel's surface point was then and `visible_both` keeps
-the pixels whose point was not hidden and stayed in the picture, plus the background that stayed background
-(nodegraph/output/motion.py; after Lai et al. 2018 and Bonneel et al. 2015, with the exact motion instead of
-optical flow). A shot's E is the mean of E_t over its pairs. Three figures are measured the same way:
+`warp` reads the previous frame bilinearly where the pixel's surface point was then, and the reliable pixels
+(`motion.reliable`) are those visible in both frames (`visible_both`: the point was not hidden and stayed in the
+picture, or the background stayed background) and off motion boundaries (`motion_boundaries`: the pixels on
+either side of an occluding contour of the frame, where coverage or view depth jumps between neighbours). That is
+the non-occlusion mask of Lai et al. 2018 (Ruder et al. 2016's disocclusion and motion-boundary tests; after
+Bonneel et al. 2015), with the exact motion and geometry instead of optical flow (nodegraph/output/motion.py).
+A shot's E is the mean of E_t over its pairs. Three figures are measured the same way:
 
 - `e_pipeline`: the pipeline's `image` as configured;
 - `e_plain`: the plain lit render (`rasterize` with lit: true): the floor, shading change and aliasing only;
@@ -22,8 +25,9 @@ hatching), the most a film setting that keeps the look can expect to remove.
 
     coherence_index = 1 - (e_pipeline - e_plain) / (e_reseed - e_plain), clipped to [0, 1]
 
-1 = as coherent as the plain render, 0 = as incoherent as re-seeding every frame (None where re-seeding does not
-raise the error above the floor). Paper grain is measured off (`grain` and `paper_tint` 0 on the nodes reading
+1 = as coherent as the plain render (or more: an error at or under the floor), 0 = as incoherent as re-seeding
+every frame (None where re-seeding changes nothing, or where the pipeline's error is above the floor and
+re-seeding's is not). Paper grain is measured off (`grain` and `paper_tint` 0 on the nodes reading
 a `paper` input): it stays fixed on the sheet by design and would count as error wherever a surface moves.
 
 `sketchiness_px`: the mean distance in pixels (at the bench size) from each drawn pixel (a thin dark mark: at
@@ -31,6 +35,11 @@ least 0.1 darker in luminance than the image's 5x5 grey closing there, whatever 
 frame of the `turn` shot to the nearest true feature line of the mesh (silhouettes, creases and boundaries,
 visible by depth: nodegraph/tools/bench/groundtruth.py, as the accuracy charts use); hatching counts as drawn
 marks too.
+
+`with_boundaries`: beside each index, the same figures over every pixel visible in both frames, motion boundaries
+included. A pixel on an outline straddles two surfaces and its one motion vector follows one of them, so there the
+error counts the outline's own antialiasing (the plain render at 2x2 supersampling scores worse than without) and
+any line drawn along it, which moves with the outline rather than with either surface.
 
 `extended`: beside each index, the same figures with the motion extended beyond the outlines (`extend_motion`):
 background pixels within BAND_PX (6 px at 256) of an object move as the nearest covered pixel does, so a mark drawn
@@ -274,6 +283,9 @@ def luminance(img: np.ndarray) -> np.ndarray:
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
+VARIANTS = ("with_boundaries", "extended")  # figures beside the index's, measured over other pixels (docstring)
+
+
 class Shot:
     """One shot's motion fields and previous depths (from a plain G-buffer), and its plain floor."""
 
@@ -282,31 +294,42 @@ class Shot:
         pipe = session.load(plain, scene=str(scene), size=size)
         self.motion = [pipe.inspect("gbuf.motion", frame=t) for t in range(frames)]
         self.depth = [pipe.inspect("gbuf.depth", frame=t)[..., 0] for t in range(frames)]
+        self.linear = [pipe.inspect("gbuf.linear_depth", frame=t)[..., 0] for t in range(frames)]
         self.band_px = BAND_PX * min(size) / 256.0
         self.extended = [extend_motion(m, self.band_px) for m in self.motion]
-        self.e_plain, self.e_plain_extended = self.errors(
-            [luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
+        self.masks = [self._masks(t) for t in range(1, frames)]
+        self.floor = self.errors([luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
+        self.e_plain = self.floor["index"]
+
+    def _masks(self, t: int) -> dict[str, np.ndarray]:
+        """The pixels each figure counts for the pair (t - 1, t): `index` the reliable ones (visible in both
+        frames, off motion boundaries), `with_boundaries` those visible in both, `extended` the reliable ones along
+        the motion extended beyond the outlines, where a band pixel counts if it came from the previous frame's
+        background, inside the image."""
+        visible = mo.visible_both(self.motion[t], self.depth[t - 1])
+        motion, band = self.extended[t]
+        inside = mo.visible_both(motion, self.depth[t - 1] * 0.0)
+        was_background = mo.sample(self.depth[t - 1], motion[..., 0], motion[..., 1]) >= 1.0
+        boundaries = mo.motion_boundaries(self.motion[t], self.linear[t])
+        extended = ((visible & ~band) | (band & inside & was_background)) & ~boundaries
+        return {"index": visible & ~boundaries, "with_boundaries": visible, "extended": extended}
 
     def error(self, lum: list[np.ndarray]) -> float:
-        """Mean warping error over the consecutive pairs of frames."""
-        return self.errors(lum)[0]
+        """Mean warping error over the consecutive pairs of frames (the index's pixels)."""
+        return self.errors(lum)["index"]
 
-    def errors(self, lum: list[np.ndarray]) -> tuple[float, float]:
-        """Mean warping error over the consecutive pairs of frames: along the exact motion (the index's), and along
-        the motion extended beyond the outlines (`extend_motion`)."""
-        full, ext = [], []
+    def errors(self, lum: list[np.ndarray]) -> dict[str, float]:
+        """Mean warping error over the consecutive pairs of frames for each set of pixels (`_masks`): along the
+        exact motion for `index` and `with_boundaries`, along the extended motion (`extend_motion`) for
+        `extended`."""
+        out: dict[str, list[float]] = {"index": [], **{v: [] for v in VARIANTS}}
         for t in range(1, len(lum)):
-            mask = mo.visible_both(self.motion[t], self.depth[t - 1])
+            masks = self.masks[t - 1]
             diff = np.abs(lum[t] - mo.warp(lum[t - 1], self.motion[t]))
-            full.append(diff[mask].mean() if mask.any() else np.nan)
-            motion, band = self.extended[t]
-            # a band pixel counts where it came from the previous frame's background, inside the image
-            inside = mo.visible_both(motion, self.depth[t - 1] * 0.0)
-            was_background = mo.sample(self.depth[t - 1], motion[..., 0], motion[..., 1]) >= 1.0
-            mask = (mask & ~band) | (band & inside & was_background)
-            diff = np.abs(lum[t] - mo.warp(lum[t - 1], motion))
-            ext.append(diff[mask].mean() if mask.any() else np.nan)
-        return float(np.nanmean(full)), float(np.nanmean(ext))
+            ext = np.abs(lum[t] - mo.warp(lum[t - 1], self.extended[t][0]))
+            for key, d in (("index", diff), ("with_boundaries", diff), ("extended", ext)):
+                out[key].append(d[masks[key]].mean() if masks[key].any() else np.nan)
+        return {k: float(np.nanmean(v)) for k, v in out.items()}
 
 
 def extend_motion(motion: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
@@ -335,12 +358,17 @@ def extend_motion(motion: np.ndarray, width: float) -> tuple[np.ndarray, np.ndar
 
 
 def coherence_index(e_pipe: float, e_plain: float, e_reseed: float) -> float | None:
-    """1 = as coherent as the plain render, 0 = as incoherent as re-seeding every frame (clipped to [0, 1]); None
-    where the index says nothing: re-seeding does not raise the error above the plain render's, or changes no
-    pixel at all (the same error to the last bit: a pipeline without seeded nodes, such as plotter_lines, whose
-    raw errors are then its figures)."""
+    """1 = as coherent as the plain render, 0 = as incoherent as re-seeding every frame (clipped to [0, 1]); 1 too
+    where the pipeline changes no more than the plain render does. None where the index says nothing: re-seeding
+    changes no pixel at all (the same error to the last bit: a pipeline without seeded nodes, such as
+    plotter_lines, whose raw errors are then its figures), or the pipeline changes more than the plain render
+    while re-seeding does not raise the error above it."""
+    if e_pipe == e_reseed:
+        return None
+    if e_pipe <= e_plain:  # no more change than the plain render, whatever re-seeding does
+        return 1.0
     span = e_reseed - e_plain
-    if not span > 1e-6 or e_pipe == e_reseed:
+    if not span > 1e-6:
         return None
     return float(min(max(1.0 - (e_pipe - e_plain) / span, 0.0), 1.0))
 
@@ -436,24 +464,28 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
 
     def shot_figures(shot: Shot, overrides: dict[str, Any], reseed: dict[str, Any] | None = None,
                      source: str = name, grain: dict[str, Any] = base) -> dict[str, Any]:
-        e_pipe, i_pipe = shot.errors(styled(session, source, shot, size, {**grain, **overrides}))
+        e_pipe = shot.errors(styled(session, source, shot, size, {**grain, **overrides}))
         if reseed is not None:
-            e_reseed, i_reseed = reseed["e_reseed"], reseed["extended"]["e_reseed"]
+            e_reseed = {"index": reseed["e_reseed"], **{v: reseed[v]["e_reseed"] for v in VARIANTS}}
         else:
-            e_reseed, i_reseed = shot.errors(styled(session, source, shot, size, {**grain, **overrides}, reseed=True))
-        return {"coherence_index": coherence_index(e_pipe, shot.e_plain, e_reseed), "e_pipeline": e_pipe,
-                "e_plain": shot.e_plain, "e_reseed": e_reseed,
-                "extended": {"coherence_index": coherence_index(i_pipe, shot.e_plain_extended, i_reseed),
-                             "e_pipeline": i_pipe, "e_plain": shot.e_plain_extended, "e_reseed": i_reseed,
-                             "band_px": shot.band_px}}
+            e_reseed = shot.errors(styled(session, source, shot, size, {**grain, **overrides}, reseed=True))
+
+        def figures(key: str) -> dict[str, Any]:
+            return {"coherence_index": coherence_index(e_pipe[key], shot.floor[key], e_reseed[key]),
+                    "e_pipeline": e_pipe[key], "e_plain": shot.floor[key], "e_reseed": e_reseed[key]}
+
+        return {**figures("index"), **{v: figures(v) for v in VARIANTS}} | {
+            "extended": {**figures("extended"), "band_px": shot.band_px}}
 
     result: dict[str, Any] = {"grain_off": base}
     default = {s: shot_figures(shot, {}) for s, shot in shots.items()}
     still = sweep_overrides(probe, 0.0)
     if still:  # beside the index: the error left with the strays set to 0 (lines moving over the surface, aliasing)
         for s, shot in shots.items():
-            default[s]["e_no_uncertainty"], default[s]["extended"]["e_no_uncertainty"] = shot.errors(
-                styled(session, name, shot, size, {**base, **still}))
+            e_still = shot.errors(styled(session, name, shot, size, {**base, **still}))
+            default[s]["e_no_uncertainty"] = e_still["index"]
+            for v in VARIANTS:
+                default[s][v]["e_no_uncertainty"] = e_still[v]
     result["default"] = {"overrides": {}, "shots": default}
     echo(f"  {name}: default {_indices(default)} ({time.perf_counter() - t0:.0f} s)")
     source = film_pipeline(name)

@@ -234,6 +234,53 @@ def test_warp_and_visible_both_by_hand():
     assert mo.warping_error(prev + 1.0, prev, np.zeros((3, 4, 4)), np.ones((3, 4))) == pytest.approx(1.0)
 
 
+def _moved(h: int, w: int, covered: np.ndarray, du: float, dv: float) -> np.ndarray:
+    """A motion field whose covered pixels all came from (du, dv) px away (window x right, y up)."""
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+    m = np.zeros((h, w, 4))
+    m[..., 0], m[..., 1], m[..., 2], m[..., 3] = cols + 0.5 + du, h - rows - 0.5 + dv, 0.5, 1.0
+    m[~covered] = 0.0
+    return m
+
+
+def test_motion_boundaries_by_hand():
+    # a block over columns 3-5 of a 6 x 8 image came from 3 px to the left; the sheet around it stays put. The
+    # outline lies between columns 2 | 3 and 5 | 6: those four columns straddle it
+    block = np.zeros((6, 8), bool)
+    block[:, 3:6] = True
+    m = _moved(6, 8, block, -3.0, 0.0)
+    depth = np.where(block, 2.0, 0.0)
+    u, v = mo.displacement(m)
+    np.testing.assert_allclose(u, np.where(block, -3.0, 0.0))
+    np.testing.assert_allclose(v, 0.0)
+    want = np.zeros((6, 8), bool)
+    want[:, [2, 3, 5, 6]] = True
+    np.testing.assert_array_equal(mo.motion_boundaries(m, depth), want)
+    # a surface filling the picture, sheared (u = 0.1 px per column) and sloping away by 4% of its depth a column:
+    # smooth motion, no boundary; a step of 6% between rows 2 and 3 (a part in front of another): rows 2 and 3
+    everywhere = np.ones((6, 8), bool)
+    sheared = _moved(6, 8, everywhere, 0.0, 0.0)
+    sheared[..., 0] += 0.1 * np.arange(8)
+    slope = 2.0 * 1.04 ** np.arange(8)[None, :] * np.ones((6, 1))
+    assert not mo.motion_boundaries(sheared, slope).any()
+    step = slope.copy()
+    step[3:] *= 1.06
+    np.testing.assert_array_equal(mo.motion_boundaries(sheared, step).any(axis=1), [0, 0, 1, 1, 0, 0])
+    assert mo.motion_boundaries(sheared, step)[2:4].all()
+    # the warping error leaves the boundary out where the frame's depth is given. The block was over columns 0-2
+    # (window depth 0.5) before; the sheet beside it changed by 1 on columns 2 and 6. Visible in both: the block
+    # (18 px) and the sheet that was sheet (columns 6, 7: 12 px), of which column 6 (6 px) changed; off the
+    # boundary only columns 4 and 7 count
+    prev, prev_depth = np.zeros((6, 8)), np.ones((6, 8))
+    prev_depth[:, :3] = 0.5
+    frame = np.zeros((6, 8))
+    frame[:, [2, 6]] = 1.0
+    assert mo.visible_both(m, prev_depth).sum() == 30
+    assert mo.warping_error(frame, prev, m, prev_depth) == pytest.approx(6 / 30)
+    assert mo.warping_error(frame, prev, m, prev_depth, depth) == 0.0
+    assert (mo.reliable(m, prev_depth, depth) == (mo.visible_both(m, prev_depth) & ~want)).all()
+
+
 def test_alpha_mask_cut_outs_are_cut_in_the_motion_pass(gl, tmp_path):
     """A glTF quad whose texture's alpha is 1, 0, 0.78, 0.39 by column (cutoff 0.5): the motion pass covers the
     kept columns only, as the G-buffer does; the cut ones are background (all 0) there too."""
