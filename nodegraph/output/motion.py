@@ -87,15 +87,6 @@ def visible_both(motion: np.ndarray, prev_depth: np.ndarray, tol: float = DEPTH_
     return surface_ok | background_ok
 
 
-def displacement(motion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(u, v): each pixel's backward displacement in pixels (window x right, y up): where its point was in the
-    previous frame minus where it is; 0 on the background (the sheet does not move)."""
-    x, y, _ = _source(motion)
-    h, w = x.shape
-    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
-    return x - (cols + 0.5), y - (h - rows - 0.5)
-
-
 def motion_boundaries(motion: np.ndarray, depth: np.ndarray, jump: float = DEPTH_JUMP) -> np.ndarray:
     """(h, w) bool: the pixels on either side of an occluding contour in this frame, where the motion is
     discontinuous: a pixel and one of its four neighbours differ in coverage (an outline over the sheet), or are
