@@ -19,10 +19,13 @@ from pydantic import Field
 from nodegraph.errors import NodeError
 from nodegraph.gpu import footprint
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.types import STROKES, Texture
+from nodegraph.types import SCENE, STROKES, Texture
 from nodegraph.values import Footprint, Strokes
 
+from .._shared.surface_points import surface_points
 from . import core
+from .common import Sites
+from .rng import mix_np
 
 Color = tuple[float, float, float]
 # the core's params that are lengths in pixels (the random force is one per unit time, like the field)
@@ -51,17 +54,31 @@ class ParticleSketch(Node):
     frame // hold * hold (`hold` 1: new strokes every frame, the classic squiggle; k: the same particle seeds
     for k frames; 0: never new ones). Within a hold the drawing changes only where its inputs do, and the
     node's key is the same, so held frames come from the cache.
-    Distances (`n`, `m`, `line_width`, `erase_width`) are in pixels at the pipeline's reference size
-    (docs/sizes.md). At px_scale s they are multiplied by s, and so are the force field and the random
-    force: the equation of motion is linear in them, so a trajectory is the reference-size one scaled by s
-    (same time step, same number of steps), and the same strokes cover the same share of the picture."""
+
+    `starts: surface` (not in Curtis' method; the object-space alternative for films) takes the starts from
+    points fixed on the scene's surfaces instead of random positions (`_shared.surface_points`: low-discrepancy
+    points on every face, one per `site_spacing`^2 px^2 of its area on screen, visible by `linear_depth` and
+    `object_id`), in an order fixed by a hash of face, point and seed: each stroke starts at the next of them
+    that passes the `n` and `m` tests, and draws its random forces from its point's key. From frame to frame the
+    same surface points start strokes with the same forces, in the same order, so the drawing moves with its
+    objects; strokes still change where the edges slide over the surface (silhouettes) and where a start
+    accepted in one frame is refused in the next. Starts lie on surfaces only, never on the background beside
+    a silhouette. The drawing ends when the points run out."""
 
     version = "3"
+    # keyed through hash_extra where they matter (starts: surface), so random-start keys stay as they were
+    key_omits = frozenset({"starts", "site_spacing", "depth_tolerance"})
     shaders = ("particle_sketch.glsl",)
     context_keys = frozenset({"size", "seed", "px_scale"})
     inputs = {
         "edges": Input(Texture("R8"), "Binary edge map, 1 = ink needed (depth_edges.edges)."),
         "force": Input(Texture("RG32F"), "Force field in pixels, x right, y up (force_field.out)."),
+        "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): which surface points "
+                              "are visible, for `starts: surface`.", optional=True),
+        "object_id": Input(Texture("R32F"), "Object index + 1 (rasterize.object_id), for `starts: surface`.",
+                           optional=True),
+        "scene": Input(SCENE, "Scene whose surfaces `starts: surface` reads; the pipeline's scene when not "
+                       "connected.", optional=True),
     }
     outputs = {
         "image": Output(Texture("RGBA8"), "The drawing: `color` lines on `paper`, alpha 1."),
@@ -104,6 +121,15 @@ class ParticleSketch(Node):
                            "(compiled); B > 1: B particles in lock-step (NumPy), which adds parallel strokes.")
         retries: int = Field(5000, ge=1, le=10_000_000, description="Random start positions tried per stroke "
                              "before the drawing counts as complete.")
+        starts: Literal["random", "surface"] = Field("random", description="`random`: uniform random positions "
+                                                     "(Curtis); `surface`: points fixed on the surfaces, in a fixed "
+                                                     "order, each with its own random forces, so a film's strokes "
+                                                     "follow their objects (needs linear_depth and object_id).")
+        site_spacing: float = Field(1.0, ge=0.25, le=32, allow_inf_nan=False, description="`starts: surface`: "
+                                    "about one surface point per site_spacing^2 px^2 of each face on screen (px at "
+                                    "the reference size).")
+        depth_tolerance: float = Field(0.02, gt=0, le=1, allow_inf_nan=False, description="`starts: surface`: a "
+                                       "point is visible within this fraction of its depth of the depth buffer.")
 
     def core_params(self, px_scale: float = 1.0) -> core.ParticleParams:
         """The core's params at px_scale: distances and the random force times px_scale (as written at 1)."""
@@ -119,13 +145,43 @@ class ParticleSketch(Node):
         return self.held_frame(frame)  # the engine's hold convention (nodegraph.node.held_frame)
 
     def hash_extra(self, ctx: HashContext) -> Any:
+        if self.params.starts == "surface":  # the points move with the pose and camera of the frame itself
+            p = self.params
+            return {"seed_frame": self.seed_frame(ctx.frame), "pose_frame": ctx.frame,
+                    "surface": [p.site_spacing, p.depth_tolerance]}
         return {"seed_frame": self.seed_frame(ctx.frame)}
 
     def rng(self, ctx: RunContext) -> np.random.Generator:
         return np.random.default_rng([ctx.seed_for_frame(self.seed_frame(ctx.frame)), self.params.seed])
 
-    def simulate(self, ctx: RunContext, edges: Any, force: Any) -> core.SketchResult:
-        """Read back the edge map and the field, and draw (CPU)."""
+    def sites(self, ctx: RunContext, inputs: dict[str, Any], size: tuple[int, int],
+              rng: np.random.Generator) -> Sites | None:
+        """The surface points of `starts: surface` (None for random starts), in an order drawn from `rng`: a hash
+        of each point's key and one number from `rng`, so the seed changes which points start first."""
+        p = self.params
+        if p.starts != "surface":
+            return None
+        if inputs.get("linear_depth") is None or inputs.get("object_id") is None:
+            raise NodeError("starts: surface needs the linear_depth and object_id inputs (rasterize.linear_depth, "
+                            "rasterize.object_id)", self.id, self.type_name)
+        for name in ("linear_depth", "object_id"):
+            if inputs[name].size != size:
+                raise NodeError(f"input {name!r} {inputs[name].size[0]}x{inputs[name].size[1]} differs from the edge "
+                                f"map's {size[0]}x{size[1]}", self.id, self.type_name)
+        scene = ctx.input_scene(inputs)
+        w, h = size
+        cam = scene.camera_at(ctx.frame)
+        depth = inputs["linear_depth"].read()[..., 0].astype(np.float64)
+        ids = np.rint(inputs["object_id"].read()[..., 0]).astype(np.int64)
+        rows, keys = surface_points(scene, cam.view_matrix(), cam.projection_matrix(w / h), depth, ids, size,
+                                    p.site_spacing * ctx.px_scale, p.depth_tolerance, most=1 << 22)
+        salt = np.uint64(rng.integers(0, 2**63))
+        order = np.argsort(mix_np(keys ^ salt), kind="stable")
+        return Sites(rows[order, :2], keys[order])
+
+    def simulate(self, ctx: RunContext, edges: Any, force: Any, inputs: dict[str, Any] | None = None
+                 ) -> core.SketchResult:
+        """Read back the edge map and the field, and draw (CPU); `inputs` has what `starts: surface` reads."""
         if edges.size != force.size:
             raise NodeError(f"inputs 'edges' {edges.size[0]}x{edges.size[1]} and 'force' {force.size[0]}x"
                             f"{force.size[1]} differ in size; feed both from one depth map", self.id, self.type_name)
@@ -137,15 +193,17 @@ class ParticleSketch(Node):
         if s != 1.0:
             ff = ff * np.float32(s)  # pixels per unit time at this size: the trajectories scale with the image
         try:
-            return core.simulate(e, ff, self.core_params(s), self.rng(ctx))
+            rng = self.rng(ctx)
+            sites = self.sites(ctx, inputs or {}, edges.size, rng)
+            return core.simulate(e, ff, self.core_params(s), rng, sites=sites)
         except ValueError as exc:  # the core checks its arrays (a force field with NaN or inf)
             raise NodeError(str(exc), self.id, self.type_name) from None
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
         p = self.params
         gl = ctx.gl
-        res = self.simulate(ctx, inputs["edges"], inputs["force"])
         size = inputs["edges"].size
+        res = self.simulate(ctx, inputs["edges"], inputs["force"], inputs)
         out: dict[str, Any] = {}
         if "strokes" in needed:
             out["strokes"] = Strokes(list(res.strokes), size, p.line_width * ctx.px_scale, p.color)

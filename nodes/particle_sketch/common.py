@@ -70,6 +70,27 @@ class SketchResult:
     exhausted: bool = False  # the run ended because a stroke found no valid start
 
 
+@dataclass(frozen=True)
+class Sites:
+    """Given starts, tried in order instead of random positions: stroke k starts at the next site (after the last
+    one tried) that is valid then, and its random forces are drawn from its site's key instead of from k. Sites
+    fixed on a surface (`nodegraph_nodes._shared.surface_points`) keep their keys from frame to frame, so the
+    same surface point starts a stroke with the same forces, and the drawing follows its objects."""
+
+    xy: np.ndarray  # (S, 2) float64 window positions (x right, y up), inside the image
+    key: np.ndarray  # (S,) uint64 keys
+
+    def __post_init__(self) -> None:
+        xy = np.ascontiguousarray(self.xy, np.float64).reshape(-1, 2)
+        key = np.ascontiguousarray(self.key, np.uint64).reshape(-1)
+        if len(xy) != len(key):
+            raise ValueError(f"sites: {len(xy)} positions but {len(key)} keys")
+        if not np.isfinite(xy).all():
+            raise ValueError("sites: positions must be finite")
+        object.__setattr__(self, "xy", xy)
+        object.__setattr__(self, "key", key)
+
+
 def disc_offsets(r: float) -> list[tuple[int, int]]:
     """Integer (dx, dy) with dx^2 + dy^2 <= r^2, in a fixed order."""
     k = int(math.floor(r))

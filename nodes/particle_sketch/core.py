@@ -94,8 +94,20 @@ from typing import Literal
 import numpy as np
 
 from .._shared import filters
-from .common import LINE_LEVEL, ParticleParams, SketchResult, disc_offsets, pad_for
-from .rng import PAIR, draw_key, point_np, point_of, point_py, stroke_key_np, stroke_key_py, unit_np, unit_py
+from .common import LINE_LEVEL, ParticleParams, Sites, SketchResult, disc_offsets, pad_for
+from .rng import (
+    PAIR,
+    draw_key,
+    point_np,
+    point_of,
+    point_py,
+    site_key_np,
+    site_key_py,
+    stroke_key_np,
+    stroke_key_py,
+    unit_np,
+    unit_py,
+)
 
 # --- depth edges and force field ------------------------------------------------------------------
 
@@ -168,6 +180,16 @@ def _check_inputs(edges: np.ndarray, ff: np.ndarray, params: ParticleParams) -> 
     if ffa.size and not (np.isfinite(ffa.min()) and np.isfinite(ffa.max())):
         raise ValueError("ff: expected finite values, found NaN or inf")
     return h, w
+
+
+def _check_sites(sites: Sites | None, h: int, w: int) -> None:
+    if sites is None:
+        return
+    if not isinstance(sites, Sites):
+        raise TypeError(f"sites: expected Sites, got {type(sites).__name__}")
+    xy = sites.xy
+    if len(xy) and not ((xy >= 0.0).all() and (xy[:, 0] < w).all() and (xy[:, 1] < h).all()):
+        raise ValueError(f"sites: positions must lie inside the {w} x {h} image")
 
 
 
@@ -376,8 +398,9 @@ class _Starts:
         self.tested = self.failed = 0
         self.stale = False
 
-    def find(self, ids: np.ndarray) -> np.ndarray:
-        """Complex start of each stroke in `ids`, NaN where none of `retries` candidates is valid."""
+    def find(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Complex start of each stroke in `ids`, NaN where none of `retries` candidates is valid, and the keys
+        of their random forces."""
         maps, w, h = self.maps, self.maps.w, self.maps.h
         skey = stroke_key_np(self.key, ids, 0)
         found = np.full(ids.size, np.nan, np.complex128)
@@ -407,7 +430,35 @@ class _Starts:
                 found[pending[hit]] = point_of(z[hit, first], w, h)
                 pending = pending[~has]
             k0 += cnum
-        return found
+        return found, stroke_key_np(self.key, ids, 1)
+
+
+class _SiteStarts:
+    """Start search over given sites (`Sites`): the next valid sites in their order, tested exactly against the
+    maps as they are now; a site found invalid is not tried again (the valid set only shrinks)."""
+
+    def __init__(self, maps: _Maps, key: int, sites: Sites):
+        self.maps, self.xy, self.next = maps, sites.xy, 0
+        self.fkey = site_key_np(key, sites.key)
+
+    def find(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        maps, want = self.maps, ids.size
+        found = np.full(want, np.nan, np.complex128)
+        keys = np.zeros(want, np.uint64)
+        got = 0
+        while got < want and self.next < len(self.xy):
+            lo = self.next
+            hi = min(lo + max(64, 4 * (want - got)), len(self.xy))
+            xy = self.xy[lo:hi]
+            ix = np.minimum(xy[:, 0].astype(np.int64), maps.w - 1)
+            iy = np.minimum(xy[:, 1].astype(np.int64), maps.h - 1)
+            c = maps.flat(ix, iy)
+            hit = np.flatnonzero(maps.near_edge(c) & ~maps.near_ink(c))[:want - got]
+            found[got:got + hit.size] = xy[hit, 0] + 1j * xy[hit, 1]
+            keys[got:got + hit.size] = self.fkey[lo + hit]
+            got += hit.size
+            self.next = lo + int(hit[-1]) + 1 if got == want else hi
+        return found, keys
 
 
 def _jit():
@@ -432,15 +483,17 @@ _JIT_WARNED = False
 
 def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = None,
              rng: np.random.Generator | None = None,
-             engine: Literal["auto", "jit", "numpy"] = "auto") -> SketchResult:
+             engine: Literal["auto", "jit", "numpy"] = "auto", sites: Sites | None = None) -> SketchResult:
     """Curtis' particle sketcher (see the module docstring).
 
     batch=1 is the strictly sequential algorithm: `engine` "auto" or "jit" runs it compiled
     (`jit.simulate_sequential`), "numpy" on the lock-step NumPy code with one lane; all give the same
     output as `simulate_python`. batch > 1 runs `params.batch` lanes in lock-step with NumPy.
+    `sites`: starts tried in their order instead of random positions (`Sites`); `retries` is then unused.
     """
     params = params if params is not None else ParticleParams()
     h, w = _check_inputs(edges, ff, params)
+    _check_sites(sites, h, w)
     if engine not in ("auto", "jit", "numpy"):
         raise ValueError(f"engine: expected 'auto', 'jit' or 'numpy', got {engine!r}")
     key = draw_key(rng)
@@ -449,11 +502,12 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
         if jit is None and engine == "jit":
             raise RuntimeError("engine 'jit' needs numba, which could not be imported")
         if jit is not None:
-            return jit.simulate_sequential(edges, ff, params, key)
+            return jit.simulate_sequential(edges, ff, params, key, sites)
     elif engine == "jit":
         raise ValueError(f"engine 'jit' runs one particle at a time: it needs batch=1, got batch={params.batch}")
     maps = _Maps(edges, params)
-    starts = _Starts(maps, key, params.retries)
+    starts: _Starts | _SiteStarts = _Starts(maps, key, params.retries) if sites is None else \
+        _SiteStarts(maps, key, sites)
     dyn = _Dynamics(np.asarray(ff), params)
     nb = max(1, min(params.batch, params.strokes))
     group = max(1, nb // 16)
@@ -479,11 +533,11 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
             # searches), or at once when every lane is idle (always, with batch 1)
             if not stopped and (free.size >= group or free.size == nb):
                 ids = np.arange(nxt, min(nxt + free.size, params.strokes), dtype=np.int64)
-                found = starts.find(ids)
+                found, keys = starts.find(ids)
                 miss = np.flatnonzero(np.isnan(found.real))
                 if miss.size:
                     stopped = exhausted = True
-                    ids, found = ids[:miss[0]], found[:miss[0]]
+                    ids, found, keys = ids[:miss[0]], found[:miss[0]], keys[:miss[0]]
                 nxt += ids.size
                 launched += ids.size
                 stopped = stopped or nxt >= params.strokes
@@ -492,7 +546,7 @@ def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = 
                 vel[ln] = 0.0
                 steps[ln] = 0
                 sid[ln] = ids
-                fkey[ln] = stroke_key_np(key, ids, 1)
+                fkey[ln] = keys
                 active[ln] = True
             a = np.flatnonzero(active)
             if a.size == 0:
@@ -568,7 +622,7 @@ def particle_path(ff: np.ndarray, starts: np.ndarray, params: ParticleParams | N
 # --- pure-Python reference -------------------------------------------------------------------------
 
 def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = None,
-                    rng: np.random.Generator | None = None) -> SketchResult:
+                    rng: np.random.Generator | None = None, sites: Sites | None = None) -> SketchResult:
     """The same algorithm one particle at a time, in plain Python (lists, `math`); the speed reference.
 
     NumPy is used only to read the inputs into lists and to package the result. Same params, same
@@ -576,6 +630,7 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
     """
     params = params if params is not None else ParticleParams()
     h, w = _check_inputs(edges, ff, params)
+    _check_sites(sites, h, w)
     key = draw_key(rng)
     pad = pad_for(params)
     wp = w + 2 * pad
@@ -647,15 +702,28 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
     strokes: list[np.ndarray] = []
     launched = total_steps = 0
     exhausted = False
+    site_xy = sites.xy.tolist() if sites is not None else []
+    site_keys = sites.key.tolist() if sites is not None else []
+    sp = 0  # the next site to try
     for s in range(params.strokes):
         skey, fkey = stroke_key_py(key, s, 0), stroke_key_py(key, s, 1)
         start = None
-        for k in range(params.retries):
-            x, y = point_py(skey, k, w, h)
-            ix, iy = min(int(x), w - 1), min(int(y), h - 1)
-            if near_edge(ix, iy) and not near_ink(ix, iy):
-                start = (x, y)
-                break
+        if sites is not None:
+            while sp < len(site_xy):
+                x, y = site_xy[sp]
+                fkey = site_key_py(key, site_keys[sp])
+                sp += 1
+                ix, iy = min(int(x), w - 1), min(int(y), h - 1)
+                if near_edge(ix, iy) and not near_ink(ix, iy):
+                    start = (x, y)
+                    break
+        else:
+            for k in range(params.retries):
+                x, y = point_py(skey, k, w, h)
+                ix, iy = min(int(x), w - 1), min(int(y), h - 1)
+                if near_edge(ix, iy) and not near_ink(ix, iy):
+                    start = (x, y)
+                    break
         if start is None:
             exhausted = True
             break

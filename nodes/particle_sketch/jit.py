@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from . import rng
-from .common import LINE_LEVEL, ParticleParams, SketchResult, disc_offsets, pad_for
+from .common import LINE_LEVEL, ParticleParams, Sites, SketchResult, disc_offsets, pad_for
 
 _U = np.uint64
 GOLD, STROKE, M1, M2 = _U(rng.GOLD), _U(rng.STROKE), _U(rng.M1), _U(rng.M2)
@@ -97,9 +97,10 @@ def _draw(ink, edge, pad, hw, re, reach, ax, ay, bx, by):
 
 @njit(cache=True, nogil=True)
 def _run(edge, ink, ff, pad, n_off, m_off, key, strokes, retries, max_steps, rk4,
-         dt, drag, inv_mass, rnd, hw, re, reach):
+         dt, drag, inv_mass, rnd, hw, re, reach, site_xy, site_key, use_sites):
     """Draws into the padded maps `edge` and `ink`; returns (points (k, 2), points per stroke, launched,
-    segments, exhausted)."""
+    segments, exhausted). With `use_sites`, the starts are the sites (`site_xy`, in order: the next valid one
+    each stroke) and a stroke's forces come from its site's key."""
     h, w = ff.shape[0], ff.shape[1]
     hdt, dt6 = 0.5 * dt, dt / 6.0
     pts = np.empty((max(1024, 4 * (max_steps + 1)), 2), np.float64)
@@ -107,19 +108,30 @@ def _run(edge, ink, ff, pad, n_off, m_off, key, strokes, retries, max_steps, rk4
     npts = nstrokes = launched = total = 0
     exhausted = False
     key = np.uint64(key)
+    sp = 0  # the next site to try: a site found invalid stays so (the valid set only shrinks)
     for s in range(strokes):
         skey = _mix(key + (TWO * np.uint64(s)) * STROKE)
         fkey = _mix(key + (TWO * np.uint64(s) + ONE) * STROKE)
         found = False
         x = y = 0.0
-        for k in range(retries):
-            z = _mix(skey + np.uint64(k) * GOLD)
-            x = np.float64(z >> S32) * TO_UNIT32 * w
-            y = np.float64(z & LOW32) * TO_UNIT32 * h
-            ix, iy = min(int(x), w - 1), min(int(y), h - 1)
-            if _near(edge, ix, iy, pad, n_off) and not _near_ink(ink, ix, iy, pad, m_off):
-                found = True
-                break
+        if use_sites:
+            while sp < site_xy.shape[0]:
+                x, y = site_xy[sp, 0], site_xy[sp, 1]
+                fkey = _mix(key + (TWO * site_key[sp] + ONE) * STROKE)
+                sp += 1
+                ix, iy = min(int(x), w - 1), min(int(y), h - 1)
+                if _near(edge, ix, iy, pad, n_off) and not _near_ink(ink, ix, iy, pad, m_off):
+                    found = True
+                    break
+        else:
+            for k in range(retries):
+                z = _mix(skey + np.uint64(k) * GOLD)
+                x = np.float64(z >> S32) * TO_UNIT32 * w
+                y = np.float64(z & LOW32) * TO_UNIT32 * h
+                ix, iy = min(int(x), w - 1), min(int(y), h - 1)
+                if _near(edge, ix, iy, pad, n_off) and not _near_ink(ink, ix, iy, pad, m_off):
+                    found = True
+                    break
         if not found:
             exhausted = True
             break
@@ -197,7 +209,8 @@ def _say_if_compiling() -> None:
               "update; cached on disk afterwards) ...", file=sys.stderr, flush=True)
 
 
-def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int) -> SketchResult:
+def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParams, key: int,
+                        sites: Sites | None = None) -> SketchResult:
     """Runs the compiled sequential sketcher on checked inputs (`core.simulate` checks them)."""
     h, w = np.shape(edges)
     pad = pad_for(params)
@@ -212,7 +225,9 @@ def simulate_sequential(edges: np.ndarray, ff: np.ndarray, params: ParticleParam
     pts, counts, launched, total, exhausted = _run(
         edge, ink, ffa, pad, _offsets(params.n), _offsets(params.m), np.uint64(key), params.strokes, params.retries,
         params.max_steps, params.integrator == "rk4", float(params.step), float(params.drag),
-        1.0 / params.mass, float(params.randomness), hw, re, max(hw + 0.5, re))
+        1.0 / params.mass, float(params.randomness), hw, re, max(hw + 0.5, re),
+        sites.xy if sites is not None else np.zeros((0, 2)), sites.key if sites is not None else np.zeros(0, np.uint64),
+        sites is not None)
     pts32 = pts.astype(np.float32)
     ends = np.cumsum(counts)
     strokes = [pts32[a:b] for a, b in zip((ends - counts).tolist(), ends.tolist(), strict=True)]

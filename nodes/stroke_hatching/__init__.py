@@ -17,6 +17,7 @@ from nodegraph.values import LINE_KINDS, Strokes
 
 from .._shared.curvature import object_field
 from .._shared.pencil import view_light
+from .._shared.surface_points import project, surface_points
 from . import streamlines
 
 HATCHING = LINE_KINDS.index("hatching")
@@ -140,8 +141,8 @@ class StrokeHatching(Node):
             mv = view @ np.asarray(obj.transform, np.float64)
             vv = v @ mv[:3, :3].T + mv[:3, 3]
             dv = d @ mv[:3, :3].T
-            xy, ok = _project(vv, proj, size)
-            xy2, ok2 = _project(vv + 1e-3 * dv * np.maximum(np.abs(vv[:, 2:3]), 1e-6), proj, size)
+            xy, ok = project(vv, proj, size)
+            xy2, ok2 = project(vv + 1e-3 * dv * np.maximum(np.abs(vv[:, 2:3]), 1e-6), proj, size)
             sd = xy2 - xy
             ln = np.hypot(*sd.T)
             ix = np.clip(xy[:, 0].astype(int), 0, w - 1)
@@ -163,56 +164,18 @@ def p_tol(node: StrokeHatching) -> float:
     return node.params.depth_tolerance
 
 
-def _project(v: np.ndarray, proj: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    clip = np.c_[v, np.ones(len(v))] @ proj.T
-    ok = clip[:, 3] > 1e-9
-    wcl = np.where(ok, clip[:, 3], 1.0)
-    return np.stack([(clip[:, 0] / wcl + 1) * 0.5 * size[0], (clip[:, 1] / wcl + 1) * 0.5 * size[1]], 1), ok
-
-
 def surface_seeds(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.ndarray, ids: np.ndarray,
                   size: tuple[int, int], spacing: float, tol: float) -> np.ndarray:
-    """Seeds fixed on the surfaces: (x, y, object id) rows in a fixed order. Face f of an object carries the
-    points k = 0 .. n_f - 1 of the R2 low-discrepancy sequence folded into the triangle (n_f = its screen area /
-    (spacing / 2)^2, 1 to 64), each ordered by a hash of (object, f, k); the visible ones (object id and depth
-    within `tol` at their pixel), the first in that order in each cell of spacing / 2 pixels."""
-    w, h = size
-    a1, a2 = 0.7548776662466927, 0.5698402909980532  # R2: 1 / g, 1 / g^2, g the plastic number
+    """Seeds fixed on the surfaces: (x, y, object id) rows in a fixed order: the visible points of
+    `surface_points` at a cell of spacing / 2 pixels, the first in their order in each cell of spacing / 2
+    pixels."""
+    w = size[0]
     cell = max(spacing * 0.5, 1.0)
-    out = []
-    for index, obj in enumerate(scene.objects):
-        v = np.asarray(obj.mesh.vertices, np.float64)
-        f = np.asarray(obj.mesh.faces, np.int64)
-        mv = view @ np.asarray(obj.transform, np.float64)
-        vv = v @ mv[:3, :3].T + mv[:3, 3]
-        xy, ok = _project(vv, proj, size)
-        t = xy[f]
-        area = 0.5 * np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
-                            - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
-        n = np.clip(np.ceil(np.nan_to_num(area) / cell ** 2), 1, 64).astype(np.int64)
-        n[~ok[f].all(axis=1)] = 0
-        face = np.repeat(np.arange(len(f)), n)
-        k = np.arange(len(face)) - np.repeat(np.cumsum(n) - n, n)
-        u, q = (0.5 + k * a1) % 1.0, (0.5 + k * a2) % 1.0
-        fold = u + q > 1.0
-        u, q = np.where(fold, 1.0 - u, u), np.where(fold, 1.0 - q, q)
-        bary = np.stack([1.0 - u - q, u, q], 1)
-        pts = np.einsum("nk,nkd->nd", bary, vv[f[face]])
-        sxy, sok = _project(pts, proj, size)
-        inside = sok & (sxy[:, 0] >= 0) & (sxy[:, 0] < w) & (sxy[:, 1] >= 0) & (sxy[:, 1] < h)
-        ix = np.clip(sxy[:, 0].astype(np.int64), 0, w - 1)
-        iy = np.clip(sxy[:, 1].astype(np.int64), 0, h - 1)
-        vis = inside & (ids[iy, ix] == index + 1) & \
-            (np.abs(depth[iy, ix] + pts[:, 2]) <= tol * np.maximum(-pts[:, 2], 1e-9))
-        key = ((face.astype(np.uint64) * np.uint64(2654435761) + k.astype(np.uint64) * np.uint64(40503)
-                + np.uint64(index) * np.uint64(97531)) * np.uint64(0x9E3779B1)) % np.uint64(1 << 32)
-        out.append(np.c_[sxy[vis], np.full(int(vis.sum()), index + 1), key[vis].astype(np.float64)])
-    rows = np.concatenate(out) if out else np.zeros((0, 4))
-    rows = rows[np.argsort(rows[:, 3], kind="stable")]
+    rows, _ = surface_points(scene, view, proj, depth, ids, size, cell, tol)
     gx = (rows[:, 0] / cell).astype(np.int64)
     gy = (rows[:, 1] / cell).astype(np.int64)
     _, first = np.unique(gy * (int(w / cell) + 2) + gx, return_index=True)
-    return rows[np.sort(first), :3]
+    return rows[np.sort(first)]
 
 
 def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[int, int], lo: float, hi: float,

@@ -148,6 +148,58 @@ def test_sequential_engines_equal_the_python_reference_bit_for_bit(cow160, engin
     _assert_same(core.simulate(edges, ff, params, np.random.default_rng(11), engine=engine), b)
 
 
+def _sites(edges: np.ndarray, count: int, seed: int) -> core.Sites:
+    """`count` sites in a random order over the picture, a third of them within 2 px of an edge, with keys."""
+    rng = np.random.default_rng(seed)
+    h, w = edges.shape
+    near = np.argwhere(ndimage.binary_dilation(edges, iterations=2))
+    pick = near[rng.integers(0, len(near), count // 3)][:, ::-1] + rng.random((count // 3, 2))
+    xy = np.concatenate([pick, rng.random((count - count // 3, 2)) * (w, h)])[rng.permutation(count)]
+    return core.Sites(xy, rng.integers(0, 2**63, count).astype(np.uint64) * np.uint64(2))
+
+
+@pytest.mark.slow  # the pure-Python reference, about 1 s
+@pytest.mark.parametrize("engine", ["jit", "numpy"])
+def test_given_sites_every_engine_draws_the_reference(cow160, engine):
+    """With sites, each stroke starts at the next valid site in their order and draws its forces from the site's
+    key; the compiled and NumPy engines equal the pure-Python reference bit for bit, also when the sites run out."""
+    edges, ff = cow160
+    sites = _sites(edges, 3000, 4)
+    for case in (dict(strokes=120), dict(strokes=5000, integrator="euler")):
+        params = core.ParticleParams(batch=1, **case)
+        ref = core.simulate_python(edges, ff, params, np.random.default_rng(3), sites=sites)
+        assert ref.launched > 30 and ref.exhausted == (case["strokes"] == 5000)
+        _assert_same(core.simulate(edges, ff, params, np.random.default_rng(3), engine=engine, sites=sites), ref)
+
+
+def test_given_sites_start_in_order_and_carry_their_forces(cow160):
+    """Each start is a site, in the sites' order, the first one near an edge to begin with; a stroke's forces come
+    from its site's key: another key on one site leaves the strokes before it as they were and changes its own."""
+    edges, ff = cow160
+    sites = _sites(edges, 2000, 5)
+    params = core.ParticleParams(strokes=150, batch=1)
+    res = core.simulate(edges, ff, params, np.random.default_rng(1), sites=sites)
+    index = {tuple(np.float32(p)): i for i, p in enumerate(sites.xy)}
+    used = [index[tuple(s[0])] for s in res.strokes]
+    assert used == sorted(used) and len(used) == len(res.strokes)  # starts are sites, in order
+    edge_dist = ndimage.distance_transform_edt(~edges)
+    first = next(i for i, (x, y) in enumerate(sites.xy) if edge_dist[int(y), int(x)] <= params.n)
+    assert used[0] == first  # nothing drawn yet: the first site near an edge
+    k = 5
+    other = core.Sites(sites.xy, sites.key ^ (np.arange(len(sites.key)) == used[k]).astype(np.uint64))
+    res2 = core.simulate(edges, ff, params, np.random.default_rng(1), sites=other)
+    for a, b in zip(res.strokes[:k], res2.strokes[:k], strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(res.strokes[k], res2.strokes[k])
+    # batched lanes take sites in order too
+    lanes = core.simulate(edges, ff, replace(params, batch=16), np.random.default_rng(1), sites=sites)
+    assert [index[tuple(s[0])] for s in lanes.strokes] == sorted(index[tuple(s[0])] for s in lanes.strokes)
+    with pytest.raises(ValueError, match="inside"):
+        core.simulate(edges, ff, params, sites=core.Sites([[-1.0, 3.0]], [1]))
+    with pytest.raises(ValueError, match="keys"):
+        core.Sites([[1.0, 3.0]], [1, 2])
+
+
 def test_jit_takes_the_gpus_float32_field_and_a_non_square_image(depth):
     """The node passes the field as read back (float32): same drawing as the float64 reference, since
     every corner is widened before it is combined; and x / y are not swapped on a 70 x 90 image."""

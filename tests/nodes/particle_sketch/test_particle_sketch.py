@@ -224,3 +224,83 @@ def test_distances_follow_the_reference_size():
     assert two.erase_width is None and (two.step, two.max_steps, two.mass, two.drag) == (one.step, one.max_steps,
                                                                                        one.mass, one.drag)
     assert node.core_params(1.0) == node.core_params()
+
+
+SURFACE_YAML = """pipeline: surface-starts
+size: [200, 200]
+reference_size: 200
+scene: builtin:torus
+nodes:
+  gbuf: {{type: rasterize}}
+  edges: {{type: depth_edges, in: {{depth: gbuf.linear_depth}}, params: {{threshold: 0.03}}}}
+  field: {{type: force_field, in: {{gradient: edges.gradient}}, params: {{saturate: 0.03}}}}
+  particles:
+    type: particle_sketch
+    in: {{edges: edges.edges, force: field.out, linear_depth: gbuf.linear_depth, object_id: gbuf.object_id}}
+    params: {{strokes: 400, hold: 0, starts: {starts}}}
+outputs:
+  strokes: particles.strokes
+  depth: gbuf.linear_depth
+"""
+
+
+def _turned_torus(deg: float):
+    import dataclasses
+
+    from nodegraph.scene.scene import load_scene
+
+    base = load_scene("builtin:torus")
+    a = np.radians(deg)
+    c, s = np.cos(a), np.sin(a)
+    m = np.eye(4)
+    m[:3, :3] = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]  # about the vertical axis
+    obj = base.objects[0]
+    return dataclasses.replace(base, objects=(dataclasses.replace(obj, transform=m @ np.asarray(obj.transform)),))
+
+
+def _starts_and_depth(starts: str, scene) -> tuple[np.ndarray, np.ndarray]:
+    pipe = pl.loads(SURFACE_YAML.format(starts=starts), "surface.yaml")
+    pipe.scene = scene
+    ex = Executor(pipe, None)
+    try:
+        res = ex.run(0).values
+        return (np.array([p[0] for p in res[("particles", "strokes")].polylines], np.float64),
+                res[("gbuf", "linear_depth")].read()[..., 0].astype(np.float64))
+    finally:
+        ex.close()
+
+
+def test_surface_starts_move_with_the_surface(gl):
+    """The torus turned by 2 degrees about the vertical: each start of the first drawing on the object is lifted to
+    its surface point through the depth buffer, turned with the object and projected again (float64); the share of
+    the second drawing's starts within 0.1 px of one of those. Starts fixed on the surface (`starts: surface`)
+    come back where the surface took them (measured 0.49: the rest changed with the strokes before them), random
+    starts practically never (0.00); unturned, the surface starts give the same drawing again."""
+    from scipy.spatial import cKDTree
+
+    shares = {}
+    for starts in ("random", "surface"):
+        a, depth = _starts_and_depth(starts, _turned_torus(0.0))
+        b, _ = _starts_and_depth(starts, _turned_torus(2.0))
+        assert len(a) > 100 and len(b) > 100
+        first, second = _turned_torus(0.0), _turned_torus(2.0)
+        cam = first.camera_at(0)
+        view, proj = cam.view_matrix(), cam.projection_matrix(1.0)
+        d = depth[a[:, 1].astype(int), a[:, 0].astype(int)]  # linear depth at each start's pixel
+        a, d = a[d > 0], d[d > 0]  # starts on the object (random ones also start on the background)
+        ndc = a / 100.0 - 1.0
+        eye = np.c_[ndc[:, 0] * d / proj[0, 0], ndc[:, 1] * d / proj[1, 1], -d, np.ones(len(d))]
+        world = eye @ np.linalg.inv(view).T
+        turn = np.asarray(second.objects[0].transform) @ np.linalg.inv(np.asarray(first.objects[0].transform))
+        hom = world @ turn.T @ view.T @ proj.T
+        carried = (hom[:, :2] / hom[:, 3:4] + 1.0) * 100.0
+        near, _ = cKDTree(carried).query(b)
+        shares[starts] = float((near < 0.1).mean())
+    assert shares["surface"] > 0.35 and shares["random"] < 0.05, shares
+    again, _ = _starts_and_depth("surface", _turned_torus(0.0))
+    assert np.array_equal(again, _starts_and_depth("surface", _turned_torus(0.0))[0])
+
+
+def test_surface_starts_need_depth_and_ids(gl, inputs):
+    with pytest.raises(NodeError, match="linear_depth and object_id"):
+        _draw(gl, inputs, strokes=10, starts="surface")
