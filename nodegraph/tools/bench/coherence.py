@@ -84,7 +84,7 @@ DARK = 0.1  # a pixel counts as drawn where it is this much darker than its 5x5 
 # geometry-controlled uncertainty instead. Chosen by measurement: docs/animation.md, "Making films".
 FILM: dict[str, dict[str, Any]] = {
     "chalk": {},
-    "loose_and_sketchy": {},
+    "loose_and_sketchy": {},  # particles started from points fixed on the surfaces (starts: surface)
     "loose_and_sketchy_shaded": {},
     "nienhaus_sketchy": {},
     "object_space_uncertainty": {"noise.octaves": 1},  # one octave: no fine wobble to change as outlines slide
@@ -98,7 +98,8 @@ FILM: dict[str, dict[str, Any]] = {
 }
 # variant pipelines (paths relative to the shipped pipelines' folder) that FILM's overrides apply to
 FILM_PIPELINE: dict[str, str] = {name: f"film/{name}.yaml" for name in (
-    "chalk", "loose_and_sketchy_shaded", "nienhaus_sketchy", "repeated_edges", "sketchy_composite", "sketchy_lines")}
+    "chalk", "loose_and_sketchy", "loose_and_sketchy_shaded", "nienhaus_sketchy", "repeated_edges", "sketchy_composite",
+    "sketchy_lines")}
 # node type -> the params that set how far drawn marks stray (scaled together by SWEEP_FACTORS)
 SWEEP: dict[str, tuple[str, ...]] = {
     "sketch": ("edge_matrix", "shade_matrix"),
