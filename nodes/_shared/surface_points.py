@@ -20,16 +20,22 @@ def project(v: np.ndarray, proj: np.ndarray, size: tuple[int, int]) -> tuple[np.
 
 
 def surface_points(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.ndarray, ids: np.ndarray,
-                   size: tuple[int, int], cell: float, tol: float, most: int = 64) -> tuple[np.ndarray, np.ndarray]:
+                   size: tuple[int, int], cell: float, tol: float, most: int = 64, keep: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """The visible points fixed on the surfaces, in a fixed order: (rows (n, 3) of window x, y and object id + 1;
     keys (n,) uint64), sorted by key. Face f of an object carries the points k = 0 .. n_f - 1 of the R2
     low-discrepancy sequence folded into the triangle (n_f = its screen area / cell^2, 1 to `most`; a face
     that grows on screen keeps its points and gains more), keyed by a 32-bit hash of (object, f, k); a point is
     visible where the object id at its pixel is its object's and the linear `depth` there is within `tol` of
-    its own depth. Posing moves the points with their faces (same faces, same barycentric coordinates), so a
-    point keeps its key from frame to frame."""
+    its own depth, and, where `keep` ((h, w) bool, row 0 at the bottom) is given, its pixel is kept there (the
+    others' order among themselves is the same). Posing moves the points with their faces (same faces, same
+    barycentric coordinates), so a point keeps its key from frame to frame."""
     w, h = size
     out, keys = [], []
+    table = None
+    if keep is not None:  # summed-area table: faces whose screen box holds no kept pixel carry no points
+        table = np.zeros((h + 1, w + 1), np.int64)
+        table[1:, 1:] = np.cumsum(np.cumsum(keep, axis=0), axis=1)
     for index, obj in enumerate(scene.objects):
         v = np.asarray(obj.mesh.vertices, np.float64)
         f = np.asarray(obj.mesh.faces, np.int64)
@@ -41,6 +47,12 @@ def surface_points(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.nda
                             - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
         n = np.clip(np.ceil(np.nan_to_num(area) / cell ** 2), 1, most).astype(np.int64)
         n[~ok[f].all(axis=1)] = 0
+        if table is not None:  # a point's pixel lies in its face's box (the face projects to a triangle)
+            x0 = np.clip(np.floor(np.nan_to_num(t[..., 0].min(axis=1))), 0, w - 1).astype(np.int64)
+            x1 = np.clip(np.floor(np.nan_to_num(t[..., 0].max(axis=1))), 0, w - 1).astype(np.int64) + 1
+            y0 = np.clip(np.floor(np.nan_to_num(t[..., 1].min(axis=1))), 0, h - 1).astype(np.int64)
+            y1 = np.clip(np.floor(np.nan_to_num(t[..., 1].max(axis=1))), 0, h - 1).astype(np.int64) + 1
+            n[table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0] == 0] = 0
         face = np.repeat(np.arange(len(f)), n)
         k = np.arange(len(face)) - np.repeat(np.cumsum(n) - n, n)
         u, q = (0.5 + k * R2[0]) % 1.0, (0.5 + k * R2[1]) % 1.0
@@ -54,6 +66,8 @@ def surface_points(scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.nda
         iy = np.clip(sxy[:, 1].astype(np.int64), 0, h - 1)
         vis = inside & (ids[iy, ix] == index + 1) & \
             (np.abs(depth[iy, ix] + pts[:, 2]) <= tol * np.maximum(-pts[:, 2], 1e-9))
+        if keep is not None:
+            vis &= keep[iy, ix]
         key = ((face.astype(np.uint64) * np.uint64(2654435761) + k.astype(np.uint64) * np.uint64(40503)
                 + np.uint64(index) * np.uint64(97531)) * np.uint64(0x9E3779B1)) % np.uint64(1 << 32)
         out.append(np.c_[sxy[vis], np.full(int(vis.sum()), index + 1)])

@@ -125,7 +125,7 @@ class ParticleSketch(Node):
                                                      "(Curtis); `surface`: points fixed on the surfaces, in a fixed "
                                                      "order, each with its own random forces, so a film's strokes "
                                                      "follow their objects (needs linear_depth and object_id).")
-        site_spacing: float = Field(1.0, ge=0.25, le=32, allow_inf_nan=False, description="`starts: surface`: "
+        site_spacing: float = Field(2.0, ge=0.25, le=32, allow_inf_nan=False, description="`starts: surface`: "
                                     "about one surface point per site_spacing^2 px^2 of each face on screen (px at "
                                     "the reference size).")
         depth_tolerance: float = Field(0.02, gt=0, le=1, allow_inf_nan=False, description="`starts: surface`: a "
@@ -154,8 +154,8 @@ class ParticleSketch(Node):
     def rng(self, ctx: RunContext) -> np.random.Generator:
         return np.random.default_rng([ctx.seed_for_frame(self.seed_frame(ctx.frame)), self.params.seed])
 
-    def sites(self, ctx: RunContext, inputs: dict[str, Any], size: tuple[int, int],
-              rng: np.random.Generator) -> Sites | None:
+    def sites(self, ctx: RunContext, inputs: dict[str, Any], size: tuple[int, int], rng: np.random.Generator,
+              edges: np.ndarray) -> Sites | None:
         """The surface points of `starts: surface` (None for random starts), in an order drawn from `rng`: a hash
         of each point's key and one number from `rng`, so the seed changes which points start first."""
         p = self.params
@@ -173,8 +173,11 @@ class ParticleSketch(Node):
         cam = scene.camera_at(ctx.frame)
         depth = inputs["linear_depth"].read()[..., 0].astype(np.float64)
         ids = np.rint(inputs["object_id"].read()[..., 0]).astype(np.int64)
+        # only points within n px of an edge pixel can ever start a stroke (the edges only shrink): the others
+        # are left out before sorting, which leaves the order of the rest as it was
+        near = core.dilate(edges, p.n * ctx.px_scale)
         rows, keys = surface_points(scene, cam.view_matrix(), cam.projection_matrix(w / h), depth, ids, size,
-                                    p.site_spacing * ctx.px_scale, p.depth_tolerance, most=1 << 22)
+                                    p.site_spacing * ctx.px_scale, p.depth_tolerance, most=1 << 22, keep=near)
         salt = np.uint64(rng.integers(0, 2**63))
         order = np.argsort(mix_np(keys ^ salt), kind="stable")
         return Sites(rows[order, :2], keys[order])
@@ -194,7 +197,7 @@ class ParticleSketch(Node):
             ff = ff * np.float32(s)  # pixels per unit time at this size: the trajectories scale with the image
         try:
             rng = self.rng(ctx)
-            sites = self.sites(ctx, inputs or {}, edges.size, rng)
+            sites = self.sites(ctx, inputs or {}, edges.size, rng, e)
             return core.simulate(e, ff, self.core_params(s), rng, sites=sites)
         except ValueError as exc:  # the core checks its arrays (a force field with NaN or inf)
             raise NodeError(str(exc), self.id, self.type_name) from None

@@ -772,7 +772,8 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
 
 # --- measures --------------------------------------------------------------------------------------
 
-def _dilate(mask: np.ndarray, r: float) -> np.ndarray:
+def dilate(mask: np.ndarray, r: float) -> np.ndarray:
+    """The pixels within r px (pixel centres, Euclidean) of a set pixel of `mask`."""
     k = int(math.floor(r))
     return _dilate_disc(np.pad(mask, k), r, k, *mask.shape)
 
@@ -788,6 +789,6 @@ def coverage_precision(sketch: np.ndarray, edges: np.ndarray, tol: float = 2.0,
     if ink.shape != e.shape:
         raise ValueError(f"sketch {ink.shape} and edges {e.shape} differ in shape")
     ne, ni = int(e.sum()), int(ink.sum())
-    coverage = float((_dilate(ink, tol) & e).sum() / ne) if ne else 1.0
-    precision = float((_dilate(e, tol) & ink).sum() / ni) if ni else 1.0
+    coverage = float((dilate(ink, tol) & e).sum() / ne) if ne else 1.0
+    precision = float((dilate(e, tol) & ink).sum() / ni) if ni else 1.0
     return coverage, precision
