@@ -116,3 +116,36 @@ def test_the_film_setting_is_more_coherent_than_the_default_on_the_bend_shot(gl,
     # measured: film error 0.31e-3, at the plain floor's 0.50e-3 or under (index 1.0); the default's 0.50e-3 (0.99)
     assert error["film"] < 0.75 * error["default"], error
     assert index["film"] == 1.0 and index["film"] >= index["default"], index
+
+
+def test_extended_pixels_by_hand():
+    """A block over columns 2-4 moves 3 px right to columns 5-7 of a 2 x 12 image; the band is 2 px. Visible in
+    both: the block and the sheet that was sheet (columns 0, 1, 8-11); the band now (3, 4, 8, 9) moves with the
+    block and came from the sheet (0, 1, 5, 6), so it counts; the sheet the band has just left (0, 1: in the
+    previous band, in neither block nor band now) is left out; so are the outline's pixels (4, 5, 7, 8)."""
+    from nodegraph.output import motion as mo
+
+    h, w = 2, 12
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+
+    def block(first: int) -> np.ndarray:
+        m = np.zeros((h, w, 4))
+        on = (cols >= first) & (cols < first + 3)
+        m[..., 0], m[..., 1], m[..., 2], m[..., 3] = cols + 0.5 - 3.0, h - rows - 0.5, 0.5, 1.0
+        m[~on] = 0.0
+        return m
+
+    now, before = block(5), block(2)
+    prev_depth = np.where(before[..., 3] > 0.5, 0.5, 1.0)
+    ext, prev_ext = co.extend_motion(now, 2.0), co.extend_motion(before, 2.0)
+    np.testing.assert_array_equal(np.flatnonzero(ext[1][0]), [3, 4, 8, 9])
+    np.testing.assert_array_equal(np.flatnonzero(prev_ext[1][0]), [0, 1, 5, 6])
+    np.testing.assert_allclose(ext[0][0, [3, 4, 8, 9], 0], np.array([3, 4, 8, 9]) + 0.5 - 3.0)
+    got = co.extended_pixels(now, prev_depth, ext, prev_ext[1])
+    np.testing.assert_array_equal(np.flatnonzero(got[0]), [3, 4, 5, 6, 7, 8, 9, 10, 11])
+    assert (got[0] == got[1]).all()
+    linear = np.where(now[..., 3] > 0.5, 2.0, 0.0)
+    kept = got & ~mo.motion_boundaries(now, linear)
+    np.testing.assert_array_equal(np.flatnonzero(kept[0]), [3, 6, 9, 10, 11])
+    # without the previous band (no object a frame ago), the sheet at 0 and 1 would count
+    assert co.extended_pixels(now, prev_depth, ext, np.zeros((h, w), bool))[0, [0, 1]].all()

@@ -43,9 +43,10 @@ any line drawn along it, which moves with the outline rather than with either su
 
 `extended`: beside each index, the same figures with the motion extended beyond the outlines (`extend_motion`):
 background pixels within BAND_PX (6 px at 256) of an object move as the nearest covered pixel does, so a mark drawn
-just beyond an outline (an offset line, spilled shade) that moves with its object is not counted as change. The
-exact motion gives such pixels no motion (the sheet stays put), which the plain render, drawing nothing beyond its
-outlines, never pays for; the extended figures show how much of a pipeline's index that accounts for.
+just beyond an outline (an offset line, spilled shade) that moves with its object is not counted as change; the
+sheet the band has just left is left out as uncovered sheet is (`extended_pixels`). The exact motion gives such
+pixels no motion (the sheet stays put), which the plain render, drawing nothing beyond its outlines, never pays
+for; the extended figures show how much of a pipeline's index that accounts for.
 
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
@@ -304,16 +305,12 @@ class Shot:
 
     def _masks(self, t: int) -> dict[str, np.ndarray]:
         """The pixels each figure counts for the pair (t - 1, t): `index` the reliable ones (visible in both
-        frames, off motion boundaries), `with_boundaries` those visible in both, `extended` the reliable ones along
-        the motion extended beyond the outlines, where a band pixel counts if it came from the previous frame's
-        background, inside the image."""
+        frames, off motion boundaries), `with_boundaries` those visible in both, `extended` those of
+        `extended_pixels`."""
         visible = mo.visible_both(self.motion[t], self.depth[t - 1])
-        motion, band = self.extended[t]
-        inside = mo.visible_both(motion, self.depth[t - 1] * 0.0)
-        was_background = mo.sample(self.depth[t - 1], motion[..., 0], motion[..., 1]) >= 1.0
         boundaries = mo.motion_boundaries(self.motion[t], self.linear[t])
-        extended = ((visible & ~band) | (band & inside & was_background)) & ~boundaries
-        return {"index": visible & ~boundaries, "with_boundaries": visible, "extended": extended}
+        extended = extended_pixels(self.motion[t], self.depth[t - 1], self.extended[t], self.extended[t - 1][1])
+        return {"index": visible & ~boundaries, "with_boundaries": visible, "extended": extended & ~boundaries}
 
     def error(self, lum: list[np.ndarray]) -> float:
         """Mean warping error over the consecutive pairs of frames (the index's pixels)."""
@@ -356,6 +353,23 @@ def extend_motion(motion: np.ndarray, width: float) -> tuple[np.ndarray, np.ndar
     m[..., 2] = np.where(band, 0.0, m[..., 2])
     m[..., 3] = np.where(band, 1.0, m[..., 3])
     return m, band
+
+
+def extended_pixels(motion: np.ndarray, prev_depth: np.ndarray, extended: tuple[np.ndarray, np.ndarray],
+                    prev_band: np.ndarray) -> np.ndarray:
+    """(h, w) bool: the pixels the `extended` figures count for a pair of frames (motion boundaries still to be
+    left out), where each object owns the sheet within the band around it (`extend_motion`: `extended` is this
+    frame's extended motion and band, `prev_band` the previous frame's band). As `visible_both` with the band
+    counted as part of its object: a pixel off the band counts where it is visible in both frames, a band pixel
+    where it came from inside the image and from the previous frame's sheet (not from a surface an outline slid
+    over), and the sheet the band has just left (in the previous frame's band, in neither the object nor the band
+    now) is left out, as the sheet an object has just uncovered is."""
+    visible = mo.visible_both(motion, prev_depth)
+    ext, band = extended
+    inside = mo.visible_both(ext, prev_depth * 0.0)
+    was_background = mo.sample(prev_depth, ext[..., 0], ext[..., 1]) >= 1.0
+    vacated = (np.asarray(motion)[..., 3] <= 0.5) & ~band & prev_band
+    return ((visible & ~band) | (band & inside & was_background)) & ~vacated
 
 
 def coherence_index(e_pipe: float, e_plain: float, e_reseed: float) -> float | None:
