@@ -149,3 +149,22 @@ def test_extended_pixels_by_hand():
     np.testing.assert_array_equal(np.flatnonzero(kept[0]), [3, 6, 9, 10, 11])
     # without the previous band (no object a frame ago), the sheet at 0 and 1 would count
     assert co.extended_pixels(now, prev_depth, ext, np.zeros((h, w), bool))[0, [0, 1]].all()
+
+
+def test_heldout_shots_move_as_written(tmp_path):
+    paths = co.write_shots(tmp_path, 5, "heldout")
+    turn = sc.load_scene(str(paths["turn"]))
+    axis = np.array([0.2, 0.5, 1.0]) / np.linalg.norm([0.2, 0.5, 1.0])
+    m = np.asarray(turn.at(4).objects[0].transform)[:3, :3]  # the last frame: 50 degrees about the axis
+    assert math.degrees(math.acos((np.trace(m) - 1) / 2)) == pytest.approx(50.0, abs=1e-3)
+    np.testing.assert_allclose(m @ axis, axis, atol=1e-6)
+    orbit = sc.load_scene(str(paths["orbit"]))
+    e0, e4 = orbit.camera_at(0).eye, orbit.camera_at(4).eye
+    assert np.linalg.norm(e0[[0, 2]] - [-0.3, 0]) == pytest.approx(4.2, abs=1e-5)
+    assert np.linalg.norm(e4[[0, 2]] - [-0.3, 0]) == pytest.approx(4.8, abs=1e-5)
+    assert e4[1] - e0[1] == pytest.approx(0.9, abs=1e-5)
+    bend = sc.load_scene(str(paths["bend"]))
+    tip = bend.at(4).objects[0].mesh.vertices[-1]  # the cap centre at x = 1, turned -60 degrees about +Y
+    np.testing.assert_allclose(tip, [math.cos(math.radians(60)), 0.0, math.sin(math.radians(60))], atol=1e-5)
+    with pytest.raises(ValueError, match="heldout"):
+        co.write_shots(tmp_path, 5, "other")

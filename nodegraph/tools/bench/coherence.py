@@ -223,8 +223,13 @@ def tube(rings: int = 40, segments: int = 20, radius: float = 0.22) -> tuple[np.
     return verts, np.array(faces), s * s * (3 - 2 * s)
 
 
-def write_shots(folder: Path, frames: int) -> dict[str, Path]:
-    """The three shots as .glb files in `folder`, each animated over `frames` frames at 24 fps."""
+def write_shots(folder: Path, frames: int, shots: str = "report") -> dict[str, Path]:
+    """The three shots as .glb files in `folder`, each animated over `frames` frames at 24 fps: the `report`
+    shots, which the film settings were chosen on, or the `heldout` ones (`write_heldout_shots`)."""
+    if shots == "heldout":
+        return write_heldout_shots(folder, frames)
+    if shots != "report":
+        raise ValueError(f"shots: expected 'report' or 'heldout', got {shots!r}")
     seconds = (frames - 1) / FPS
     keys = np.arange(frames) / FPS
     out = {}
@@ -265,6 +270,55 @@ def write_shots(folder: Path, frames: int) -> dict[str, Path]:
     f.camera([0.3, 1.0, 4.6], [0.2, 0.4, 0.0])
     f.animate(j1, "rotation", np.array([0.0, seconds]),
               np.array([quaternion((0, 0, 1), 0.0), quaternion((0, 0, 1), 70.0)]))
+    out["bend"] = f.save(folder / "bend.glb")
+    return out
+
+
+def write_heldout_shots(folder: Path, frames: int) -> dict[str, Path]:
+    """Three more shots of the same kinds, which no film setting was chosen on (other shapes, axes, paths and
+    light), to see whether the figures hold: `turn` a capped tube turning 50 degrees about an axis leaning towards
+    the camera beside a slab; `orbit` the camera rising and pulling back along a 35-degree arc the other way
+    round a fat torus and a tall box; `bend` a thicker skinned tube bending 60 degrees about the vertical, towards
+    the camera, seen from above."""
+    seconds = (frames - 1) / FPS
+    keys = np.arange(frames) / FPS
+    out = {}
+    f = _Gltf()
+    verts, faces, _ = tube(rings=24, segments=24, radius=0.3)
+    rod = f.node(mesh=f.mesh(verts * [0.8, 1.0, 1.0], faces, color=(0.5, 0.7, 0.55)), name="rod")
+    f.node(mesh=f.mesh(*box([1.0, 0.25, 0.7]), color=(0.8, 0.75, 0.5)), name="slab", translation=[0.2, -0.6, -0.6])
+    f.camera([-1.2, 1.4, 4.4], [0.1, -0.1, 0.0])
+    f.animate(rod, "rotation", np.array([0.0, seconds]),
+              np.array([quaternion((0.2, 0.5, 1.0), 0.0), quaternion((0.2, 0.5, 1.0), 50.0)]))
+    out["turn"] = f.save(folder / "turn.glb")
+    f = _Gltf()
+    f.node(mesh=f.mesh(*torus(0.6, 0.35, 40, 24), color=(0.75, 0.55, 0.7)), name="torus",
+           rotation=quaternion((1, 0, 0), 45.0))
+    f.node(mesh=f.mesh(*box([0.4, 1.3, 0.4]), color=(0.6, 0.6, 0.6)), name="post", translation=[-1.05, 0.1, 0.3])
+    s = np.linspace(0.0, 1.0, frames)
+    ang = np.radians(25.0 - 35.0 * s)
+    dist = 4.2 + 0.6 * s
+    eyes = np.stack([dist * np.sin(ang) - 0.3, 0.8 + 0.9 * s, dist * np.cos(ang)], axis=1)
+    cam = f.camera(eyes[0], [-0.3, 0.0, 0.0])
+    f.animate(cam, "translation", keys, eyes)
+    f.animate(cam, "rotation", keys, np.array([look_rotation(e, [-0.3, 0.0, 0.0]) for e in eyes]))
+    out["orbit"] = f.save(folder / "orbit.glb")
+    f = _Gltf()
+    verts, faces, w1 = tube(rings=32, segments=24, radius=0.28)
+    weights = np.stack([1 - w1, w1, 0 * w1, 0 * w1], axis=1)
+    joints = np.tile([0, 1, 0, 0], (len(verts), 1))
+    mesh = f.mesh(verts, faces, color=(0.85, 0.65, 0.5), skin=(joints, weights))
+    j1 = len(f.doc.nodes) + 1
+    j0 = f.node(name="j0", translation=[-1.0, 0.0, 0.0], children=[j1])
+    f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.eye(4)])
+    ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0
+    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.accessor(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    f.node(mesh=mesh, skin=0, name="tube")
+    f.camera([0.2, 2.6, 3.6], [0.1, 0.0, 0.3])
+    f.animate(j1, "rotation", np.array([0.0, seconds]),
+              np.array([quaternion((0, 1, 0), 0.0), quaternion((0, 1, 0), -60.0)]))
     out["bend"] = f.save(folder / "bend.glb")
     return out
 
@@ -555,7 +609,7 @@ def _fmt(v: float | None) -> str:
 
 
 def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool = True, do_sweep: bool = True,
-        echo: Any = click.echo) -> dict[str, Any]:
+        echo: Any = click.echo, shots: str = "report") -> dict[str, Any]:
     import nodegraph as ng
 
     t0 = time.perf_counter()
@@ -563,19 +617,19 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
         folder = Path(tmp)
         plain = folder / "plain.yaml"
         atomic_write_text(plain, PLAIN_YAML)
-        scenes = write_shots(folder, frames)
-        shots = {}
+        scenes = write_shots(folder, frames, shots)
+        measured = {}
         for s, path in scenes.items():
-            shots[s] = Shot(session, plain, path, size, frames)
-            echo(f"shot {s}: plain floor E = {shots[s].e_plain:.4f}")
+            measured[s] = Shot(session, plain, path, size, frames)
+            echo(f"shot {s}: plain floor E = {measured[s].e_plain:.4f}")
         out: dict[str, Any] = {
-            "size": list(size), "frames": frames, "fps": FPS,
+            "size": list(size), "frames": frames, "fps": FPS, "shots": shots,
             "measure": "mean |L_t - warp(L_t-1, motion_t)| of luminance (0..1) over pixels visible in both frames, "
                        "mean over consecutive pairs; paper grain off",
             "pipelines": {}}
         for name in pipelines:
             echo(f"{name} ...")
-            out["pipelines"][name] = measure(name, session, shots, size, do_hold, do_sweep, echo)
+            out["pipelines"][name] = measure(name, session, measured, size, do_hold, do_sweep, echo)
         out["seconds"] = round(time.perf_counter() - t0, 1)
     return out
 
@@ -710,6 +764,8 @@ def _size(text: str) -> tuple[int, int]:
               help="Comma-separated shipped pipelines (default: all with an `image` output).")
 @click.option("--size", default="256x256", show_default=True, help="WxH of the frames.")
 @click.option("--frames", default=12, show_default=True, type=click.IntRange(3, 240), help="Frames per shot.")
+@click.option("--shots", type=click.Choice(["report", "heldout"]), default="report", show_default=True,
+              help="The shots the film settings were chosen on, or three held-out ones (other shapes and paths).")
 @click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
 @click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
 @click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
@@ -718,8 +774,8 @@ def _size(text: str) -> tuple[int, int]:
               help="Also write 4 consecutive frames of the orbit shot per pipeline, default and film (PNG).")
 @click.option("--stills", "stills_path", type=click.Path(path_type=Path), default=None,
               help="Also write each pipeline's still on its own scene, default beside film (PNG).")
-def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, no_hold: bool, no_sweep: bool,
-            chart_path: Path | None, sheet_path: Path | None, stills_path: Path | None) -> None:
+def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, shots: str, no_hold: bool,
+            no_sweep: bool, chart_path: Path | None, sheet_path: Path | None, stills_path: Path | None) -> None:
     from ... import shipped
 
     known = shipped.names()
@@ -729,7 +785,7 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
     if unknown:
         raise click.BadParameter(f"unknown pipeline(s) {', '.join(unknown)}; shipped: {', '.join(known)}",
                                  param_hint="--pipelines")
-    result = run(names, _size(size), frames, not no_hold, not no_sweep)
+    result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots)
     click.echo(summary(result))
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
