@@ -50,7 +50,8 @@ for; the extended figures show how much of a pipeline's index that accounts for.
 
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
-like an elbow). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
+like an elbow); `--shots heldout` measures on three more of the same kinds that no film setting was chosen on
+(`write_heldout_shots`). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
 `film_overrides`: `hold: 0` on every node that has a hold, then FILM's overrides as `--set` takes them), with its
 sketchiness.
 `hold`: the index with `hold: N` on every node that has one. `sweep`: the pipeline's main parameters (SWEEP) scaled
