@@ -108,3 +108,61 @@ def test_smoke_in_a_minimal_pipeline_outputs_as_declared_and_planned(gl):
 """
     ex, res = run_minimal(gl, nodes, {"out": "d.out"})
     assert assert_outputs_as_planned(ex, res, "d") == ["out"]
+
+
+OBJECT_NODES = """\
+  gbuf: {type: rasterize}
+  dist:
+    type: distortion_map
+    in: {position: gbuf.position}
+    params: {layers: 3, amplitude: 0.01, space: object}
+"""
+
+
+def test_object_space_matches_the_formula_by_hand(gl):
+    """space: object: every pixel's offsets written from the docstring's formula in float64 at the object-space
+    position under it; off the box, at the position of a nearest covered pixel (brute force)."""
+    ex, res = run_minimal(gl, OBJECT_NODES, {"out": "dist.out", "pos": "gbuf.position"}, size=(40, 32),
+                          scene="builtin:box")
+    node = ex.pipeline.nodes["dist"]
+    got = res.values[("dist", "out")].read()
+    pos = res.values[("gbuf", "position")].read().astype(np.float64)
+    seed = derive_seed(ex.pipeline.seed, "dist", 0)
+    coef = node.coefficients(seed, 32)
+    axes = node.axes(seed)
+    assert np.allclose(np.linalg.norm(axes, axis=-1), 1.0)
+    lo, hi = ex.pipeline.scene.scale_bounds()
+    diag = math.dist(lo, hi)
+    covered = pos[..., 3] > 0
+    assert 0.1 < covered.mean() < 0.9  # the box and the sheet around it
+    cy, cx = np.nonzero(covered)
+
+    def expected(g: np.ndarray, k: int) -> tuple[float, float]:
+        a, b, c = coef[k]
+        return (a * math.cos(b * float(g @ axes[k, 0]) / diag + c), a * math.sin(b * float(g @ axes[k, 1]) / diag + c))
+
+    worst = 0.0
+    for y in range(32):
+        for x in range(40):
+            if covered[y, x]:
+                cands = [pos[y, x, :3]]
+            else:  # any nearest covered pixel may be the one taken
+                d2 = (cy - y) ** 2 + (cx - x) ** 2
+                cands = [pos[j, i, :3] for j, i in zip(cy[d2 == d2.min()], cx[d2 == d2.min()], strict=True)]
+            for k in range(3):
+                err = min(max(abs(got[k, y, x, 0] - e[0]), abs(got[k, y, x, 1] - e[1]))
+                          for e in (expected(g, k) for g in cands))
+                worst = max(worst, err)
+    assert worst < 2e-3 * 0.01 * 32 + 1e-3  # RG16F: a few half-float ulps of offsets up to 0.32 px
+    assert np.abs(got).max() <= 0.01 * 32 * (1 + 1e-3)  # the bound holds as in screen space
+
+
+def test_object_space_keys_and_errors(gl):
+    """The screen-space key is as before (space is keyed only where it is object); object space needs
+    `position` in one line."""
+    screen = load()
+    ctx = HashContext(screen.size, 0, screen.seed, None)
+    assert "space" not in screen.nodes["dist"].key_parts(ctx, {})["params"]
+    assert screen.nodes["dist"].hash_extra(ctx) is None
+    with pytest.raises(Exception, match=r"space: object.*needs `position` connected"):
+        run_minimal(gl, "  dist: {type: distortion_map, params: {space: object}}\n", {"out": "dist.out"})
