@@ -168,3 +168,32 @@ def test_heldout_shots_move_as_written(tmp_path):
     np.testing.assert_allclose(tip, [math.cos(math.radians(60)), 0.0, math.sin(math.radians(60))], atol=1e-5)
     with pytest.raises(ValueError, match="heldout"):
         co.write_shots(tmp_path, 5, "other")
+
+
+@pytest.mark.slow
+def test_pipelines_takes_a_pipeline_file(gl, tmp_path):
+    """`--pipelines` measures a pipeline file as it does a shipped one: the object-space alternative of
+    pencil_contours beside the pipeline itself; on the turn (the torus turning, its drawn lines fixed on it) the
+    shake read on the surface changes less than the screen maps'."""
+    import json
+
+    from click.testing import CliRunner
+
+    from nodegraph import shipped
+    from nodegraph.cli import main
+
+    alt = shipped.folder() / "film" / "pencil_contours_object_space.yaml"
+    out = tmp_path / "c.json"
+    res = CliRunner().invoke(main, ["bench", "coherence", "--pipelines", f"{alt},pencil_contours", "--size", "128x128",
+                                    "--frames", "4", "--no-hold", "--no-sweep", "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    r = json.loads(out.read_text())["pipelines"]
+    assert set(r) == {str(alt), "pencil_contours"}
+    turn = {n: r[n]["default"]["shots"]["turn"] for n in r}
+    assert turn[str(alt)]["e_pipeline"] < turn["pencil_contours"]["e_pipeline"], turn
+    bad = CliRunner().invoke(main, ["bench", "coherence", "--pipelines", str(tmp_path / "nope.yaml")])
+    assert bad.exit_code != 0 and "unknown pipeline(s)" in bad.output
+    imageless = tmp_path / "depth.yaml"
+    imageless.write_text("pipeline: t\nnodes:\n  g: {type: rasterize}\noutputs:\n  depth: g.depth\n")
+    bad = CliRunner().invoke(main, ["bench", "coherence", "--pipelines", str(imageless)])
+    assert bad.exit_code != 0 and "no `image` output" in bad.output

@@ -54,6 +54,9 @@ like an elbow); `--shots heldout` measures on three more of the same kinds that 
 (`write_heldout_shots`). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
 `film_overrides`: `hold: 0` on every node that has a hold, then FILM's overrides as `--set` takes them), with its
 sketchiness.
+`--pipelines` also takes pipeline files (a user's own, or an alternative such as
+pipelines/film/pencil_contours_object_space.yaml), measured as a shipped pipeline is; their film setting is the file
+with its holds at 0.
 `hold`: the index with `hold: N` on every node that has one. `sweep`: the pipeline's main parameters (SWEEP) scaled
 by 0.5 and 2 on the `turn` shot, for the chart of coherence against sketchiness.
 """
@@ -762,7 +765,8 @@ def _size(text: str) -> tuple[int, int]:
                     "made in code (turn, orbit, bend); coherence index 1 = plain, 0 = re-seeded.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 @click.option("--pipelines", default=None,
-              help="Comma-separated shipped pipelines (default: all with an `image` output).")
+              help="Comma-separated shipped pipelines or pipeline files with an `image` output (default: every "
+                   "shipped one that has one).")
 @click.option("--size", default="256x256", show_default=True, help="WxH of the frames.")
 @click.option("--frames", default=12, show_default=True, type=click.IntRange(3, 240), help="Frames per shot.")
 @click.option("--shots", type=click.Choice(["report", "heldout"]), default="report", show_default=True,
@@ -782,10 +786,13 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
     known = shipped.names()
     names = [p.strip() for p in pipelines.split(",") if p.strip()] if pipelines else [n for n in known
                                                                                        if _draws_image(n)]
-    unknown = [n for n in names if n not in known]
+    unknown = [n for n in names if n not in known and not Path(n).is_file()]
     if unknown:
-        raise click.BadParameter(f"unknown pipeline(s) {', '.join(unknown)}; shipped: {', '.join(known)}",
-                                 param_hint="--pipelines")
+        raise click.BadParameter(f"unknown pipeline(s) {', '.join(unknown)}; shipped: {', '.join(known)} (or a "
+                                 "pipeline file)", param_hint="--pipelines")
+    imageless = [n for n in names if not _draws_image(n)]
+    if imageless:
+        raise click.BadParameter(f"{', '.join(imageless)}: no `image` output to measure", param_hint="--pipelines")
     result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots)
     click.echo(summary(result))
     if json_path:
@@ -801,7 +808,8 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
 
 
 def _draws_image(name: str) -> bool:
-    """Whether a shipped pipeline has an `image` output (vector-only pipelines have nothing to warp)."""
+    """Whether a shipped pipeline or a pipeline file has an `image` output (vector-only pipelines have nothing to
+    warp)."""
     from ... import shipped, yamlio
 
     return "image" in (yamlio.load(shipped.resolve(name)).get("outputs") or {})
@@ -809,7 +817,8 @@ def _draws_image(name: str) -> bool:
 
 def summary(result: dict[str, Any]) -> str:
     """A table: per pipeline, the index per shot (default), with hold 1/2/4 where measured, and sketchiness."""
-    lines = [f"{'pipeline':26s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   film " +
+    width = max([26, *map(len, result["pipelines"])])
+    lines = [f"{'pipeline':{width}s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   film " +
              " ".join(f"{s:>6s}" for s in SHOTS) + "   hold1/2/4 (mean)  sketch px"]
     for name, r in result["pipelines"].items():
         d, f = r["default"]["shots"], r["film"]["shots"]
@@ -817,7 +826,7 @@ def summary(result: dict[str, Any]) -> str:
         if "hold" in r:
             holds = "/".join(_fmt(_mean([f["coherence_index"] for f in r["hold"][str(n)].values()])) for n in HOLDS)
         film = r["film"].get("sketchiness_px")
-        lines.append(f"{name:26s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
+        lines.append(f"{name:{width}s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
                                                for s in SHOTS) + "        " +
                      " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in SHOTS) +
                      f"   {holds:17s} {r['sketchiness_px']:.2f}" + (f" (film {film:.2f})" if film else ""))
