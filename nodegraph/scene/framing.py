@@ -7,6 +7,17 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
 - OBJ, PLY, OFF and glTF are Y-up with the front toward +Z; STL (3D printing, CAD, scanners) is Z-up with
   the front toward -Y (Blender's convention), which `up_rotation("z")` turns into +Z.
 - **Up** (`orient`), of the six signed axes:
+  0. *It stands on legs one way only.* `stance` finds, for each axis up (the mirror plane's axis left out, see
+     1), the contacts of a 20,000-sample surface in the lowest LEG_BAND of the extent, grouped into feet (links
+     of LEG_LINK of the diagonal); the mesh stands that way when it has two or more feet, its centre of mass
+     projects at least LEG_MARGIN of the diagonal inside their convex hull, and the feet stay apart up to
+     LEG_HEIGHT of the height (legs, wheels: not the bumps of a flank lying on the ground). When exactly one
+     axis stands so and no other axis has a flat base (below) the mesh can rest on, that axis is up: a
+     convention that disagrees is overridden with one line, and one that agrees holds. A standing animal,
+     insect, bird or figure with its feet apart stands on its feet and on nothing else; a table or a chair
+     also rests on its flat top or back, a figure on a plinth on the plinth, so for them the legs decide
+     nothing (measured: `sketchgraph bench orientation`; the constants were set before the first measurement,
+     the flat-base condition after the tune set's figure, which also stands on its nose and toes).
   1. *The mirror plane is vertical.* Characters, animals, vehicles and most made things are mirror-symmetric
      left to right. When one of the three axis mid-planes is the mirror plane (`mirror_plane`: the surface
      is its own mirror image across it, by `mirror_distance`, MIRROR_RATIO times more closely than across
@@ -96,6 +107,12 @@ DETAIL_MARGIN = 1.3  # the far end of the front axis is the front when it shows 
 DETAIL_FLOOR = 0.25  # ... each side counted with this share of the picture's width of line added
 DETAIL_RES = 128  # pixels across the z-buffer that hides feature lines behind the surface
 POSE_COS = 0.94  # a resting pose counts for an axis when its up is within ~20 degrees of it
+LEG_SAMPLES = 20000  # surface samples the stance is measured on
+LEG_BAND = 0.03  # the contacts: the samples in the lowest share of the extent
+LEG_LINK = 0.04  # contacts closer than this share of the diagonal belong to one foot
+LEG_MIN = 0.03  # a foot holds at least this share of the contacts
+LEG_HEIGHT = 0.12  # legs: the feet stay apart up to this share of the height
+LEG_MARGIN = 0.01  # the centre of mass lies this share of the diagonal inside the feet's polygon
 DEFAULT_FILL = 0.85  # the projected box of the subject over the picture's shorter side
 FILL_MAX = 4.0
 THIN = 0.2  # a subject whose thinnest principal extent is under this share of the middle one is flat
@@ -363,6 +380,66 @@ def resting_poses(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
     return -normal[keep], weight[keep] / total
 
 
+@dataclass(frozen=True)
+class Stance:
+    """How a mesh stands with a given axis up (`stance`): its `feet` (separate contacts), how far its centre of
+    mass lies inside their polygon (`margin`, a share of the diagonal; negative outside) and whether they stay
+    apart up to LEG_HEIGHT of the height (`legs`)."""
+
+    feet: int
+    margin: float
+    legs: bool
+
+    @property
+    def stands(self) -> bool:
+        return self.feet >= 2 and self.legs and self.margin >= LEG_MARGIN
+
+
+def _groups(points: np.ndarray, radius: float) -> np.ndarray:
+    """Labels of the groups of `points` linked by steps of at most `radius` (single linkage)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float) -> Stance:
+    """How the surface (`points`, samples) stands with the signed axis `up` up: the samples in the lowest LEG_BAND
+    of its extent are the contacts, grouped into feet (links of LEG_LINK of the diagonal; groups under LEG_MIN of
+    the contacts dropped); the centre of mass `com` must project inside the feet's convex hull, and the feet
+    must lie in separate groups of the samples up to LEG_HEIGHT of the height (legs, wheels: not the bumps of a
+    flank lying on the ground)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    a = axis_vector(up)
+    h = points @ a
+    lo, ext = float(h.min()), float(np.ptp(h))
+    if not ext > 0.0 or not diag > 0.0:
+        return Stance(0, -1.0, False)
+    low = np.nonzero(h <= lo + LEG_BAND * ext)[0]
+    foot = _groups(points[low], LEG_LINK * diag)
+    sizes = np.bincount(foot)
+    feet = np.nonzero(sizes >= max(3, LEG_MIN * len(low)))[0]
+    if len(feet) < 2:
+        return Stance(len(feet), -1.0, False)
+    plane = [k for k in range(3) if abs(a[k]) < 0.5]
+    contact = points[low[np.isin(foot, feet)]][:, plane]
+    try:
+        hull = ConvexHull(contact)
+    except (QhullError, ValueError):
+        return Stance(len(feet), -1.0, False)
+    margin = float(-(hull.equations[:, :2] @ com[plane] + hull.equations[:, 2]).max()) / diag
+    column = np.nonzero(h <= lo + LEG_HEIGHT * ext)[0]
+    groups = _groups(points[column], LEG_LINK * diag)
+    where = np.searchsorted(column, low)  # low is a subset of column, both sorted
+    apart = len({int(groups[where[np.nonzero(foot == k)[0][0]]]) for k in feet})
+    return Stance(len(feet), margin, apart >= 2)
+
+
 def resting_support(ups: np.ndarray, probs: np.ndarray, axis: str) -> float:
     """The probability of the resting poses whose up lies within ~20 degrees of the signed `axis`."""
     if len(probs) == 0:
@@ -577,6 +654,8 @@ class Orientation:
     front: np.ndarray
     notes: list[str] = field(default_factory=list)
     evidence: dict[str, Any] = field(default_factory=dict)
+    rule: str = ""  # what overrode the convention's up: "legs", "mirror", "base" ("": nothing)
+    feet: int = 0  # the feet it stands on (rule "legs")
 
     def encode(self) -> np.ndarray:
         return np.r_[SIGNED_AXES.index(self.up), self.front]
@@ -602,6 +681,7 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
     evidence["asymmetry"] = [round(a, 3) for a in asym]
     evidence["mirror"] = None if mirror is None else "xyz"[mirror]
     chosen = up
+    rule, feet = "", 0
     if chosen is None:
         chosen = conv_up
         ups, probs = resting_poses(v, f)
@@ -609,25 +689,34 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
         flat = base_shares(v, f)
         evidence["rest"] = {a: round(x, 3) for a, x in rest.items()}
         evidence["base"] = {a: round(x, 3) for a, x in flat.items()}
-        if mirror is not None and "xyz"[mirror] == conv_up:
+        dense = surface_samples(v, f, LEG_SAMPLES)
+        com = surface_centroid(v, f)
+        stances = {a: stance(dense, com, a, scale) for a in SIGNED_AXES if mirror is None or a[-1] != "xyz"[mirror]}
+        standing = [a for a, st in stances.items() if st.stands]
+        evidence["feet"] = {a: st.feet for a, st in stances.items() if st.stands}
+        rivals = [a for a in SIGNED_AXES if a not in standing and flat[a] >= BASE_SHARE and rest[a] > 0.0]
+        if len(standing) == 1 and not rivals:
+            if standing[0] != conv_up:
+                chosen, rule, feet = standing[0], "legs", stances[standing[0]].feet
+        elif mirror is not None and "xyz"[mirror] == conv_up:
             alt = "y" if conv_up == "z" else "z"
             other = next(a for a in "xyz" if a not in (conv_up, alt))
             axis = alt if max(rest[alt], rest["-" + alt]) > 0.0 or max(rest[other], rest["-" + other]) == 0.0 \
                 else other
             score = {s: rest[s] + flat[s] for s in (axis, "-" + axis)}
             chosen = axis if score[axis] >= score["-" + axis] else "-" + axis
-            notes.append(f"stood up along {chosen}: the mesh is mirror-symmetric across {conv_up}, so {conv_up} runs "
-                         f"left to right, not up; `--up {conv_up}` keeps the file's axis")
+            rule = "mirror"
         else:
             own = flat[conv_up]
             best = max((a for a in SIGNED_AXES if a != conv_up and (mirror is None or a[-1] != "xyz"[mirror])),
                        key=lambda a: flat[a])
             if flat[best] >= BASE_SHARE and flat[best] >= BASE_RATIO * own and rest[best] > 0.0 \
                     and rest[conv_up] == 0.0:
-                chosen = best
-                notes.append(f"stood up along {best}: a flat base; `--up {conv_up}` keeps the file's axis")
+                chosen, rule = best, "base"
+        if rule:
+            notes.append(up_note(chosen, conv_up, rule, feet))
     if not front:
-        return Orientation(chosen, np.array([0.0, 0.0, 1.0]), notes, evidence)
+        return Orientation(chosen, np.array([0.0, 0.0, 1.0]), notes, evidence, rule, feet)
     # the front, on the stood-up mesh
     rot = up_rotation(chosen)[:3, :3]
     turned_asym = [asym["xyz".index(axis_name(rot.T[:, k])[-1])] for k in range(3)]
@@ -637,12 +726,30 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
     note = choice.note(rot)
     if note:
         notes.append(note)
-    return Orientation(chosen, choice.front, notes, evidence)
+    return Orientation(chosen, choice.front, notes, evidence, rule, feet)
+
+
+UP_RULES = ("", "legs", "mirror", "base")
+
+
+def up_note(up: str, conv_up: str, rule: str, feet: int = 0) -> str:
+    """The line that says why `orient` stood a mesh up along `up` rather than the convention's `conv_up`."""
+    why = {"legs": f"it stands on {feet} feet (legs, wheels) that way and on nothing else",
+           "mirror": f"the mesh is mirror-symmetric across {conv_up}, so {conv_up} runs left to right, not up",
+           "base": "a flat base"}[rule]
+    return f"stood up along {up}: {why}; `--up {conv_up}` keeps the file's axis"
+
+
+def up_choice(vertices: Any, faces: Any, suffix: str = "") -> tuple[str, str, int]:
+    """(the up axis `orient` finds, the rule that chose it (UP_RULES; "" for the convention), the feet it stands on
+    (rule "legs"))."""
+    o = orient(vertices, faces, suffix, front=False)
+    return o.up, o.rule, o.feet
 
 
 def detect_up(vertices: Any, faces: Any, suffix: str = "") -> str:
     """The up axis `orient` finds (a signed axis name: 'y', 'z', '-x', ...)."""
-    return orient(vertices, faces, suffix, front=False).up
+    return up_choice(vertices, faces, suffix)[0]
 
 
 def detect_front(vertices: Any, faces: Any) -> np.ndarray:
@@ -827,6 +934,7 @@ def describe(up: str, front: np.ndarray) -> str:
     return f"up {up}, front {axis_name(front)}"
 
 
-__all__ = ["DEFAULT_FILL", "MOTION_MIN_SHARE", "UP_AXES", "VIEWS", "FramingWarning", "FrontChoice", "Orientation",
-           "broad_side", "check_fill", "check_up", "check_view", "detect_front", "detect_up", "feature_lines",
-           "fit_view", "front_choice", "motion_view", "orient", "up_rotation", "view_direction", "visible_detail"]
+__all__ = ["DEFAULT_FILL", "MOTION_MIN_SHARE", "UP_AXES", "UP_RULES", "VIEWS", "FramingWarning", "FrontChoice",
+           "Orientation", "Stance", "broad_side", "check_fill", "check_up", "check_view", "detect_front", "detect_up",
+           "feature_lines", "fit_view", "front_choice", "motion_view", "orient", "stance", "up_choice", "up_note",
+           "up_rotation", "view_direction", "visible_detail"]

@@ -1031,28 +1031,29 @@ def stand_up(mesh: Mesh, up: str | None, source: str | None = None) -> tuple[Mes
     and the axis used. A Y-up mesh is returned as it is."""
     given = framing.check_up(up)
     suffix = framing.suffix_of(source or mesh.source)
-    axis = given or _detect_up(mesh, suffix)
     if given is None:
-        conv = framing.convention(suffix)[0]
-        if axis != conv:
-            why = ("a flat base" if framing.base_share(mesh.vertices, mesh.faces, axis) >= framing.BASE_SHARE else
-                   f"the mesh is mirror-symmetric across {conv}, so {conv} runs left to right, not up")
-            framing.warn_notes(mesh.name, [f"stood up along {axis}: {why}; `--up {conv}` keeps the file's axis"])
+        axis, rule, feet = _detect_up(mesh, suffix)
+        if rule:
+            framing.warn_notes(mesh.name, [framing.up_note(axis, framing.convention(suffix)[0], rule, feet)])
+    else:
+        axis = given
     if axis == "y":
         return mesh, axis
     return mesh.transformed(framing.up_rotation(axis)), axis
 
 
-def _detect_up(mesh: Mesh, suffix: str) -> str:
-    """framing.detect_up, kept on disk (nodegraph/scene/meshstore.py: scipy.spatial's import alone is 0.47 s);
-    the suffix counts only as a Z-up format or not."""
+def _detect_up(mesh: Mesh, suffix: str) -> tuple[str, str, int]:
+    """framing.up_choice (the up axis, the rule that chose it, the feet), kept on disk (nodegraph/scene/meshstore.py:
+    scipy.spatial's import alone is 0.47 s); the suffix counts only as a Z-up format or not."""
     from . import meshstore
 
+    def make() -> list[int]:
+        up, rule, feet = framing.up_choice(mesh.vertices, mesh.faces, suffix)
+        return [framing.SIGNED_AXES.index(up), framing.UP_RULES.index(rule), feet]
+
     what = "up-z" if suffix.lower() in framing.Z_UP_FORMATS else "up"
-    index = meshstore.memo(mesh, what, lambda: framing.SIGNED_AXES.index(framing.detect_up(mesh.vertices, mesh.faces,
-                                                                                            suffix)),
-                           (framing.__file__,), always=True)
-    return framing.SIGNED_AXES[int(index)]
+    index, rule, feet = (int(x) for x in meshstore.memo(mesh, what, make, (framing.__file__,), always=True))
+    return framing.SIGNED_AXES[index], framing.UP_RULES[rule], feet
 
 
 def mesh_front_choice(mesh: Mesh) -> framing.FrontChoice:

@@ -98,15 +98,83 @@ def test_up_keeps_the_file_convention_unless_the_shape_says_otherwise(files) -> 
 
 
 def test_a_vertical_mirror_plane_overrides_the_convention() -> None:
-    """A four-legged animal written with its left-right axis along Y (a Z-up scan read as Y-up lies on its
-    side): Y cannot be up; it is stood up along Z and the line says so."""
-    animal = quadruped()
-    lying = animal.transformed(np.linalg.inv(framing.up_rotation("x")))  # +Y (up) -> +X, +X (left-right) -> -Y
+    """A head with a nose and ears (no legs) written with its left-right axis along Y (a Z-up scan read as Y-up
+    lies on its side): Y cannot be up; it is stood up along another axis and the line says so."""
+    head = orientation.GENERATED["head"][0]()
+    lying = head.transformed(np.linalg.inv(framing.up_rotation("x")))  # +Y (up) -> +X, +X (left-right) -> -Y
     o = framing.orient(lying.vertices, lying.faces, ".obj")
     assert o.notes and "mirror-symmetric across y" in o.notes[0]
     assert o.up[-1] != "y"
     with pytest.warns(framing.FramingWarning, match="stood up along"):
         scene_for_mesh(lying, "lying.obj")
+
+
+def test_legs_stand_a_lying_animal_up() -> None:
+    """The four-legged animal lying on its side (its up along +X, its left-right along Y): it stands on four feet
+    with +X up and on nothing else, so it is stood up along +X exactly, and the line says so."""
+    lying = quadruped().transformed(np.linalg.inv(framing.up_rotation("x")))
+    o = framing.orient(lying.vertices, lying.faces, ".obj")
+    assert o.up == "x"
+    assert o.notes and "stands on 4 feet" in o.notes[0] and "`--up y`" in o.notes[0]
+    assert o.evidence["feet"] == {"x": 4}
+    with pytest.warns(framing.FramingWarning, match=r"stood up along x: it stands on 4 feet"):
+        scene = scene_for_mesh(lying, "lying.obj")
+    lo, hi = scene.bounds()
+    assert hi[1] - lo[1] == pytest.approx(1.95, abs=1e-6)  # standing: legs, body and head along +Y
+    upright = framing.orient(quadruped().vertices, quadruped().faces, ".obj")  # the convention holds, silently
+    assert upright.up == "y" and not any("stood up" in n for n in upright.notes)
+
+
+@pytest.mark.slow
+def test_legs_stand_an_insect_up_in_every_rotation() -> None:
+    """The bench's insect (six splayed legs) in each of the 24 axis-aligned rotations, as an OBJ: up is found
+    every time, by the legs where the file's Y is not up."""
+    insect = orientation.GENERATED["insect"][0]()
+    for rot in orientation.rotations():
+        row = orientation.judge(orientation.Case("insect", insect, np.array([0.0, 0.0, 1.0]), "fresh"), rot)
+        assert row["up_ok"], row
+
+
+def test_a_flat_base_elsewhere_leaves_legs_undecided() -> None:
+    """A table on its side stands on four legs one way, but rests as well on its flat top the other way (a
+    flat base it can rest on): the legs alone do not override the convention."""
+    table = orientation.GENERATED["table"][0]()
+    side = table.transformed(np.linalg.inv(framing.up_rotation("x")))
+    o = framing.orient(side.vertices, side.faces, ".obj")
+    assert not any("feet" in n for n in o.notes)
+
+
+def _stool(legs: bool = True) -> Mesh:
+    """A seat 1 x 0.1 x 1 at height 1 on four 0.1 x 1 x 0.1 legs in its corners (or the seat alone)."""
+    parts = [_box((-0.5, 1.0, -0.5), (0.5, 1.1, 0.5))]
+    if legs:
+        parts += [_box((x, 0.0, z), (x + 0.1, 1.0, z + 0.1)) for x in (-0.5, 0.4) for z in (-0.5, 0.4)]
+    return merge_meshes(parts, "stool")
+
+
+def test_stance_by_hand() -> None:
+    """A stool stands on 4 feet up +Y, its centre of mass (0, ., 0) inside the square of its legs by 0.5 (its
+    half width) over the diagonal; on its seat (up -Y) it has one contact; the seat alone has no feet either way;
+    legs of one slab rising from the floor (bumps a flank lies on) are not legs."""
+    stool = _stool()
+    v, f = stool.vertices.astype(np.float64), stool.faces
+    p = framing.surface_samples(v, f, framing.LEG_SAMPLES)
+    com = framing.surface_centroid(v, f)
+    diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    up = framing.stance(p, com, "y", diag)
+    assert up.feet == 4 and up.legs and up.stands
+    assert up.margin == pytest.approx(0.5 / diag, abs=0.01)  # samples stop a little inside the legs' corners
+    assert framing.stance(p, com, "-y", diag).feet == 1 and not framing.stance(p, com, "-y", diag).stands
+    seat = _stool(legs=False)
+    ps = framing.surface_samples(seat.vertices, seat.faces, framing.LEG_SAMPLES)
+    for axis in framing.SIGNED_AXES:
+        assert not framing.stance(ps, framing.surface_centroid(seat.vertices, seat.faces), axis, diag).stands
+    # bumps 2% high under a slab: apart at the floor, joined within LEG_HEIGHT of the height
+    bumps = merge_meshes([_box((-0.5, 0.02, -0.5), (0.5, 0.3, 0.5))]
+                         + [_box((x, 0.0, -0.1), (x + 0.1, 0.02, 0.1)) for x in (-0.45, 0.35)], "bumps")
+    pb = framing.surface_samples(bumps.vertices, bumps.faces, framing.LEG_SAMPLES)
+    st = framing.stance(pb, framing.surface_centroid(bumps.vertices, bumps.faces), "y", diag)
+    assert st.feet == 2 and not st.legs and not st.stands
 
 
 TURN_Z = TO_X_FRONT @ TO_X_FRONT  # half a turn about +Y: the front +Z -> -Z

@@ -247,7 +247,7 @@ def test_derived_arrays_of_a_large_mesh_come_back_the_same_without_being_compute
     assert {p.name.split(".")[-2] for p in store.glob("*.npz")} >= {"mesh", "front", "up", "holes", "render40_0",
                                                                     "enlarge40_0", "slots40_0"}
     for where, name in ((meshes.Mesh, "_render_arrays"), (meshes.Mesh, "_edge_stats"), (framing, "detect_up"),
-                        (framing, "detect_front"), (meshes, "_igl_read")):
+                        (framing, "up_choice"), (framing, "detect_front"), (meshes, "_igl_read")):
         monkeypatch.setattr(where, name, _no_parse)
     monkeypatch.setattr("nodegraph_nodes.rasterize._enlarge_normals", _no_parse)
     monkeypatch.setattr(pencil_shade, "corner_slots", _no_parse)
