@@ -12,12 +12,14 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
      of LEG_LINK of the diagonal); the mesh stands that way when it has two or more feet, its centre of mass
      projects at least LEG_MARGIN of the diagonal inside their convex hull, and the feet stay apart up to
      LEG_HEIGHT of the height (legs, wheels: not the bumps of a flank lying on the ground). When exactly one
-     axis stands so and no other axis has a flat base (below) the mesh can rest on, that axis is up: a
-     convention that disagrees is overridden with one line, and one that agrees holds. A standing animal,
-     insect, bird or figure with its feet apart stands on its feet and on nothing else; a table or a chair
-     also rests on its flat top or back, a figure on a plinth on the plinth, so for them the legs decide
-     nothing (measured: `sketchgraph bench orientation`; the constants were set before the first measurement,
-     the flat-base condition after the tune set's figure, which also stands on its nose and toes).
+     axis stands so and no side of another axis has a flat base (below) the mesh can rest on (the other end
+     of the legs' own axis may: a table's top), that axis is up: a convention that disagrees is overridden
+     with one line, and one that agrees holds. A standing animal, insect, bird or figure with its feet apart
+     stands on its feet and on nothing else, a table or a stool on its legs or its top; a chair also rests on
+     its back, a figure on a plinth on the plinth, so for them the legs decide nothing (measured: `sketchgraph
+     bench orientation`; the constants were set before the first measurement, the flat-base condition after
+     the tune set's figure, which also stands on its nose and toes, and the same-axis exception after the
+     bench's first fresh wave).
   1. *The mirror plane is vertical.* Characters, animals, vehicles and most made things are mirror-symmetric
      left to right. When one of the three axis mid-planes is the mirror plane (`mirror_plane`: the surface
      is its own mirror image across it, by `mirror_distance`, MIRROR_RATIO times more closely than across
@@ -694,7 +696,8 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
         stances = {a: stance(dense, com, a, scale) for a in SIGNED_AXES if mirror is None or a[-1] != "xyz"[mirror]}
         standing = [a for a, st in stances.items() if st.stands]
         evidence["feet"] = {a: st.feet for a, st in stances.items() if st.stands}
-        rivals = [a for a in SIGNED_AXES if a not in standing and flat[a] >= BASE_SHARE and rest[a] > 0.0]
+        rivals = [a for a in SIGNED_AXES if a not in standing and flat[a] >= BASE_SHARE and rest[a] > 0.0
+                  and not (len(standing) == 1 and a[-1] == standing[0][-1])]
         if len(standing) == 1 and not rivals:
             if standing[0] != conv_up:
                 chosen, rule, feet = standing[0], "legs", stances[standing[0]].feet

@@ -135,13 +135,17 @@ def test_legs_stand_an_insect_up_in_every_rotation() -> None:
         assert row["up_ok"], row
 
 
-def test_a_flat_base_elsewhere_leaves_legs_undecided() -> None:
-    """A table on its side stands on four legs one way, but rests as well on its flat top the other way (a
-    flat base it can rest on): the legs alone do not override the convention."""
-    table = orientation.GENERATED["table"][0]()
-    side = table.transformed(np.linalg.inv(framing.up_rotation("x")))
+def test_a_flat_base_on_another_axis_leaves_legs_undecided() -> None:
+    """A chair on its side stands on four legs one way, but rests as well on its flat back, a side of another
+    axis: the legs alone do not override the convention. A table on its side rests on its flat top too, but
+    that is the other end of its legs' own axis: it is stood on its legs."""
+    chair = orientation.GENERATED["chair"][0]()
+    side = chair.transformed(np.linalg.inv(framing.up_rotation("x")))
     o = framing.orient(side.vertices, side.faces, ".obj")
-    assert not any("feet" in n for n in o.notes)
+    assert not any("feet" in n for n in o.notes) and o.up != "x"
+    table = orientation.GENERATED["table"][0]().transformed(np.linalg.inv(framing.up_rotation("x")))
+    o = framing.orient(table.vertices, table.faces, ".obj")
+    assert o.up == "x" and "stands on 4 feet" in o.notes[0]
 
 
 def _stool(legs: bool = True) -> Mesh:

@@ -15,11 +15,13 @@ The meshes are kept in four sets, and the figures are given for each apart:
   measure and margin fixed, a face with a nose, eyes under brows and a mouth, an animal with a snout, eyes
   and ears, a car with a sloping windshield and headlights). The head, the box animal and the van were seen
   once in an exploratory table of a curvature-weighted variant that was not kept;
-- **fresh**: shapes generated here after the stance rule (`framing.stance`, legs one way only) was fixed, and
-  first measured with it: two mannequins (feet apart, feet together), an insect, a dog, a bird, a tricycle, a
-  bench, a pedestal table, a bottle, a lamp, an arch. The stance's constants were set before its first
-  measurement; its flat-base condition came after the tune set's figure, in a first look that printed the tune,
-  report and wild sets together, so for that rule the fresh set is the unseen one;
+- **fresh**: shapes generated here after the stance rule (`framing.stance`, legs one way only) was fixed, in two
+  waves. The stance's constants were set before its first measurement; its flat-base condition came after the
+  tune set's figure, in a first look that printed the tune, report and wild sets together. The first wave (two
+  mannequins, feet apart and together, an insect, a dog, a bird, a tricycle, a bench, a pedestal table, a
+  bottle, a lamp, an arch) was written then and measured; the exception for a flat base at the other end of the
+  legs' own axis came after it. The second wave (a stool, a bed, a truck, a desk, a statue on a plinth, a cat, a
+  box robot, a shelf) was written after that and measured once: the one set no part of the rule has seen;
 - **wild** (`--wild DIR`, where the files are): ten files of a public collection of test meshes (WILD_KNOWN),
   judged also as their files have them (`as_distributed`). They were first measured with the rules as they
   stood; the upright mirror plane (`framing.upright_mirror`) came after, its ratio set below the tune set's
@@ -295,7 +297,65 @@ def lamp() -> Mesh:
                          _posed(primitives.cone(0.25, 0.25, 24), (0, 0.9, 0))], "lamp")
 
 
-# the fresh set: shapes written after the stance rule (framing.stance) was fixed and before it was measured on them
+def stool() -> Mesh:
+    """A round seat on three splayed legs: up +Y, no front."""
+    legs = [_rod(0.03, 0.62, (0.22 * np.cos(a), 0.3, 0.22 * np.sin(a)), 0.12 * np.sin(a), -0.12 * np.cos(a))
+            for a in (0.3, 0.3 + 2 * np.pi / 3, 0.3 + 4 * np.pi / 3)]
+    return merge_meshes([_rod(0.25, 0.05, (0, 0.62, 0)), *legs], "stool")
+
+
+def bed() -> Mesh:
+    """A mattress on four short legs, a headboard at -Z: the foot end toward +Z."""
+    legs = [_box((x - 0.05, 0.0, z - 0.05), (x + 0.05, 0.15, z + 0.05)) for x in (-0.7, 0.7) for z in (-0.95, 0.95)]
+    mattress, headboard = _box((-0.75, 0.15, -1.0), (0.75, 0.45, 1.0)), _box((-0.75, 0.15, -1.08), (0.75, 0.9, -1.0))
+    return merge_meshes([*legs, mattress, headboard], "bed")
+
+
+def truck() -> Mesh:
+    """A cab and a longer cargo box on six wheels, the cab toward +Z."""
+    wheels = [_rod(0.22, 0.12, (x, 0.22, z), np.pi / 2) for x in (-0.45, 0.45) for z in (-1.1, -0.55, 0.9)]
+    cab, cargo = _box((-0.45, 0.3, 0.55), (0.45, 1.1, 1.3)), _box((-0.5, 0.3, -1.5), (0.5, 1.3, 0.45))
+    return merge_meshes([*wheels, cab, cargo], "truck")
+
+
+def desk() -> Mesh:
+    """A top on two full-depth side panels, a drawer block under one end: up +Y, the knee space toward +Z."""
+    panels = [_box((x0, 0.0, -0.35), (x0 + 0.04, 0.72, 0.35)) for x0 in (-0.8, 0.76)]
+    top, drawers = _box((-0.8, 0.72, -0.35), (0.8, 0.76, 0.35)), _box((0.3, 0.45, -0.33), (0.76, 0.72, 0.3))
+    return merge_meshes([top, *panels, drawers], "desk")
+
+
+def statue() -> Mesh:
+    """The mannequin with its feet apart on a round plinth: up +Y, the front toward +Z."""
+    figure_ = mannequin(True).transformed(np.array([[1, 0, 0, 0], [0, 1, 0, 0.2], [0, 0, 1, 0], [0, 0, 0, 1.0]]))
+    return merge_meshes([_rod(0.4, 0.2, (0, 0.1, 0)), figure_], "statue")
+
+
+def cat() -> Mesh:
+    """A body on four thin legs, a head at +Z, a tail lying on the ground behind."""
+    legs = [_rod(0.03, 0.3, (x, 0.15, z)) for x in (-0.08, 0.08) for z in (-0.22, 0.22)]
+    return merge_meshes([_posed(primitives.ellipsoid(0.12, 0.12, 0.3, 3), (0, 0.36, 0)),
+                         _posed(primitives.sphere(0.1, 3), (0, 0.5, 0.33)), *legs,
+                         _rod(0.025, 0.5, (0, 0.03, -0.5), 0.0, np.pi / 2)], "cat")
+
+
+def robot() -> Mesh:
+    """A box torso and head on two box legs with flat feet toward +Z."""
+    return merge_meshes([_box((-0.3, 0.8, -0.15), (0.3, 1.5, 0.15)), _box((-0.15, 1.5, -0.12), (0.15, 1.8, 0.12)),
+                         _box((-0.25, 0.05, -0.08), (-0.1, 0.8, 0.08)), _box((0.1, 0.05, -0.08), (0.25, 0.8, 0.08)),
+                         _box((-0.27, 0.0, -0.1), (-0.08, 0.05, 0.2)), _box((0.08, 0.0, -0.1), (0.27, 0.05, 0.2))],
+                        "robot")
+
+
+def shelf() -> Mesh:
+    """A tall open box of boards standing on its bottom board: up +Y, its open side toward +Z."""
+    boards = [_box((-0.5, y, -0.2), (0.5, y + 0.03, 0.2)) for y in (0.0, 0.5, 1.0, 1.47)]
+    return merge_meshes([*boards, _box((-0.5, 0.0, -0.2), (-0.47, 1.5, 0.2)), _box((0.47, 0.0, -0.2), (0.5, 1.5, 0.2)),
+                         _box((-0.5, 0.0, -0.2), (0.5, 1.5, -0.18))], "shelf")
+
+
+# the fresh set: shapes written after the stance rule (framing.stance) was fixed, in two waves (module docstring):
+# mannequin .. lamp and the arch first, stool .. shelf after the same-axis exception
 GENERATED = {"head": (head, (0, 0, 1), "report"), "quadruped": (quadruped, (0, 0, 1), "report"),
              "vase": (vase, None, "report"), "table": (table, None, "report"), "van": (van, (0, 0, 1), "report"),
              "face": (face, (0, 0, 1), "report"), "animal": (animal, (0, 0, 1), "report"),
@@ -307,7 +367,11 @@ GENERATED = {"head": (head, (0, 0, 1), "report"), "quadruped": (quadruped, (0, 0
              "tricycle": (tricycle, (0, 0, 1), "fresh"), "dog": (dog, (0, 0, 1), "fresh"),
              "bird": (bird, (0, 0, 1), "fresh"),
              "bottle": (bottle, None, "fresh"), "lamp": (lamp, None, "fresh"),
-             "arch": (lambda: merge_meshes([primitives.arch()], "arch"), None, "fresh")}
+             "arch": (lambda: merge_meshes([primitives.arch()], "arch"), None, "fresh"),
+             "stool": (stool, None, "fresh"), "bed": (bed, (0, 0, 1), "fresh"), "truck": (truck, (0, 0, 1), "fresh"),
+             "desk": (desk, (0, 0, 1), "fresh"), "statue": (statue, (0, 0, 1), "fresh"),
+             "cat": (cat, (0, 0, 1), "fresh"),
+             "robot": (robot, (0, 0, 1), "fresh"), "shelf": (shelf, (0, 0, 1), "fresh")}
 
 
 # The wild set: files of a public collection of test meshes (github.com/alecjacobson/common-3d-test-models, its
