@@ -227,6 +227,24 @@ def tube(rings: int = 40, segments: int = 20, radius: float = 0.22) -> tuple[np.
     return verts, np.array(faces), s * s * (3 - 2 * s)
 
 
+def skinned_tube(f: _Gltf, verts: np.ndarray, faces: np.ndarray, w1: np.ndarray, color: tuple[float, float, float]
+                 ) -> int:
+    """A `tube` skinned to two joints into `f`: joint 0 at x = -1 (the root), joint 1 at x = 0 (its child, weights
+    `w1`), the mesh node "tube"; returns joint 1's node index (what the shot turns)."""
+    weights = np.stack([1 - w1, w1, 0 * w1, 0 * w1], axis=1)
+    joints = np.tile([0, 1, 0, 0], (len(verts), 1))
+    mesh = f.mesh(verts, faces, color=color, skin=(joints, weights))
+    j1 = len(f.doc.nodes) + 1
+    j0 = f.node(name="j0", translation=[-1.0, 0.0, 0.0], children=[j1])
+    f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
+    ibm = np.stack([np.eye(4), np.eye(4)])
+    ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0  # inverse bind: joint 0 at x = -1, joint 1 at x = 0
+    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.accessor(
+        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
+    f.node(mesh=mesh, skin=0, name="tube")
+    return j1
+
+
 def write_shots(folder: Path, frames: int, shots: str = "report") -> dict[str, Path]:
     """The three shots as .glb files in `folder`, each animated over `frames` frames at 24 fps: the `report`
     shots, which the film settings were chosen on, or the `heldout` ones (`write_heldout_shots`)."""
@@ -259,18 +277,7 @@ def write_shots(folder: Path, frames: int, shots: str = "report") -> dict[str, P
     out["orbit"] = f.save(folder / "orbit.glb")
     # bend: a skinned tube; joint 1 (at the middle) turns 70 degrees about +Z
     f = _Gltf()
-    verts, faces, w1 = tube()
-    weights = np.stack([1 - w1, w1, 0 * w1, 0 * w1], axis=1)
-    joints = np.tile([0, 1, 0, 0], (len(verts), 1))
-    mesh = f.mesh(verts, faces, color=(0.6, 0.7, 0.85), skin=(joints, weights))
-    j1 = len(f.doc.nodes) + 1
-    j0 = f.node(name="j0", translation=[-1.0, 0.0, 0.0], children=[j1])
-    f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
-    ibm = np.stack([np.eye(4), np.eye(4)])
-    ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0  # inverse bind: joint 0 at x = -1, joint 1 at x = 0
-    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.accessor(
-        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
-    f.node(mesh=mesh, skin=0, name="tube")
+    j1 = skinned_tube(f, *tube(), color=(0.6, 0.7, 0.85))
     f.camera([0.3, 1.0, 4.6], [0.2, 0.4, 0.0])
     f.animate(j1, "rotation", np.array([0.0, seconds]),
               np.array([quaternion((0, 0, 1), 0.0), quaternion((0, 0, 1), 70.0)]))
@@ -308,18 +315,7 @@ def write_heldout_shots(folder: Path, frames: int) -> dict[str, Path]:
     f.animate(cam, "rotation", keys, np.array([look_rotation(e, [-0.3, 0.0, 0.0]) for e in eyes]))
     out["orbit"] = f.save(folder / "orbit.glb")
     f = _Gltf()
-    verts, faces, w1 = tube(rings=32, segments=24, radius=0.28)
-    weights = np.stack([1 - w1, w1, 0 * w1, 0 * w1], axis=1)
-    joints = np.tile([0, 1, 0, 0], (len(verts), 1))
-    mesh = f.mesh(verts, faces, color=(0.85, 0.65, 0.5), skin=(joints, weights))
-    j1 = len(f.doc.nodes) + 1
-    j0 = f.node(name="j0", translation=[-1.0, 0.0, 0.0], children=[j1])
-    f.node(root=False, name="j1", translation=[1.0, 0.0, 0.0])
-    ibm = np.stack([np.eye(4), np.eye(4)])
-    ibm[0, 0, 3], ibm[1, 0, 3] = 1.0, 0.0
-    f.doc.skins.append(f.g.Skin(joints=[j0, j1], inverseBindMatrices=f.accessor(
-        ibm.transpose(0, 2, 1).astype(np.float32).reshape(2, 16), "MAT4")))
-    f.node(mesh=mesh, skin=0, name="tube")
+    j1 = skinned_tube(f, *tube(rings=32, segments=24, radius=0.28), color=(0.85, 0.65, 0.5))
     f.camera([0.2, 2.6, 3.6], [0.1, 0.0, 0.3])
     f.animate(j1, "rotation", np.array([0.0, seconds]),
               np.array([quaternion((0, 1, 0), 0.0), quaternion((0, 1, 0), -60.0)]))
