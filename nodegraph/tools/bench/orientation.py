@@ -565,7 +565,7 @@ def run(meshes_dir: Path | None = SHARED_MESHES, only: tuple[str, ...] = (), n_r
 
 
 @click.command(help="Up and front found by the framing of a mesh file, on meshes with a known up and front, "
-                    "in the 24 axis-aligned rotations and as a Z-up STL; tune and report sets apart.")
+                    "in the 24 axis-aligned rotations and as a Z-up STL; tune, report and fresh sets apart.")
 @click.option("--meshes", "meshes_dir", type=click.Path(path_type=Path), default=None,
               help="Folder of the shared test meshes (default: ../shared/meshes beside the checkout; the generated "
                    "shapes alone where it is absent).")
