@@ -101,8 +101,6 @@ from .rng import (
     point_np,
     point_of,
     point_py,
-    site_key_np,
-    site_key_py,
     stroke_key_np,
     stroke_key_py,
     unit_np,
@@ -439,7 +437,7 @@ class _SiteStarts:
 
     def __init__(self, maps: _Maps, key: int, sites: Sites):
         self.maps, self.xy, self.next = maps, sites.xy, 0
-        self.fkey = site_key_np(key, sites.key)
+        self.fkey = stroke_key_np(key, sites.key, 1)  # as a stroke's forces, the site's key for its number
 
     def find(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         maps, want = self.maps, ids.size
@@ -711,7 +709,7 @@ def simulate_python(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | 
         if sites is not None:
             while sp < len(site_xy):
                 x, y = site_xy[sp]
-                fkey = site_key_py(key, site_keys[sp])
+                fkey = stroke_key_py(key, site_keys[sp], 1)
                 sp += 1
                 ix, iy = min(int(x), w - 1), min(int(y), h - 1)
                 if near_edge(ix, iy) and not near_ink(ix, iy):

@@ -93,16 +93,5 @@ def stroke_key_np(key: int, strokes: np.ndarray, which: int) -> np.ndarray:
     return mix_np(_U64(key) + (_TWO_U * strokes.astype(np.uint64) + _U64(which)) * _STROKE_U)
 
 
-def site_key_py(key: int, site: int) -> int:
-    """Stream key of the forces of a stroke started at a given site (`common.Sites`) with key `site`: as a
-    stroke's (which=1), with the site's key in place of the stroke number."""
-    return mix_py((key + (2 * site + 1) * STROKE) & MASK)
-
-
-def site_key_np(key: int, sites: np.ndarray) -> np.ndarray:
-    """Elementwise `site_key_py` (uint64 arithmetic wraps as the masked Python does)."""
-    return mix_np(_U64(key) + (_TWO_U * np.asarray(sites, np.uint64) + _U64(1)) * _STROKE_U)
-
-
 def draw_key(rng: np.random.Generator | None) -> int:
     return int((rng if rng is not None else np.random.default_rng(0)).integers(0, 2**64, dtype=np.uint64))
