@@ -543,8 +543,9 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
             return {"coherence_index": coherence_index(e_pipe[key], shot.floor[key], e_reseed[key]),
                     "e_pipeline": e_pipe[key], "e_plain": shot.floor[key], "e_reseed": e_reseed[key]}
 
-        return {**figures("index"), **{v: figures(v) for v in VARIANTS}} | {
-            "extended": {**figures("extended"), "band_px": shot.band_px}}
+        out = {**figures("index"), **{v: figures(v) for v in VARIANTS}}
+        out["extended"]["band_px"] = shot.band_px
+        return out
 
     result: dict[str, Any] = {"grain_off": base}
     default = {s: shot_figures(shot, {}) for s, shot in shots.items()}
