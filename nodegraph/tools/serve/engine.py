@@ -23,6 +23,7 @@ again. Prefetch computes are counted apart from the page's compute counts. Pipel
 
 from __future__ import annotations
 
+import contextvars
 import json
 import secrets
 import threading
@@ -138,7 +139,10 @@ class Engine:
 
     # -- called from any thread -----------------------------------------------------------------------
     def start(self) -> None:
-        self._thread = threading.Thread(target=self._loop, name="sketchgraph-render", daemon=True)
+        # the render thread opens the pipeline in the starting command's context: --front, --animation, the lens
+        # and --allow-outside-scene-dir are context variables (nodegraph/scene/views.py) a new thread would not see
+        self._thread = threading.Thread(target=contextvars.copy_context().run, args=(self._loop,),
+                                        name="sketchgraph-render", daemon=True)
         self._thread.start()
 
     def stop(self) -> None:
