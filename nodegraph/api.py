@@ -220,7 +220,7 @@ def _check_scheduler(scheduler: Any, chunk: Any) -> None:
 _FLAGS = {"--scene": "scene=", "--size": "size=", "--view": "view=", "--up": "up=", "--frames": "frames=",
           "--out-dir": "out_dir=", "--allow-outside-out-dir": "allow_outside=True",
           "--reference-size": "reference_size=", "--fill": "fill=", "--animation": "animation=",
-          "--animation-end": "animation_end="}
+          "--animation-end": "animation_end=", "--front": "front="}
 
 
 def _api_words(text: str) -> str:
@@ -336,11 +336,12 @@ class Session:
              set: Mapping[str, Any] | Iterable[str] | None = None,  # noqa: A002 - the CLI's --set
              out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
              up: str | None = None, reference_size: int | None = None, fill: float | None = None,
-             animation: str | int | None = None, animation_end: str | None = None) -> Pipe:
+             animation: str | int | None = None, animation_end: str | None = None, front: str | None = None) -> Pipe:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH'),
         `set` ({"node.param": value} or ["node.param=value"]), and `view` and `up` (`--view`, `--up`: the
-        side a mesh file is seen from and its up axis; nodegraph/scene/framing.py). Files the pipeline's nodes
+        side a mesh file is seen from and its up axis; nodegraph/scene/framing.py), `front` (`--front`: the axis of
+        the file a mesh file's front faces, auto by default: found by the same rules). Files the pipeline's nodes
         write (`write`, `strokes_svg`) resolve against `out_dir` (default: the current directory) and may not leave it
         unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
         pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md).
@@ -361,6 +362,7 @@ class Session:
         allow = _bool("allow_outside", allow_outside)
         view = _choice("view", view, VIEWS, PipelineArgumentError)
         up = _choice("up", up, (*UP_AXES, "auto"), PipelineArgumentError)
+        front = _choice("front", front, (*UP_AXES, "auto"), PipelineArgumentError)
         fill = _fill(fill)
         if animation is not None and (isinstance(animation, bool) or not isinstance(animation, (str, int))):
             raise _type_error("animation", animation, "a clip name, an index, 'all' or None")
@@ -377,7 +379,8 @@ class Session:
         meshstore.use_cache(self.cache)
         return Pipe(self, source, scene=scene_text, size=size_text, overrides=overrides, out_dir=out,
                     allow_outside=allow, view=view, up=up, reference_size=reference_size, fill=fill,
-                    animation=None if animation is None else str(animation), animation_end=animation_end)
+                    animation=None if animation is None else str(animation), animation_end=animation_end,
+                    front=front)
 
     def executor(self, pipe: Any, requested: list[tuple[str, str]], mode: str, frame: int, like: Any = None) -> Any:
         """A new executor for `requested` that adopts the last one's in-memory values (same GL context)."""
@@ -424,14 +427,14 @@ def load(pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[i
          set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None,  # noqa: A002
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
          up: str | None = None, reference_size: int | None = None, fill: float | None = None,
-         animation: str | int | None = None, animation_end: str | None = None) -> Pipe:
+         animation: str | int | None = None, animation_end: str | None = None, front: str | None = None) -> Pipe:
     """Load and validate a pipeline (a path, or the name of a shipped one) in the default session."""
     if session is not None and not isinstance(session, Session):
         raise _type_error("session", session, "a nodegraph.Session or None")
     return (session or default_session()).load(pipeline, scene=scene, size=size, set=set, out_dir=out_dir,
                                                allow_outside=allow_outside, view=view, up=up,
                                                reference_size=reference_size, fill=fill, animation=animation,
-                                               animation_end=animation_end)
+                                               animation_end=animation_end, front=front)
 
 
 class Pipe:
@@ -440,7 +443,8 @@ class Pipe:
     def __init__(self, session: Session, source: str, *, scene: str | None, size: tuple[int, int] | str | None,
                  overrides: list[str], out_dir: str | Path | None = None, allow_outside: bool = False,
                  view: str | None = None, up: str | None = None, reference_size: int | None = None,
-                 fill: float | None = None, animation: str | None = None, animation_end: str | None = None) -> None:
+                 fill: float | None = None, animation: str | None = None, animation_end: str | None = None,
+                 front: str | None = None) -> None:
         self.session = session
         self.reference_size = reference_size
         self.out_dir = Path.cwd() if out_dir is None else Path(out_dir)  # fixed at load: set() keeps it
@@ -451,10 +455,11 @@ class Pipe:
         self.overrides = list(overrides)
         self.view, self.up, self.fill = view, up, fill
         self.play = (animation, animation_end)  # what glTF files play (scene.views.playing)
+        self.front = front  # the axis a mesh file's front faces (scene.views.facing; None: found)
         size_text = size if isinstance(size, str) or size is None else f"{int(size[0])}x{int(size[1])}"
-        from .scene.views import playing
+        from .scene.views import facing, playing
 
-        with _load_errors(scene), playing(*self.play):
+        with _load_errors(scene), playing(*self.play), facing(front):
             self.pipeline = render.open_pipeline(source, tuple(self.overrides), size_text, scene, out_dir=self.out_dir,
                                                  allow_outside=allow_outside, view=view, up=up,
                                                  reference_size=reference_size, fill=fill)
@@ -497,7 +502,7 @@ class Pipe:
         return Pipe(self.session, self.source, scene=self.scene_arg, size=self.size_arg,
                     overrides=self.overrides + more, out_dir=self.out_dir, allow_outside=self.allow_outside,
                     view=self.view, up=self.up, reference_size=self.reference_size, fill=self.fill,
-                    animation=self.play[0], animation_end=self.play[1])
+                    animation=self.play[0], animation_end=self.play[1], front=self.front)
 
     # -- running ---------------------------------------------------------------------------------
     def _ref(self, output: str | None, arg: str = "output") -> tuple[str, str]:
@@ -594,9 +599,9 @@ class Pipe:
         root: Any = arg if arg is False else (None if arg is True else str(arg))
         size = self.size_arg if isinstance(self.size_arg, str) or self.size_arg is None else \
             f"{int(self.size_arg[0])}x{int(self.size_arg[1])}"
-        from .scene.views import playing
+        from .scene.views import facing, playing
 
-        with playing(*self.play):  # the spec carries them to the workers
+        with playing(*self.play), facing(self.front):  # the spec carries them to the workers
             spec = dist.PipeSpec.make(self.source, self.overrides, size, self.scene_arg, output, view=self.view,
                                       up=self.up, fill=self.fill)
         with dist.connect(scheduler, cache_root=root) as client:

@@ -558,8 +558,12 @@ def bench(ctx: click.Context, target: str | None) -> None:
         click.echo(ctx.get_help())
         click.echo(_bench_catalogue(benchmod))
         return
+    from .scene.views import facing
+    from .tools.bench import sides
+
     command = benchmod.command_for(target)
-    command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
+    with facing(sides.fixed()):  # the shared meshes seen from fixed sides, whatever the framing rules find
+        command.main(args=ctx.args, prog_name=f"sketchgraph bench {target}", standalone_mode=False)
 
 
 def _bench_catalogue(benchmod: Any) -> str:

@@ -101,6 +101,9 @@ class PipeSpec:
     lens: tuple[str | None, float | None, float | None] = (None, None, None)
     # --animation, --animation-end as given where the spec was made (scene.views.ANIMATION, ANIMATION_END)
     play: tuple[str | None, str | None] = (None, None)
+    # --front as given where the spec was made (scene.views.FRONT: an axis, or the benchmarks' sides by file as
+    # sorted (path, axis) pairs)
+    facing: str | tuple[tuple[str, str], ...] | None = None
     camera: str | None = None  # --camera: a glTF (or scene YAML) camera by name or index
     fps: float | None = None  # --fps: the animation sampled at this rate
 
@@ -114,17 +117,20 @@ class PipeSpec:
             src = str(Path(src).resolve())
         if scene is not None and not scene.startswith("builtin:") and Path(scene).exists():
             scene = str(Path(scene).resolve())
-        from .scene.views import ANIMATION, ANIMATION_END, LENS
+        from .scene.views import ANIMATION, ANIMATION_END, FRONT, LENS
 
+        front = FRONT.get()
         return cls(src, tuple(overrides), size, scene, output, view, up, fill, lens=LENS.get(),
-                   play=(ANIMATION.get(), ANIMATION_END.get()), camera=camera, fps=fps)
+                   play=(ANIMATION.get(), ANIMATION_END.get()), facing=front if isinstance(front, (str, type(None)))
+                   else tuple(sorted(front.items())), camera=camera, fps=fps)
 
     def open(self) -> Any:
         from .scene.animation import with_fps
         from .scene.scene import select_camera
-        from .scene.views import lens, playing
+        from .scene.views import facing, lens, playing
 
-        with lens(*self.lens), playing(*self.play):
+        sides = dict(self.facing) if isinstance(self.facing, tuple) else self.facing
+        with lens(*self.lens), playing(*self.play), facing(sides):
             pipe = render.open_pipeline(self.source, self.overrides, self.size, self.scene, view=self.view,
                                         up=self.up, fill=self.fill)
             if pipe.scene is not None and (self.camera is not None or self.fps is not None):

@@ -53,7 +53,15 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
   tune set, where the true mirror plane wins by 1.44 (the boxes figure, whose nose and feet are the only
   difference front to back) to 15.7 (the chair); a posed scan (the horse of the wild set: legs apart, head
   turned) can be more alike front to back than left to right, and is then seen from its side; a teapot, mirror-
-  symmetric across Z, is seen from its spout or handle end. Of the two ends of that axis,
+  symmetric across Z, is seen from its spout or handle end. Of the two ends of that axis, first the legs
+  (`head_end`): a mesh that stands (`stance`, up +Y) on HEAD_FEET or more feet faces the end where HEAD_SHARE or
+  more of its surface reaches past its feet (by HEAD_GAP of the diagonal), at least HEAD_RATIO times the share
+  past them at the other end: an animal's head and neck stand out beyond its forelegs, its rump hardly beyond
+  its hind legs. Not for built things, HEAD_BUILT or more of whose surface faces along the axes
+  (`axis_facing`: furniture, vehicles of boxes), whose backs and tails (a bed's headboard, a tricycle's body)
+  stand out as far. The constants were set before the rule's first measurement, HEAD_BUILT after it (see
+  docs/scenes.md); an animal whose tail outweighs its head (a lizard) or a pram pushed by a handle behind it
+  is seen from behind. Where the legs do not decide,
   the + end is the front unless the - end shows decisively more detail: `visible_detail` measures, from each
   end, the projected length of the *feature lines* seen there (edges whose faces meet at more than
   FEATURE_DEG, Blender's auto-smooth angle; both faces turned the same way, so the silhouette, the same from
@@ -64,8 +72,8 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
   tune set): a modelled face decides (ogre 1.5x its back, suzanne 1.8x, the bunny 1.7x); a box, a ball and
   a car with a bonnet and a boot show about as much from both ends (1.0x) and keep the convention; a
   smooth or coarse animal whose face is a plain muzzle does not decide: spot's face shows 1.15x its rump and
-  tail, and the cow's rear 1.2x its face, so the margin stands above 1.2 and spot keeps its file's front,
-  which shows its back (`--view back`). The measure, the angle and the margin were chosen on the tune set.
+  tail, and the cow's rear 1.2x its face, so the margin stands above 1.2 (both are now decided by their legs).
+  The measure, the angle and the margin were chosen on the tune set.
   Measured on the sets kept apart: `sketchgraph bench orientation` (docs/scenes.md, "How often it is right").
 
 **Framing** (`fit_view`): the camera looks along the view's direction at the vertices faces use (a vertex
@@ -115,6 +123,12 @@ LEG_LINK = 0.04  # contacts closer than this share of the diagonal belong to one
 LEG_MIN = 0.03  # a foot holds at least this share of the contacts
 LEG_HEIGHT = 0.12  # legs: the feet stay apart up to this share of the height
 LEG_MARGIN = 0.01  # the centre of mass lies this share of the diagonal inside the feet's polygon
+HEAD_FEET = 3  # the front's legs rule: a mesh standing on at least this many feet ...
+HEAD_GAP = 0.02  # ... whose surface reaches past its feet by more than this share of the diagonal ...
+HEAD_SHARE = 0.08  # ... with at least this share of its surface at one end of the front axis ...
+HEAD_RATIO = 2.0  # ... and this many times the share at the other end faces that end (its head) ...
+HEAD_BUILT = 0.4  # ... unless this share of its surface faces along the axes (furniture, vehicles: built, not grown)
+HEAD_BUILT_DEG = 10.0  # ... a face facing along an axis when its normal is within this angle of it
 DEFAULT_FILL = 0.85  # the projected box of the subject over the picture's shorter side
 FILL_MAX = 4.0
 THIN = 0.2  # a subject whose thinnest principal extent is under this share of the middle one is flat
@@ -409,12 +423,13 @@ def _groups(points: np.ndarray, radius: float) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
-def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float) -> Stance:
+def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float, contacts: list[np.ndarray] | None = None
+           ) -> Stance:
     """How the surface (`points`, samples) stands with the signed axis `up` up: the samples in the lowest LEG_BAND
     of its extent are the contacts, grouped into feet (links of LEG_LINK of the diagonal; groups under LEG_MIN of
     the contacts dropped); the centre of mass `com` must project inside the feet's convex hull, and the feet
     must lie in separate groups of the samples up to LEG_HEIGHT of the height (legs, wheels: not the bumps of a
-    flank lying on the ground)."""
+    flank lying on the ground). `contacts`, where given, receives the feet's contact samples (k, 3)."""
     from scipy.spatial import ConvexHull, QhullError
 
     a = axis_vector(up)
@@ -429,6 +444,8 @@ def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float) -> Stance:
     if len(feet) < 2:
         return Stance(len(feet), -1.0, False)
     plane = [k for k in range(3) if abs(a[k]) < 0.5]
+    if contacts is not None:
+        contacts.append(points[low[np.isin(foot, feet)]])
     contact = points[low[np.isin(foot, feet)]][:, plane]
     try:
         hull = ConvexHull(contact)
@@ -579,6 +596,9 @@ class FrontChoice:
     minus: float = 0.0
     width: float = 0.0
     across_z: bool = False
+    feet: int = 0  # the legs rule (`head_end`): the feet it stands on, 0 where it did not decide
+    beyond_plus: float = 0.0  # ... the share of the surface past the feet at the + and - ends
+    beyond_minus: float = 0.0
 
     @property
     def axis(self) -> int:
@@ -591,14 +611,16 @@ class FrontChoice:
         return (mine + floor) / (other + floor) if other + floor > 0.0 else 1.0
 
     def encode(self) -> np.ndarray:
-        return np.r_[self.front, self.plus, self.minus, self.width, float(self.across_z)]
+        return np.r_[self.front, self.plus, self.minus, self.width, float(self.across_z), self.feet,
+                     self.beyond_plus, self.beyond_minus]
 
     @classmethod
     def decode(cls, a: Any) -> FrontChoice:
         a = np.asarray(a, dtype=np.float64).ravel()
         if len(a) == 3:
             return cls(a.copy())
-        return cls(a[:3].copy(), float(a[3]), float(a[4]), float(a[5]), bool(a[6]))
+        extra = (int(a[7]), float(a[8]), float(a[9])) if len(a) >= 10 else ()
+        return cls(a[:3].copy(), float(a[3]), float(a[4]), float(a[5]), bool(a[6]), *extra)
 
     def note(self, to_file: Any = None) -> str | None:
         """The one line that says the front is not the file's +Z (None when it is): where it is and why, in
@@ -609,6 +631,16 @@ class FrontChoice:
         toward, other = (("" if n.startswith("-") else "+") + n for n in (axis_name(rot.T @ self.front),
                                                                          axis_name(rot.T @ -self.front)))
         r = self.ratio()
+        if self.feet:
+            mine, theirs = ((self.beyond_plus, self.beyond_minus) if self.front[self.axis] > 0 else
+                            (self.beyond_minus, self.beyond_plus))
+            why = (f"it stands on {self.feet} feet and {mine:.0%} of its surface reaches past them toward {toward}, "
+                   f"{theirs:.0%} toward {other} (a head)")
+            if self.across_z:
+                return (f"seen with its front toward {toward}: it is mirror-symmetric across "
+                        f"{axis_name(rot.T[:, 2])[-1]}, which runs left to right; {why}; `--view back` looks at "
+                        f"{other}")
+            return f"seen from {toward}: {why}; `--view back` looks at the file's front"
         if self.across_z:
             why = (f"{toward} shows {r:.1f}x the feature lines of {other}" if r >= DETAIL_MARGIN else
                    f"its feature lines do not say which end ({r:.1f}x those of {other})")
@@ -641,10 +673,54 @@ def front_choice(vertices: Any, faces: Any, mirror: int | None = -1) -> FrontCho
     front = np.zeros(3)
     front[axis] = 1.0
     choice = FrontChoice(front, plus, minus, width, across_z)
+    head = head_end(v, f, axis, scale)
+    if head is not None:
+        sign, choice.feet, choice.beyond_plus, choice.beyond_minus = head
+        choice.front[axis] = sign
+        return choice
     floor = DETAIL_FLOOR * width
     if minus + floor >= DETAIL_MARGIN * (plus + floor) and minus > 0.0:
         choice.front[axis] = -1.0
     return choice
+
+
+def axis_facing(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """The share of the surface area whose face normals lie within HEAD_BUILT_DEG of one of the axes."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    area = np.linalg.norm(n, axis=1)
+    ok = area > 0.0
+    if not ok.any():
+        return 0.0
+    along = np.abs(n[ok]).max(axis=1) >= math.cos(math.radians(HEAD_BUILT_DEG)) * area[ok]
+    return float(area[ok][along].sum() / area[ok].sum())
+
+
+def head_end(vertices: np.ndarray, faces: np.ndarray, axis: int, diag: float) -> tuple[float, int, float, float] | None:
+    """The front's legs rule on a stood-up (Y-up) mesh: where it stands on HEAD_FEET or more feet (`stance`), the
+    shares of its surface (LEG_SAMPLES samples) that reach more than HEAD_GAP of the diagonal past the feet's
+    contacts toward the + and - ends of `axis`; the end with at least HEAD_SHARE and HEAD_RATIO times the other's
+    share is the front (an animal's head and neck stand out beyond its forelegs further than its rump beyond its
+    hind legs). Not for a built thing, HEAD_BUILT of whose surface faces along the axes (`axis_facing`): a bed's
+    headboard, a chair's back or a tricycle's body stand out beyond its legs or wheels at its back. (sign of that
+    end, feet, share +, share -), or None where the rule does not decide."""
+    if axis_facing(vertices, faces) >= HEAD_BUILT:
+        return None
+    p = surface_samples(vertices, faces, LEG_SAMPLES)
+    contacts: list[np.ndarray] = []
+    st = stance(p, surface_centroid(vertices, faces), "y", diag, contacts)
+    if not st.stands or st.feet < HEAD_FEET or not contacts:
+        return None
+    c = contacts[0][:, axis]
+    gap = HEAD_GAP * diag
+    plus = float(np.mean(p[:, axis] > c.max() + gap))
+    minus = float(np.mean(p[:, axis] < c.min() - gap))
+    if plus >= HEAD_SHARE and plus >= HEAD_RATIO * minus:
+        return 1.0, st.feet, plus, minus
+    if minus >= HEAD_SHARE and minus >= HEAD_RATIO * plus:
+        return -1.0, st.feet, plus, minus
+    return None
 
 
 @dataclass

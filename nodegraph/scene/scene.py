@@ -1117,15 +1117,36 @@ def mesh_camera(mesh: Mesh, view: str | None = None, fill: float | None = None,
 def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = None, up: str | None = None,
                    fill: float | None = None) -> Scene:
     """One sketchy object, stood up (`stand_up`), seen from `view` (default: three-quarter front; see
-    nodegraph/scene/framing.py), framed to span `fill` of the picture, with a 6 degrees/frame orbit about +Y."""
+    nodegraph/scene/framing.py) of its front (`--front`, views.FRONT: the file's axis it faces; else found,
+    `mesh_front_choice`), framed to span `fill` of the picture, with a 6 degrees/frame orbit about +Y."""
     mesh, axis = stand_up(mesh, up, source)
-    choice = mesh_front_choice(mesh)
-    front = choice.front
-    note = choice.note(framing.up_rotation(axis))
-    if note:
-        framing.warn_notes(mesh.name, [note])
+    given = views.front_of(source or mesh.source)
+    if given is not None:
+        front = _given_front(given, axis)
+    else:
+        choice = mesh_front_choice(mesh)
+        front = choice.front
+        note = choice.note(framing.up_rotation(axis))
+        if note:
+            framing.warn_notes(mesh.name, [note])
     return Scene(name=mesh.name, objects=(SceneObject(mesh, np.eye(4), DEFAULT_MESH_COLOR, True, mesh.name),),
                  camera=mesh_camera(mesh, view, fill, front), orbit=Orbit(), source=source or mesh.source)
+
+
+def _given_front(given: str, up: str) -> np.ndarray:
+    """The front `--front` gives (an axis of the file) in the stood-up frame of a mesh stood up along `up`."""
+    try:
+        axis = framing.check_up(given)
+    except ValueError as exc:
+        raise PipelineError(str(exc).replace("up:", "front:", 1)) from None
+    if axis is None:
+        raise PipelineError(f"front: expected one of {', '.join(views.UP_AXES)}, found {given!r}")
+    front = framing.up_rotation(up)[:3, :3] @ framing.axis_vector(axis)
+    if abs(front[1]) > 0.5:
+        a, b = (k for k in "xyz" if k != up[-1])
+        raise PipelineError(f"--front {axis}: the mesh stands up along {up[-1]}, so its front faces across it: "
+                            f"{a}, -{a}, {b} or -{b}")
+    return np.round(front)
 
 
 def mesh_scene(path: str | Path, view: str | None = None, up: str | None = None, fill: float | None = None) -> Scene:
@@ -1365,9 +1386,12 @@ def _load_scene(spec: str, base_dir: Path | None = None, view: str | None = None
         view, up, fill = framing.check_view(view), framing.check_up(up), framing.check_fill(fill)
     except ValueError as exc:
         raise PipelineError(str(exc)) from None
+    front = views.FRONT.get()
     if spec.startswith("builtin:"):
         if view is not None or up is not None or fill is not None:
             raise PipelineError(f"--view/--up/--fill frame a mesh file; {spec} has its own camera")
+        if isinstance(front, str):
+            raise PipelineError(f"--front faces a mesh file; {spec} has its own camera")
         return builtin_scene(spec.removeprefix("builtin:"))
     path = Path(spec).expanduser()
     if not path.is_absolute() and base_dir is not None:
@@ -1376,6 +1400,8 @@ def _load_scene(spec: str, base_dir: Path | None = None, view: str | None = None
     if ext in GLTF_EXTENSIONS:
         if not path.exists():
             raise PipelineError(f"scene file not found: {path.absolute()}")
+        if isinstance(front, str):
+            raise PipelineError(f"--front faces a mesh file; a glTF file faces +Z (`--view` picks the side) ({spec})")
         try:
             return scene_from_gltf(path, view=view, up=up, allow_outside=allow_outside, fill=fill)
         except MeshError as exc:
@@ -1395,6 +1421,9 @@ def _load_scene(spec: str, base_dir: Path | None = None, view: str | None = None
             raise PipelineError(f"--up stands a mesh file up; in a scene file give 'up:' per mesh object ({spec})")
         if fill is not None:
             raise PipelineError(f"--fill frames a mesh file; a scene file is framed by its camera ({spec})")
+        if isinstance(front, str):
+            raise PipelineError(f"--front faces a mesh file; in a scene file the camera and `view:` face the "
+                                f"objects ({spec})")
         return scene_from_yaml(path, view=view, allow_outside=allow_outside)
     return mesh_scene(path, view=view, up=up, fill=fill)
 

@@ -5,8 +5,9 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextvars import ContextVar
+from pathlib import Path
 
 from .timeline import ANIMATION_ENDS
 
@@ -56,6 +57,46 @@ def playing(animation: str | int | None, end: str | None) -> Iterator[None]:
         ANIMATION.reset(a)
 
 
+FRONT: ContextVar[str | Mapping[str, str] | None] = ContextVar("scene_front", default=None)
+"""`--front`: the axis of a mesh file (x, y, z, -x, -y, -z, in the file's own axes) its front faces, for every mesh
+file this process loads (None: found by the rules of nodegraph/scene/framing.py); or a mapping from mesh files'
+resolved paths to that axis, files not in it found (the benchmarks' fixed sides, nodegraph/tools/bench/sides.py)."""
+
+
+def _set_front(ctx: object, param: object, value: str | None) -> None:
+    if value is None:  # not given: a side fixed around the command (the benchmarks') stands
+        return
+    token = FRONT.set(None if value == "auto" else value)
+    ctx.call_on_close(lambda: FRONT.reset(token))  # type: ignore[attr-defined]
+
+
+@contextlib.contextmanager
+def facing(front: str | Mapping[str, str] | None) -> Iterator[None]:
+    """`--front` in effect inside the block (for the Python API, the distributed workers and the benchmarks):
+    an axis, "auto" (found, whatever is in effect around the block) or a mapping (FRONT); None changes nothing."""
+    if front is None:
+        yield
+        return
+    token = FRONT.set(None if front == "auto" else front)
+    try:
+        yield
+    finally:
+        FRONT.reset(token)
+
+
+def front_of(source: str | Path | None) -> str | None:
+    """The front axis `--front` gives the mesh file `source` (FRONT), or None: found."""
+    given = FRONT.get()
+    if given is None or isinstance(given, str):
+        return given
+    if source is None:
+        return None
+    try:
+        return given.get(str(Path(source).resolve()))
+    except (OSError, ValueError):
+        return None
+
+
 LENS: ContextVar[tuple[str | None, float | None, float | None]] = ContextVar("scene_lens",
                                                                           default=(None, None, None))
 """`--camera-type`, `--fov`, `--zoom` (None: not given), applied by `scene.load_scene` to every scene this process
@@ -84,8 +125,9 @@ def lens(camera_type: str | None = None, fov: float | None = None, zoom: float |
 
 def click_options(f: object) -> object:
     """`--view`, `--up` and `--fill` for a click command (run, inspect, bench, ...): keyword args `view`, `up`,
-    `fill`; and `--allow-outside-scene-dir`, `--animation`, `--animation-end`, `--camera-type`, `--fov` and
-    `--zoom`, which take effect as they are parsed (no keyword arg; `ANIMATION`, `ANIMATION_END`, `LENS`)."""
+    `fill`; and `--front`, `--allow-outside-scene-dir`, `--animation`, `--animation-end`, `--camera-type`, `--fov`
+    and `--zoom`, which take effect as they are parsed (no keyword arg; `FRONT`, `ANIMATION`, `ANIMATION_END`,
+    `LENS`)."""
     import click
 
     f = click.option("--zoom", type=click.FloatRange(0.0, 1e6, min_open=True), default=None, metavar="F",
@@ -111,6 +153,10 @@ def click_options(f: object) -> object:
     f = click.option("--fill", type=click.FloatRange(0.0, 4.0, min_open=True), default=None, metavar="F",
                      help="Share of the picture's shorter side a mesh file's projected bounding box spans "
                      "(default 0.85).")(f)
+    f = click.option("--front", type=click.Choice(UP_AXES + ("auto",)), default=None, expose_value=False,
+                     callback=_set_front, help="The axis of the mesh file its front faces, in the file's axes "
+                     "(default auto: +Z, -Y for STL, unless its shape says otherwise); the views are taken from "
+                     "it.")(f)
     f = click.option("--up", type=click.Choice(UP_AXES + ("auto",)), default=None,
                      help="The mesh file's up axis (default auto: the format's convention unless the shape "
                      "clearly says otherwise; -y: upside down).")(f)

@@ -620,3 +620,29 @@ def test_a_texture_array_strip_is_reduced_before_it_is_coloured():
     many = np.zeros((32, 256, 256, 1), np.float32)  # 32 layers in rows of 16 into an 800-px box: within it
     strip = draw_array(many, "tones", "", View(width=800, height=800))[0]
     assert strip.shape[1] <= 800 and strip.shape[0] <= 800
+
+
+def test_the_render_thread_sees_the_command_line_options(tmp_path):
+    """--front, --animation, the lens: options that take effect as they are parsed reach the render thread."""
+    import threading
+
+    from nodegraph.errors import PipelineError
+    from nodegraph.scene import views
+    from nodegraph.tools.serve.engine import Engine
+
+    seen: list = []
+    opened = threading.Event()
+
+    def load(extra):
+        seen.append((views.FRONT.get(), views.LENS.get(), views.ANIMATION.get()))
+        opened.set()
+        raise PipelineError("stop here")
+
+    e = Engine(tmp_path / "p.yaml", open_pipeline=load, roots=[tmp_path])
+    with views.facing("-x"), views.lens("orthographic", None, 2.0), views.playing("walk", None):
+        e.start()
+    try:
+        assert opened.wait(30)
+    finally:
+        e.stop()
+    assert seen[0] == ("-x", ("orthographic", None, 2.0), "walk")
