@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
 # Rebuild the pictures in README.md and docs/ that show the shipped pipelines at their defaults (run from the
-# repository root, with ../shared/meshes beside it; spot.obj's file faces -Z, where the framing finds its face:
-# `--view front` looks straight at it).
+# repository root, with ../shared/meshes beside it; spot.obj is seen from its face, where the framing finds it).
 # Pictures made to show one change side by side (field_*, lines_*, sizes_*) are made by the commands their
 # sections name, not here.
 set -euo pipefail
@@ -13,14 +12,14 @@ $sg run nienhaus_sketchy -o $i/nienhaus_sketchy.png
 $sg run pipelines/repeated_edges.yaml --size 560x560 -o $i/repeated_edges.png
 $sg run pipelines/chalk.yaml --size 560x560 -o $i/chalk.png
 $sg run pipelines/object_space_uncertainty.yaml --size 560x560 -o $i/object_space_uncertainty.png
-$sg run pipelines/object_space_uncertainty.yaml --scene $m/spot.obj --view front --size 560x560 -o $i/object_space_uncertainty_spot.png
+$sg run pipelines/object_space_uncertainty.yaml --scene $m/spot.obj --size 560x560 -o $i/object_space_uncertainty_spot.png
 $sg run pipelines/pencil.yaml --size 480x480 -o $i/pencil_torus.png
 $sg run pipelines/pencil.yaml --scene $m/stanford-bunny.obj --size 480x480 -o $i/pencil_bunny.png
 $sg run pipelines/pencil_contours.yaml --scene $m/fandisk.obj --size 480x480 -o $i/pencil_contours_fandisk.png
 $sg run pipelines/loose_and_sketchy.yaml -o $i/loose_and_sketchy.png
-$sg run pipelines/loose_and_sketchy.yaml --scene $m/spot.obj --view front -o $i/loose_and_sketchy_spot.png
+$sg run pipelines/loose_and_sketchy.yaml --scene $m/spot.obj -o $i/loose_and_sketchy_spot.png
 $sg run pipelines/loose_and_sketchy_shaded.yaml -o $i/loose_and_sketchy_shaded.png
-$sg run pipelines/loose_and_sketchy_shaded.yaml --scene $m/spot.obj --view front -o $i/loose_and_sketchy_shaded_spot.png
+$sg run pipelines/loose_and_sketchy_shaded.yaml --scene $m/spot.obj -o $i/loose_and_sketchy_shaded_spot.png
 # the short film (README, docs/animation.md)
 python examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \
