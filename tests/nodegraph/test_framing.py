@@ -576,3 +576,17 @@ def test_benchmarks_see_the_shared_meshes_from_fixed_sides() -> None:
             pinned = load_scene(str(SPOT)).camera
         found = load_scene(str(SPOT)).camera
     assert pinned.eye[2] > 0 > found.eye[2]  # spot's file +Z (its back) for the benchmarks; its face otherwise
+
+
+def test_the_orientation_bench_switches_rules_off() -> None:
+    def away(rules_off: tuple[str, ...]) -> float:
+        result = orientation.run(meshes_dir=None, only=("dog",), n_rotations=1, variants=("plain",),
+                                 rules_off=rules_off)
+        assert result["without"] == sorted(rules_off)
+        return result["front"]["fresh: front -z"]["front found"]
+
+    assert away(()) == 1.0  # its head, past its forelegs
+    assert away(("head",)) == 0.0 == away(("legs",))  # a plain head: the feature lines do not decide
+    with pytest.raises(ValueError, match="unknown rule 'nose'"):
+        orientation.run(meshes_dir=None, only=("dog",), rules_off=("nose",))
+    assert framing.head_end is not None and framing.stance.__name__ == "stance"  # switched back on after

@@ -45,12 +45,15 @@ origin) and a mirrored copy (left to right, so the front stays).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from unittest import mock
 
 import click
 import numpy as np
@@ -688,8 +691,36 @@ def run_front(all_cases: list[Case], variants: tuple[str, ...] = VARIANTS) -> tu
     return rows, summary
 
 
+WITHOUT = {"legs": "the legs' rules of up and front (`framing.stance` finds no feet)",
+           "head": "the front's legs rule alone (`framing.head_end` never decides)"}
+
+
+@contextlib.contextmanager
+def without(rules: tuple[str, ...]) -> Iterator[None]:
+    """The framing rules named (WITHOUT) switched off inside the block, to measure what each adds."""
+    unknown = set(rules) - set(WITHOUT)
+    if unknown:
+        raise ValueError(f"without: unknown rule {sorted(unknown)[0]!r}; known: {', '.join(WITHOUT)}")
+    with contextlib.ExitStack() as stack:
+        if "legs" in rules:
+            stack.enter_context(mock.patch.object(framing, "stance", lambda *a, **k: framing.Stance(0, -1.0, False)))
+        if "head" in rules:
+            stack.enter_context(mock.patch.object(framing, "head_end", lambda *a, **k: None))
+        yield
+
+
 def run(meshes_dir: Path | None = SHARED_MESHES, only: tuple[str, ...] = (), n_rotations: int = 24,
-        variants: tuple[str, ...] = VARIANTS, wild_dir: Path | None = None) -> dict[str, Any]:
+        variants: tuple[str, ...] = VARIANTS, wild_dir: Path | None = None,
+        rules_off: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The figures of the module docstring (`rules_off`: framing rules switched off, `without`)."""
+    with without(tuple(rules_off)):
+        out = _run(meshes_dir, only, n_rotations, variants, wild_dir)
+    out["without"] = sorted(rules_off)
+    return out
+
+
+def _run(meshes_dir: Path | None, only: tuple[str, ...], n_rotations: int, variants: tuple[str, ...],
+         wild_dir: Path | None) -> dict[str, Any]:
     t0 = time.perf_counter()
     rows = []
     to_z_up = np.linalg.inv(framing.up_rotation("z")[:3, :3])  # +Y -> +Z, the front +Z -> -Y: as an STL has it
@@ -737,9 +768,15 @@ def run(meshes_dir: Path | None = SHARED_MESHES, only: tuple[str, ...] = (), n_r
 @click.option("--wild", "wild_dir", type=click.Path(path_type=Path, file_okay=False, exists=True), default=None,
               help="Folder with files of github.com/alecjacobson/common-3d-test-models (data/; horse.ply unzipped "
                    "from horse.zip): judged as distributed and turned, as a third set (WILD_KNOWN).")
+@click.option("--without", "rules_off", multiple=True, type=click.Choice(tuple(WITHOUT)),
+              help="Switch a rule off, to measure what it adds: legs (both legs' rules, up and front) or head (the "
+                   "front's alone); repeat for both.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
-def command(meshes_dir: Path | None, only: tuple[str, ...], wild_dir: Path | None, json_path: Path | None) -> None:
-    result = run(meshes_dir or SHARED_MESHES, tuple(only), wild_dir=wild_dir)
+def command(meshes_dir: Path | None, only: tuple[str, ...], wild_dir: Path | None, rules_off: tuple[str, ...],
+            json_path: Path | None) -> None:
+    result = run(meshes_dir or SHARED_MESHES, tuple(only), wild_dir=wild_dir, rules_off=tuple(rules_off))
+    if rules_off:
+        click.echo("without " + "; ".join(WITHOUT[r] for r in sorted(set(rules_off))))
     for group, names in result["meshes"].items():
         click.echo(f"{group} set: {', '.join(names)}")
     if wild_dir is not None and "wild" not in result["meshes"]:
