@@ -60,8 +60,8 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
   its hind legs. Not for built things, HEAD_BUILT or more of whose surface faces along the axes
   (`axis_facing`: furniture, vehicles of boxes), whose backs and tails (a bed's headboard, a tricycle's body)
   stand out as far. The constants were set before the rule's first measurement, HEAD_BUILT after it (see
-  docs/scenes.md); an animal whose tail outweighs its head (a lizard) or a pram pushed by a handle behind it
-  is seen from behind. Where the legs do not decide,
+  docs/scenes.md); an animal whose rear outweighs its head (a lizard's tail, an ant's abdomen) or a pram pushed
+  by a handle behind it is seen from behind. Where the legs do not decide,
   the + end is the front unless the - end shows decisively more detail: `visible_detail` measures, from each
   end, the projected length of the *feature lines* seen there (edges whose faces meet at more than
   FEATURE_DEG, Blender's auto-smooth angle; both faces turned the same way, so the silhouette, the same from
