@@ -154,9 +154,8 @@ def click_options(f: object) -> object:
                      help="Share of the picture's shorter side a mesh file's projected bounding box spans "
                      "(default 0.85).")(f)
     f = click.option("--front", type=click.Choice(UP_AXES + ("auto",)), default=None, expose_value=False,
-                     callback=_set_front, help="The axis of the mesh file its front faces, in the file's axes "
-                     "(default auto: +Z, -Y for STL, unless its shape says otherwise); the views are taken from "
-                     "it.")(f)
+                     callback=_set_front, help="The axis a mesh file's front faces, in the file's own axes (default "
+                     "auto: +Z, -Y for STL, unless its shape says otherwise); the views are taken from it.")(f)
     f = click.option("--up", type=click.Choice(UP_AXES + ("auto",)), default=None,
                      help="The mesh file's up axis (default auto: the format's convention unless the shape "
                      "clearly says otherwise; -y: upside down).")(f)
