@@ -399,12 +399,14 @@ def resting_poses(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(frozen=True)
 class Stance:
     """How a mesh stands with a given axis up (`stance`): its `feet` (separate contacts), how far its centre of
-    mass lies inside their polygon (`margin`, a share of the diagonal; negative outside) and whether they stay
-    apart up to LEG_HEIGHT of the height (`legs`)."""
+    mass lies inside their polygon (`margin`, a share of the diagonal; negative outside), whether they stay
+    apart up to LEG_HEIGHT of the height (`legs`), and the feet's contact samples (`contacts`, (k, 3); empty
+    where there are fewer than two feet)."""
 
     feet: int
     margin: float
     legs: bool
+    contacts: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), compare=False, repr=False)
 
     @property
     def stands(self) -> bool:
@@ -423,13 +425,12 @@ def _groups(points: np.ndarray, radius: float) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
-def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float, contacts: list[np.ndarray] | None = None
-           ) -> Stance:
+def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float) -> Stance:
     """How the surface (`points`, samples) stands with the signed axis `up` up: the samples in the lowest LEG_BAND
     of its extent are the contacts, grouped into feet (links of LEG_LINK of the diagonal; groups under LEG_MIN of
     the contacts dropped); the centre of mass `com` must project inside the feet's convex hull, and the feet
     must lie in separate groups of the samples up to LEG_HEIGHT of the height (legs, wheels: not the bumps of a
-    flank lying on the ground). `contacts`, where given, receives the feet's contact samples (k, 3)."""
+    flank lying on the ground)."""
     from scipy.spatial import ConvexHull, QhullError
 
     a = axis_vector(up)
@@ -444,19 +445,18 @@ def stance(points: np.ndarray, com: np.ndarray, up: str, diag: float, contacts: 
     if len(feet) < 2:
         return Stance(len(feet), -1.0, False)
     plane = [k for k in range(3) if abs(a[k]) < 0.5]
-    if contacts is not None:
-        contacts.append(points[low[np.isin(foot, feet)]])
-    contact = points[low[np.isin(foot, feet)]][:, plane]
+    contacts = points[low[np.isin(foot, feet)]]
+    contact = contacts[:, plane]
     try:
         hull = ConvexHull(contact)
     except (QhullError, ValueError):
-        return Stance(len(feet), -1.0, False)
+        return Stance(len(feet), -1.0, False, contacts)
     margin = float(-(hull.equations[:, :2] @ com[plane] + hull.equations[:, 2]).max()) / diag
     column = np.nonzero(h <= lo + LEG_HEIGHT * ext)[0]
     groups = _groups(points[column], LEG_LINK * diag)
     where = np.searchsorted(column, low)  # low is a subset of column, both sorted
     apart = len({int(groups[where[np.nonzero(foot == k)[0][0]]]) for k in feet})
-    return Stance(len(feet), margin, apart >= 2)
+    return Stance(len(feet), margin, apart >= 2, contacts)
 
 
 def resting_support(ups: np.ndarray, probs: np.ndarray, axis: str) -> float:
@@ -708,11 +708,10 @@ def head_end(vertices: np.ndarray, faces: np.ndarray, axis: int, diag: float) ->
     if axis_facing(vertices, faces) >= HEAD_BUILT:
         return None
     p = surface_samples(vertices, faces, LEG_SAMPLES)
-    contacts: list[np.ndarray] = []
-    st = stance(p, surface_centroid(vertices, faces), "y", diag, contacts)
-    if not st.stands or st.feet < HEAD_FEET or not contacts:
+    st = stance(p, surface_centroid(vertices, faces), "y", diag)
+    if not st.stands or st.feet < HEAD_FEET:
         return None
-    c = contacts[0][:, axis]
+    c = st.contacts[:, axis]
     gap = HEAD_GAP * diag
     plus = float(np.mean(p[:, axis] > c.max() + gap))
     minus = float(np.mean(p[:, axis] < c.min() - gap))

@@ -1135,12 +1135,9 @@ def scene_for_mesh(mesh: Mesh, source: str | None = None, view: str | None = Non
 
 def _given_front(given: str, up: str) -> np.ndarray:
     """The front `--front` gives (an axis of the file) in the stood-up frame of a mesh stood up along `up`."""
-    try:
-        axis = framing.check_up(given)
-    except ValueError as exc:
-        raise PipelineError(str(exc).replace("up:", "front:", 1)) from None
-    if axis is None:
-        raise PipelineError(f"front: expected one of {', '.join(views.UP_AXES)}, found {given!r}")
+    axis = given.removeprefix("+")
+    if axis not in views.UP_AXES:
+        raise PipelineError(f"front: expected one of {', '.join(views.UP_AXES)} or auto, found {given!r}")
     front = framing.up_rotation(up)[:3, :3] @ framing.axis_vector(axis)
     if abs(front[1]) > 0.5:
         a, b = (k for k in "xyz" if k != up[-1])

@@ -41,10 +41,10 @@ from .measure import (
     release,
     scene_for,
 )
+from .sides import SHARED_MESHES
 
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has no such
 # folder, so there the command asks for --meshes DIR
-SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
 TARGET_MESHES = ("fandisk.obj", "spot.obj", "stanford-bunny.obj")
 TARGET_F1 = 0.85
 FAMILIES = ("edges", "curvature", "particles", "hatching", "noise", "pipelines", "stability")

@@ -63,8 +63,7 @@ import numpy as np
 from ...fsio import atomic_write_text
 from ...scene import framing, primitives
 from ...scene.meshes import Mesh, merge_meshes
-
-SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
+from .sides import SHARED_MESHES
 
 # (file stem, front in the file) of the shared meshes: fronts read from renders of the four sides; all Y-up
 SHARED_KNOWN: dict[str, tuple[float, float, float] | None] = {

@@ -63,6 +63,7 @@ import numpy as np
 
 from ...errors import SketchgraphError
 from ...fsio import atomic_write_text
+from .sides import SHARED_MESHES
 
 SKIP_LINE = ("bench peer: bpy (Blender 5 as a Python module) is not installed: make a venv for it "
              "(python3.11 -m venv V && V/bin/pip install bpy==5.0.1, the [peer] extra's pin) and give "
@@ -70,7 +71,6 @@ SKIP_LINE = ("bench peer: bpy (Blender 5 as a Python module) is not installed: m
 VENV_ENV = "SKETCHGRAPH_PEER_VENV"
 WORKER = Path(__file__).with_name("peer_blender.py")
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has none: --meshes-dir
-SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
 DEFAULT_MESHES = ("spot.obj", "ogre.obj")
 DEFAULT_PIPELINES = ("nienhaus_sketchy",)
 SETUPS = ("cycles", "workbench", "freestyle_svg")

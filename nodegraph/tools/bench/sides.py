@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"
+SHARED_MESHES = Path(__file__).resolve().parents[4] / "shared" / "meshes"  # the benchmarks' test meshes
 
 FRONTS = {"cow.obj": "x", "fandisk.obj": "-z", "ogre.obj": "z", "spot.obj": "z", "stanford-bunny.obj": "-x",
           "suzanne.obj": "z", "teapot.obj": "x"}
@@ -17,10 +17,4 @@ FRONTS = {"cow.obj": "x", "fandisk.obj": "-z", "ogre.obj": "z", "spot.obj": "z",
 
 def fixed(meshes: Path = SHARED_MESHES) -> dict[str, str]:
     """{resolved path of each shared mesh: the file's axis its front faces} (views.FRONT's mapping form)."""
-    out = {}
-    for name, axis in FRONTS.items():
-        try:
-            out[str((Path(meshes) / name).resolve())] = axis
-        except (OSError, ValueError):
-            continue
-    return out
+    return {str((Path(meshes) / name).resolve()): axis for name, axis in FRONTS.items()}
