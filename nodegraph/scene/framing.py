@@ -54,14 +54,17 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
   difference front to back) to 15.7 (the chair); a posed scan (the horse of the wild set: legs apart, head
   turned) can be more alike front to back than left to right, and is then seen from its side; a teapot, mirror-
   symmetric across Z, is seen from its spout or handle end. Of the two ends of that axis, first the legs
-  (`head_end`): a mesh that stands (`stance`, up +Y) on HEAD_FEET or more feet faces the end where HEAD_SHARE or
+  (`head_ends`): a mesh that stands (`stance`, up +Y) on HEAD_FEET or more feet faces the end where HEAD_SHARE or
   more of its surface reaches past its feet (by HEAD_GAP of the diagonal), at least HEAD_RATIO times the share
   past them at the other end: an animal's head and neck stand out beyond its forelegs, its rump hardly beyond
   its hind legs. Not for built things, HEAD_BUILT or more of whose surface faces along the axes
   (`axis_facing`: furniture, vehicles of boxes), whose backs and tails (a bed's headboard, a tricycle's body)
   stand out as far. The constants were set before the rule's first measurement, HEAD_BUILT after it (see
   docs/scenes.md); an animal whose rear outweighs its head (a lizard's tail, an ant's abdomen) or a pram pushed
-  by a handle behind it is seen from behind. Where the legs do not decide,
+  by a handle behind it is seen from behind. Where the legs decide nothing along that axis but decide along the
+  other horizontal axis, that axis's end is the front (`FrontChoice.legs_axis`): the mirror measure leaves out
+  the axes a subject is thin along, so a long, slim animal (a tiger with its tail, under a fifth as wide as long)
+  facing X has its axis taken as the convention's Z. Where the legs do not decide,
   the + end is the front unless the - end shows decisively more detail: `visible_detail` measures, from each
   end, the projected length of the *feature lines* seen there (edges whose faces meet at more than
   FEATURE_DEG, Blender's auto-smooth angle; both faces turned the same way, so the silhouette, the same from
@@ -596,30 +599,38 @@ class FrontChoice:
     minus: float = 0.0
     width: float = 0.0
     across_z: bool = False
-    feet: int = 0  # the legs rule (`head_end`): the feet it stands on, 0 where it did not decide
+    feet: int = 0  # the legs rule (`head_ends`): the feet it stands on, 0 where it did not decide
     beyond_plus: float = 0.0  # ... the share of the surface past the feet at the + and - ends
     beyond_minus: float = 0.0
+    legs_axis: bool = False  # the legs rule chose the axis: it decided across the mirror's axis, not along it
+
+    @property
+    def detail_axis(self) -> int:
+        """The axis the mirror plane chose, along which the feature lines were measured."""
+        return 0 if self.across_z else 2
 
     @property
     def axis(self) -> int:
-        return 0 if self.across_z else 2
+        return 2 - self.detail_axis if self.legs_axis else self.detail_axis
 
     def ratio(self) -> float:
-        """How many times the feature lines of the other end of the axis the chosen end shows (with the floor)."""
+        """How many times the feature lines of the other end of the mirror's axis the + end, or the - end where the
+        front is the - end of that axis, shows (with the floor)."""
         floor = DETAIL_FLOOR * self.width
-        mine, other = (self.plus, self.minus) if self.front[self.axis] > 0 else (self.minus, self.plus)
+        mine, other = (self.plus, self.minus) if self.front[self.detail_axis] >= 0 else (self.minus, self.plus)
         return (mine + floor) / (other + floor) if other + floor > 0.0 else 1.0
 
     def encode(self) -> np.ndarray:
         return np.r_[self.front, self.plus, self.minus, self.width, float(self.across_z), self.feet,
-                     self.beyond_plus, self.beyond_minus]
+                     self.beyond_plus, self.beyond_minus, float(self.legs_axis)]
 
     @classmethod
     def decode(cls, a: Any) -> FrontChoice:
         a = np.asarray(a, dtype=np.float64).ravel()
         if len(a) == 3:
             return cls(a.copy())
-        extra = (int(a[7]), float(a[8]), float(a[9])) if len(a) >= 10 else ()
+        extra = (int(a[7]), float(a[8]), float(a[9]), *((bool(a[10]),) if len(a) >= 11 else ())) \
+            if len(a) >= 10 else ()
         return cls(a[:3].copy(), float(a[3]), float(a[4]), float(a[5]), bool(a[6]), *extra)
 
     def note(self, to_file: Any = None) -> str | None:
@@ -636,6 +647,11 @@ class FrontChoice:
                             (self.beyond_minus, self.beyond_plus))
             why = (f"it stands on {self.feet} feet and {mine:.0%} of its surface reaches past them toward {toward}, "
                    f"{theirs:.0%} toward {other} (a head)")
+            if self.legs_axis:
+                along = axis_name(rot.T[:, self.detail_axis])[-1]
+                keep = axis_name(rot.T @ np.array([0.0, 0.0, 1.0]))
+                return (f"seen from {toward}: {why}, and neither end of {along} stands out so; `--front {keep}` keeps "
+                        f"the file's front")
             if self.across_z:
                 return (f"seen with its front toward {toward}: it is mirror-symmetric across "
                         f"{axis_name(rot.T[:, 2])[-1]}, which runs left to right; {why}; `--view back` looks at "
@@ -653,8 +669,9 @@ class FrontChoice:
 def front_choice(vertices: Any, faces: Any, mirror: int | None = -1) -> FrontChoice:
     """The front of a stood-up (Y-up) mesh by the rule in the module docstring: along X when the upright mirror
     plane (`upright_mirror`) is across Z or, where that does not decide, `mirror` (the axis of the clean mirror
-    plane, `mirror_axis`; -1: find it) is Z, else along Z; the - end of that axis when it shows at least
-    DETAIL_MARGIN times the feature lines of the + end (`visible_detail`), else the + end."""
+    plane, `mirror_axis`; -1: find it) is Z, else along Z; the end of that axis the legs rule picks (`head_ends`), or
+    where it picks none there, the end it picks along the other horizontal axis; else the - end of the first axis
+    when it shows at least DETAIL_MARGIN times the feature lines of the + end (`visible_detail`), else the + end."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces)
     if len(f) == 0 or len(v) == 0:
@@ -673,10 +690,13 @@ def front_choice(vertices: Any, faces: Any, mirror: int | None = -1) -> FrontCho
     front = np.zeros(3)
     front[axis] = 1.0
     choice = FrontChoice(front, plus, minus, width, across_z)
-    head = head_end(v, f, axis, scale)
+    head, other = head_ends(v, f, (axis, 2 - axis), scale)
+    if head is None and other is not None:  # the legs say nothing along the mirror's axis, but do across it
+        head, choice.legs_axis = other, True
+        choice.front = np.zeros(3)
     if head is not None:
         sign, choice.feet, choice.beyond_plus, choice.beyond_minus = head
-        choice.front[axis] = sign
+        choice.front[choice.axis] = sign
         return choice
     floor = DETAIL_FLOOR * width
     if minus + floor >= DETAIL_MARGIN * (plus + floor) and minus > 0.0:
@@ -697,29 +717,34 @@ def axis_facing(vertices: np.ndarray, faces: np.ndarray) -> float:
     return float(area[ok][along].sum() / area[ok].sum())
 
 
-def head_end(vertices: np.ndarray, faces: np.ndarray, axis: int, diag: float) -> tuple[float, int, float, float] | None:
-    """The front's legs rule on a stood-up (Y-up) mesh: where it stands on HEAD_FEET or more feet (`stance`), the
-    shares of its surface (LEG_SAMPLES samples) that reach more than HEAD_GAP of the diagonal past the feet's
-    contacts toward the + and - ends of `axis`; the end with at least HEAD_SHARE and HEAD_RATIO times the other's
-    share is the front (an animal's head and neck stand out beyond its forelegs further than its rump beyond its
-    hind legs). Not for a built thing, HEAD_BUILT of whose surface faces along the axes (`axis_facing`): a bed's
-    headboard, a chair's back or a tricycle's body stand out beyond its legs or wheels at its back. (sign of that
-    end, feet, share +, share -), or None where the rule does not decide."""
+def head_ends(vertices: np.ndarray, faces: np.ndarray, axes: tuple[int, ...], diag: float
+              ) -> list[tuple[float, int, float, float] | None]:
+    """The front's legs rule on a stood-up (Y-up) mesh, along each of `axes`: where it stands on HEAD_FEET or more
+    feet (`stance`), the shares of its surface (LEG_SAMPLES samples) that reach more than HEAD_GAP of the diagonal
+    past the feet's contacts toward the + and - ends of the axis; the end with at least HEAD_SHARE and HEAD_RATIO
+    times the other's share is the front (an animal's head and neck stand out beyond its forelegs further than its
+    rump beyond its hind legs). Not for a built thing, HEAD_BUILT of whose surface faces along the axes
+    (`axis_facing`): a bed's headboard, a chair's back or a tricycle's body stand out beyond its legs or wheels at
+    its back. For each axis (sign of that end, feet, share +, share -), or None where the rule does not decide."""
     if axis_facing(vertices, faces) >= HEAD_BUILT:
-        return None
+        return [None] * len(axes)
     p = surface_samples(vertices, faces, LEG_SAMPLES)
     st = stance(p, surface_centroid(vertices, faces), "y", diag)
     if not st.stands or st.feet < HEAD_FEET:
-        return None
-    c = st.contacts[:, axis]
+        return [None] * len(axes)
     gap = HEAD_GAP * diag
-    plus = float(np.mean(p[:, axis] > c.max() + gap))
-    minus = float(np.mean(p[:, axis] < c.min() - gap))
-    if plus >= HEAD_SHARE and plus >= HEAD_RATIO * minus:
-        return 1.0, st.feet, plus, minus
-    if minus >= HEAD_SHARE and minus >= HEAD_RATIO * plus:
-        return -1.0, st.feet, plus, minus
-    return None
+    out: list[tuple[float, int, float, float] | None] = []
+    for axis in axes:
+        c = st.contacts[:, axis]
+        plus = float(np.mean(p[:, axis] > c.max() + gap))
+        minus = float(np.mean(p[:, axis] < c.min() - gap))
+        if plus >= HEAD_SHARE and plus >= HEAD_RATIO * minus:
+            out.append((1.0, st.feet, plus, minus))
+        elif minus >= HEAD_SHARE and minus >= HEAD_RATIO * plus:
+            out.append((-1.0, st.feet, plus, minus))
+        else:
+            out.append(None)
+    return out
 
 
 @dataclass
@@ -799,7 +824,7 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
     rot = up_rotation(chosen)[:3, :3]
     turned_asym = [asym["xyz".index(axis_name(rot.T[:, k])[-1])] for k in range(3)]
     choice = front_choice(v @ rot.T, f, mirror_axis(turned_asym))
-    evidence["detail"] = {"+" + "xyz"[choice.axis]: round(choice.plus, 6), "-" + "xyz"[choice.axis]:
+    evidence["detail"] = {"+" + "xyz"[choice.detail_axis]: round(choice.plus, 6), "-" + "xyz"[choice.detail_axis]:
                           round(choice.minus, 6), "width": round(choice.width, 6), "ratio": round(choice.ratio(), 3)}
     note = choice.note(rot)
     if note:

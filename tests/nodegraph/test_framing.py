@@ -345,9 +345,9 @@ def _long_animal() -> Mesh:
     return merge_meshes([*legs, _box((-0.4, 0.8, -0.6), (0.4, 1.2, 1.6))], "long")
 
 
-def test_head_end_by_hand(monkeypatch) -> None:
+def test_head_ends_by_hand(monkeypatch) -> None:
     animal = _long_animal()
-    assert framing.head_end(animal.vertices, animal.faces, 2, 1.0) is None  # boxes: built, the rule stays out
+    assert framing.head_ends(animal.vertices, animal.faces, (2, 0), 1.0) == [None, None]  # boxes: built
     monkeypatch.setattr(framing, "HEAD_BUILT", 1.01)
     diag = float(np.linalg.norm([0.8, 1.2, 2.2]))
     # the feet reach z = +-0.55; past 0.55 + HEAD_GAP x diag lie the body's four sides (perimeter 2.4) over the
@@ -355,15 +355,34 @@ def test_head_end_by_hand(monkeypatch) -> None:
     # (the body 2 x (0.8 x 0.4 + 0.8 x 2.2 + 0.4 x 2.2) = 5.92, the legs 4 x (4 x 0.08 + 2 x 0.01) = 1.36)
     reach = 1.6 - (0.55 + framing.HEAD_GAP * diag)
     expected = (2.4 * reach + 0.32) / (5.92 + 1.36)
-    sign, feet, plus, minus = framing.head_end(animal.vertices, animal.faces, 2, diag)
+    (sign, feet, plus, minus), across = framing.head_ends(animal.vertices, animal.faces, (2, 0), diag)
     assert (sign, feet, minus) == (1.0, 4, 0.0)
     assert plus == pytest.approx(expected, abs=0.015)  # 20000 samples
+    assert across is None  # the body (x +-0.4) stays within the feet (x +-0.35) and the gap (0.05) sideways
     away = animal.transformed(TURN_Z)
-    sign, feet, plus_away, minus_away = framing.head_end(away.vertices, away.faces, 2, diag)
+    [(sign, feet, plus_away, minus_away)] = framing.head_ends(away.vertices, away.faces, (2,), diag)
     assert (sign, feet, plus_away) == (-1.0, 4, 0.0) and minus_away == pytest.approx(expected, abs=0.015)
     even = merge_meshes([*(_box((x - 0.05, 0.0, z - 0.05), (x + 0.05, 0.8, z + 0.05)) for x in (-0.3, 0.3)
                            for z in (-0.5, 0.5)), _box((-0.4, 0.8, -1.1), (0.4, 1.2, 1.1))], "even")
-    assert framing.head_end(even.vertices, even.faces, 2, diag) is None  # as much past the feet at each end
+    assert framing.head_ends(even.vertices, even.faces, (2,), diag) == [None]  # as much past the feet at each end
+
+
+def test_the_legs_choose_the_axis_where_the_mirror_plane_is_wrong(monkeypatch) -> None:
+    monkeypatch.setattr(framing, "HEAD_BUILT", 1.01)
+    side = _long_animal().transformed(TO_X_FRONT)  # its head toward +X
+    monkeypatch.setattr(framing, "upright_mirror", lambda *a: None)  # no mirror plane found: the axis would be Z
+    choice = framing.front_choice(side.vertices, side.faces, mirror=None)
+    assert np.array_equal(choice.front, [1, 0, 0]) and choice.legs_axis and choice.feet == 4
+    assert (choice.axis, choice.detail_axis) == (0, 2)
+    note = choice.note()
+    assert note.startswith("seen from +x: it stands on 4 feet and ") and "neither end of z stands out so" in note
+    assert note.endswith("`--front z` keeps the file's front")
+    back = framing.FrontChoice.decode(choice.encode())
+    assert back.legs_axis and np.array_equal(back.front, choice.front) and back.axis == 0
+    assert not framing.FrontChoice.decode(choice.encode()[:10]).legs_axis  # a memo written before the axis rule
+    monkeypatch.setattr(framing, "upright_mirror", lambda *a: 2)  # the mirror plane across Z: along X already
+    choice = framing.front_choice(side.vertices, side.faces)
+    assert np.array_equal(choice.front, [1, 0, 0]) and not choice.legs_axis
 
 
 def test_an_animal_facing_away_is_seen_from_its_head() -> None:
@@ -589,4 +608,4 @@ def test_the_orientation_bench_switches_rules_off() -> None:
     assert away(("head",)) == 0.0 == away(("legs",))  # a plain head: the feature lines do not decide
     with pytest.raises(ValueError, match="unknown rule 'nose'"):
         orientation.run(meshes_dir=None, only=("dog",), rules_off=("nose",))
-    assert framing.head_end is not None and framing.stance.__name__ == "stance"  # switched back on after
+    assert framing.head_ends.__name__ == "head_ends" and framing.stance.__name__ == "stance"  # switched back on after
