@@ -5,7 +5,14 @@
   view vector v = c - p projected into the tangent plane, where D_w kappa_r > 0. The paper's trims: the
   derivative along the unit w, D_w kappa_r / |w|, must exceed t_d (here made scale-free: times the squared
   bounding-box diagonal), and the angle theta between v and the normal must exceed theta_c (regions facing
-  the viewer carry no suggestive contours).
+  the viewer carry no suggestive contours). None inside a planar region (`planar_faces`): kappa_r is zero
+  all over a plane, but the per-vertex curvature at its corners is measured across the creases that bound
+  it, and interpolated over a large flat triangle it crosses zero along lines of the triangulation (the
+  diagonals of a box's sides where another box touches it). A face lies in a planar region when each
+  neighbour across a manifold edge is coplanar with it (normals within PLANAR_DEG, which covers the rounding
+  of coordinates written with six decimals) or meets it at a crease (over CREASE_DEG, where the render splits
+  its normals): CAD parts and low-poly models have such regions, smooth and scanned surfaces almost none
+  (measured: fandisk 51 % of faces, ogre 1.7 %, cow 1.0 %, the bunny 0.4 %, spot and the teapot none).
 * Ridges and valleys (Ohtake, Belyaev and Seidel 2004): zeros of the derivative of k1 along e1 that are
   maxima (k1 > |k2|), and of k2 along e2 that are minima (k2 < -|k1|); e1, e2 are lines, so they are
   oriented consistently inside each triangle before the zero crossings are taken.
@@ -21,6 +28,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+PLANAR_DEG = 0.2  # neighbouring faces whose normals differ by less than this are coplanar
+CREASE_DEG = 40.0  # ... and by more than this meet at a crease (Mesh.render_arrays' default split angle)
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,6 +50,7 @@ class MeshOps:
     normal: np.ndarray  # (n, 3) unit vertex normal
     confidence: np.ndarray  # (n,) reliability of the directions, 0..1
     diag: float  # bounding-box diagonal: the feature size the thresholds are relative to
+    planar: np.ndarray | None = None  # (m,) whether each face lies in a planar region (planar_faces)
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,10 +85,35 @@ def _smoothstep(lo: float, hi: float, x: np.ndarray) -> np.ndarray:
     return t * t * (3.0 - 2.0 * t)
 
 
+def planar_faces(F: np.ndarray, face_normal: np.ndarray, weld: np.ndarray | None = None,
+                 planar_deg: float = PLANAR_DEG, crease_deg: float = CREASE_DEG) -> np.ndarray:
+    """(m,) whether each face lies in a planar region: no neighbour across a manifold edge of the welded mesh
+    (`weld`: vertex ids, copies at seams sharing one) meets it at an angle between `planar_deg` and
+    `crease_deg`. Boundary and non-manifold edges say nothing either way."""
+    m = len(F)
+    if m == 0:
+        return np.zeros(0, dtype=bool)
+    ids = np.asarray(F, dtype=np.int64) if weld is None else np.asarray(weld, dtype=np.int64)[F]
+    e = np.sort(np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [2, 0]]]), axis=1)
+    key = e[:, 0] * (int(ids.max()) + 1) + e[:, 1]
+    order = np.argsort(key, kind="stable")
+    key, face = key[order], np.tile(np.arange(m), 3)[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    count = np.diff(np.r_[start, len(key)])
+    first = start[count == 2]  # manifold edges: two faces, next to each other in the sorted list
+    pairs = np.stack([face[first], face[first + 1]], axis=1)
+    cos = np.sum(face_normal[pairs[:, 0]] * face_normal[pairs[:, 1]], axis=1)
+    bends = (cos < np.cos(np.radians(planar_deg))) & (cos >= np.cos(np.radians(crease_deg)))
+    curved = np.zeros(m, dtype=bool)
+    curved[pairs[bends].ravel()] = True
+    return ~curved
+
+
 def mesh_ops(V: np.ndarray, F: np.ndarray, kmin: np.ndarray, kmax: np.ndarray, dmin: np.ndarray,
-             dmax: np.ndarray, normal: np.ndarray, confidence: np.ndarray) -> MeshOps:
+             dmax: np.ndarray, normal: np.ndarray, confidence: np.ndarray, weld: np.ndarray | None = None) -> MeshOps:
     """Face gradient operators and signed principal curvatures from the curvature node's arrays (ordered by
-    magnitude there; here k1 >= k2 by value)."""
+    magnitude there; here k1 >= k2 by value), and which faces lie in planar regions (`planar_faces` on the
+    mesh welded by `weld`)."""
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     kmin, kmax = np.asarray(kmin, np.float64), np.asarray(kmax, np.float64)
@@ -98,7 +134,7 @@ def mesh_ops(V: np.ndarray, F: np.ndarray, kmin: np.ndarray, kmax: np.ndarray, d
     grad = np.cross(nf[:, None, :], opp) / area2[:, None, None]
     return MeshOps(V=V, F=F, face_index=np.flatnonzero(keep), grad=grad, face_normal=nf, centroid=p.mean(axis=1),
                    k1=k1, k2=k2, e1=e1, e2=e2, normal=np.asarray(normal, np.float64),
-                   confidence=np.asarray(confidence, np.float64), diag=diag)
+                   confidence=np.asarray(confidence, np.float64), diag=diag, planar=planar_faces(F, nf, weld))
 
 
 def smooth_curvature(ops: MeshOps, length: float, weld: np.ndarray | None = None,
@@ -318,7 +354,8 @@ def radial(ops: MeshOps, eye: np.ndarray) -> np.ndarray:
 def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: float,
                         angle_threshold_deg: float) -> Segments:
     """Suggestive contours seen from `eye` (object space; a point, or homogeneous: `towards_eye`). Kept where
-    theta > theta_c and D_w kappa_r / |w| x diag^2 > t_d; intensity ramps up to 1 at 2 t_d and theta_c + 10 degrees."""
+    theta > theta_c and D_w kappa_r / |w| x diag^2 > t_d, and not in planar regions (`MeshOps.planar`); intensity
+    ramps up to 1 at 2 t_d and theta_c + 10 degrees."""
     if len(ops.F) == 0:
         return Segments.empty()
     f = radial(ops, np.asarray(eye, dtype=np.float64))
@@ -338,6 +375,8 @@ def suggestive_contours(ops: MeshOps, eye: np.ndarray, derivative_threshold: flo
     strength = (_smoothstep(derivative_threshold, 2.0 * derivative_threshold, dwk)
                 * _smoothstep(angle_threshold_deg, angle_threshold_deg + 10.0, theta))
     keep = (cos_t > 0.0) & (dwk > derivative_threshold) & (theta > angle_threshold_deg) & (strength > 0.02)
+    if ops.planar is not None:
+        keep &= ~ops.planar[faces]
     s = strength[keep]
     return Segments(pts[keep], np.stack([s, s], axis=1), faces[keep], _edge_vertices(ops.F, faces, edges)[keep])
 

@@ -27,14 +27,15 @@ class FeatureLines(Node):
     directions), per frame on the CPU: the radial curvature kappa_r = k1 cos^2 phi + k2 sin^2 phi of the
     view direction projected into each vertex's tangent plane and its face gradients; suggestive contours
     are its zeros inside triangles where D_w kappa_r > 0, trimmed as DeCarlo et al. 2003 trim them
-    (D_w kappa_r / |w| > t_d, theta > theta_c). Ridges (maxima of k1 along e1, k1 > |k2|) and valleys
-    (minima of k2 along e2, k2 < -|k1|) after Ohtake et al. 2004 are frame-independent and extracted once
-    per mesh. Segments on back faces are dropped; the rest are drawn `width` pixels wide and hidden where
-    the G-buffer (normal_depth, w = linear depth) is nearer than the line by more than `depth_tolerance`.
+    (D_w kappa_r / |w| > t_d, theta > theta_c), none inside planar regions (docs/feature_lines.md). Ridges
+    (maxima of k1 along e1, k1 > |k2|) and valleys (minima of k2 along e2, k2 < -|k1|) after Ohtake et al.
+    2004 are frame-independent and extracted once per mesh. Segments on back faces are dropped; the rest are
+    drawn `width` pixels wide and hidden where the G-buffer (normal_depth, w = linear depth) is nearer than the
+    line by more than `depth_tolerance`.
     `out` is the maximum of the connected `edges` and every kind times its intensity. Objects are assumed
     rigidly placed (uniform scale at most); the view vector is taken in object space."""
 
-    version = "1"
+    version = "2"
     shaders = ("feature_lines.glsl", "edges.glsl")
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
@@ -104,7 +105,7 @@ class FeatureLines(Node):
             arr = {k: curv.data[object_field(index, k)] for k in ("kmin", "kmax", "dmin", "dmax", "normal",
                                                                   "confidence")}
             weld = mesh.weld()[0]
-            ops = lines.mesh_ops(mesh.vertices, mesh.faces, **arr)
+            ops = lines.mesh_ops(mesh.vertices, mesh.faces, **arr, weld=weld)
             ops = lines.smooth_curvature(ops, p.curvature_smoothing * ops.diag, weld)
             entry = cache[base] = {"ops": ops, "ext": lines.extrema_data(ops, weld), "weld": weld}
         ops, weld = entry["ops"], entry["weld"]

@@ -49,7 +49,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "3"
+    version = "4"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -148,7 +148,7 @@ class MeshLines(Node):
                 _FEATURE_OPS.pop(next(iter(_FEATURE_OPS)))
             arr = {k: curv.data[object_field(index, k)] for k in ("kmin", "kmax", "dmin", "dmax", "normal",
                                                                   "confidence")}
-            ops = fl.mesh_ops(mesh.vertices, mesh.faces, **arr)
+            ops = fl.mesh_ops(mesh.vertices, mesh.faces, **arr, weld=weld)
             ops = fl.smooth_curvature(ops, d.curvature_smoothing * ops.diag, weld)
             entry = _FEATURE_OPS[base] = {"ops": ops, "ext": fl.extrema_data(ops, weld)}
         ops = entry["ops"]

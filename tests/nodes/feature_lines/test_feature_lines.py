@@ -188,3 +188,67 @@ def test_bad_params_are_located() -> None:
         "outputs:\n  o: f.out\n"
     with pytest.raises(PipelineError, match=r"t.yaml:\d+:\d+.*width"):
         pl.loads(text, "t.yaml")
+
+
+def _two_boxes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A slab standing on a wider base, touching it along a line of the base's top (a sofa's back on its seat,
+    kit-bashed): (V, F, weld ids), each box with 8 shared corners and 12 triangles."""
+    from nodegraph.scene import primitives
+    from nodegraph.scene.meshes import Mesh, merge_meshes
+
+    def box(lo, hi):
+        b = primitives.box(1.0)
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        return Mesh("box", (b.vertices + 0.5) * (hi - lo) + lo, b.faces)
+
+    m = merge_meshes([box((-0.8, 0.3, -0.45), (0.8, 0.85, -0.25)), box((-0.8, 0.08, -0.45), (0.8, 0.3, 0.43))], "two")
+    return m.vertices, m.faces, m.weld()[0]
+
+
+def _plain_ops(V: np.ndarray, F: np.ndarray, weld: np.ndarray) -> L.MeshOps:
+    n = len(V)
+    return L.mesh_ops(V, F, np.zeros(n), np.zeros(n), np.tile((1.0, 0.0, 0.0), (n, 1)),
+                      np.tile((0.0, 0.0, 1.0), (n, 1)), np.tile((0.0, 1.0, 0.0), (n, 1)), np.ones(n), weld=weld)
+
+
+def test_planar_faces_by_hand() -> None:
+    V, F, weld = _two_boxes()
+    assert _plain_ops(V, F, weld).planar.all()  # every neighbour coplanar or across a 90° crease
+    Vs, Fs = icosphere(3)
+    assert not ops_of(Vs, Fs).planar.any()  # neighbours meet at about 3.7°
+    # one corner of the base pulled out a little along its diagonal: the base's three sides that meet there
+    # (x = 0.8, y = 0.3, z = 0.43) now bend across their own diagonals by more than PLANAR_DEG and less than
+    # the crease; every other face keeps only coplanar or creased neighbours
+    corner = np.array([0.8, 0.3, 0.43])
+    moved = np.flatnonzero(np.all(np.isclose(V, corner), axis=1))
+    Vb = V.copy()
+    Vb[moved] += 0.02
+    bent = _plain_ops(Vb, F, weld)
+    base = np.arange(len(F)) >= 12
+    on_side = np.zeros(len(F), dtype=bool)
+    for k in range(3):
+        on_side |= np.all(np.isclose(V[F][:, :, k], corner[k]), axis=1)
+    assert (base & on_side).sum() == 6
+    assert np.array_equal(bent.planar, ~(base & on_side))
+
+
+def test_no_suggestive_contours_inside_planar_regions() -> None:
+    """Two touching boxes, measured welded as the curvature node measures them: a plane has no suggestive
+    contour, but the corners' curvature, measured across the creases, interpolated over the big triangles
+    crosses zero inside them."""
+    from dataclasses import replace
+
+    V, F, weld = _two_boxes()
+    ids, first = np.unique(weld, return_index=True)
+    where = np.searchsorted(ids, weld)
+    c = compute_curvature(V[first], where[F], 3)
+    ops = L.mesh_ops(V, F, c.kmin[where], c.kmax[where], c.dmin[where], c.dmax[where], c.normal[where],
+                     c.confidence[where], weld=weld)
+    ops = L.smooth_curvature(ops, 0.01 * ops.diag, weld)
+    d = np.array([[x, y, z] for x in (-1, 0, 1) for y in (0.5, 1) for z in (-1, 0, 1) if (x, z) != (0, 0)], float)
+    eyes = 5.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    unmasked = replace(ops, planar=None)
+    assert sum(L.suggestive_contours(unmasked, e, 2.0, 25.0).length() for e in eyes) > 0.5  # the stray lines
+    assert sum(len(L.suggestive_contours(ops, e, 2.0, 25.0)) for e in eyes) == 0
+    Vt, Ft = torus()
+    assert not ops_of(Vt, Ft).planar.any()  # a smooth surface keeps every suggestive contour
