@@ -6,6 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 sg=${SKETCHGRAPH:-sketchgraph}
+py=${PYTHON:-python}  # with pygltflib (the project's environment): the film shot
 m=../shared/meshes
 i=docs/images
 $sg run nienhaus_sketchy -o $i/nienhaus_sketchy.png
@@ -21,8 +22,8 @@ $sg run pipelines/loose_and_sketchy.yaml --scene $m/spot.obj -o $i/loose_and_ske
 $sg run pipelines/loose_and_sketchy_shaded.yaml -o $i/loose_and_sketchy_shaded.png
 $sg run pipelines/loose_and_sketchy_shaded.yaml --scene $m/spot.obj -o $i/loose_and_sketchy_shaded_spot.png
 # the short film (README, docs/animation.md)
-python examples/film/make_shot.py out/shot
+$py examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \
     --set distortion.hold=2 --set contour.hold=2 -o $i/film_pencil.gif
 $sg run object_space_uncertainty --scene out/shot/shot.yaml --frames 0:48:4 --size 240x240 -o out/shot/osu/f_####.png
-python examples/film/make_shot.py sheet $i/film_object_space.png out/shot/osu/f_*.png
+$py examples/film/make_shot.py sheet $i/film_object_space.png out/shot/osu/f_*.png
