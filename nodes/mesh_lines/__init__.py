@@ -18,6 +18,7 @@ from . import extract
 _FEATURES = ("suggestive", "ridges", "valleys")
 _TOPOLOGY: dict[str, tuple[np.ndarray, int, extract.EdgeFaces]] = {}  # mesh topology hash -> (weld, n, edges)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
+_PLANAR: dict[str, np.ndarray] = {}  # mesh content hash -> its faces in planar regions
 
 
 class _FeatureDefaults:
@@ -37,7 +38,8 @@ FEATURE_DEFAULTS = _FeatureDefaults()
 class MeshLines(Node):
     """Lines found on every object's posed mesh in object space, each frame, as `Strokes` (nodegraph/values.py;
     docs/strokes.md): occluding contours (interpolated zero crossings of n . v inside faces, n the smooth vertex
-    normal, v towards the eye, or the constant view direction of an orthographic camera), creases (welded
+    normal, v towards the eye, or the constant view direction of an orthographic camera; in planar regions, where
+    those normals lean over the creases around them, the edges between faces turned toward and away), creases (welded
     edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
     (boundaries another object shares: object and material borders) and, where a curvature node is connected,
     feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
@@ -49,7 +51,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "4"
+    version = "5"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -205,6 +207,19 @@ def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
     return got
 
 
+def planar(mesh: Any, weld: np.ndarray) -> np.ndarray:
+    """The faces of a (posed) mesh in planar regions (`feature_lines.planar_faces`), kept for a few meshes."""
+    from .._shared.feature_lines import planar_faces
+
+    key = mesh.content_hash()
+    got = _PLANAR.get(key)
+    if got is None:
+        if len(_PLANAR) >= 8:
+            _PLANAR.pop(next(iter(_PLANAR)))
+        got = _PLANAR[key] = planar_faces(mesh.faces, mesh.face_normals(), weld)
+    return got
+
+
 def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
                     boundaries: bool = True, crease_angle: float = 60.0) -> extract.Segs:
     """Contour, crease and boundary segments of one mesh seen from `eye_obj` (homogeneous, object space)."""
@@ -212,7 +227,10 @@ def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creas
     V, F = mesh.vertices, mesh.faces
     parts = []
     if contours:
-        parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj))
+        flat = planar(mesh, weld)
+        parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
+        parts.append(extract.facet_contours(V, F, mesh.face_normals(), weld, ef, eye_obj, flat,
+                                            crease_angle if creases else None))
     if creases or boundaries:
         parts.append(extract.creases_and_boundaries(V, F, mesh.face_normals(), weld, ef, eye_obj, crease_angle,
                                                     creases, boundaries))

@@ -7,7 +7,11 @@ chaining follows the surface across faces:
 
 * occluding contours: the zero set of g = n . (e - e_w p), n the (welded, angle-weighted) vertex normal and
   e the eye in homogeneous object coordinates (a direction for an orthographic camera), linearly interpolated
-  inside each face: one segment between the zero crossings on the two edges whose ends differ in sign;
+  inside each face: one segment between the zero crossings on the two edges whose ends differ in sign. Not
+  inside a planar region (`feature_lines.planar_faces`: the faces of a box, a CAD part's flat sides), where the
+  averaged normals of its corners, which lean over the creases around it, put zero crossings across flat faces
+  (a box seen from above drew lines along its sides' diagonals); there the contour is the welded edges between a
+  face turned toward the viewer and one turned away (`facet_contours`), as the render draws the region flat;
 * creases: welded edges between two faces whose normals differ by more than the crease angle;
 * boundaries: welded edges of one face only; `mark_borders` turns those that another object shares (the same
   world position) into borders (object and material borders: glTF primitives are separate objects);
@@ -71,13 +75,16 @@ def facing(V: np.ndarray, N: np.ndarray, eye: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", N, eye[None, :3] - eye[3] * V)
 
 
-def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray) -> Segs:
-    """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring)."""
+def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray,
+             flat: np.ndarray | None = None) -> Segs:
+    """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring), none inside
+    the faces `flat` marks (planar regions: `facet_contours` draws theirs)."""
     g = facing(V, N, eye)
     pos = g >= 0.0
     s = pos[F]
     cnt = s.sum(axis=1)
-    fi = np.flatnonzero((cnt == 1) | (cnt == 2))
+    crossed = (cnt == 1) | (cnt == 2)
+    fi = np.flatnonzero(crossed if flat is None else crossed & ~flat)
     if not len(fi):
         return Segs.empty()
     sf = s[fi]
@@ -136,6 +143,25 @@ def _edge_segs(V: np.ndarray, F: np.ndarray, wid: np.ndarray, occ: np.ndarray, k
     bary[rows, 1, c2] = 1.0
     return Segs(np.stack([V[va], V[vb]], axis=1), bary, f.astype(np.int64),
                 np.stack([wid[va], wid[vb]], axis=1).astype(np.int64), np.full(len(occ), kind, np.uint8), front)
+
+
+def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
+                   eye: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
+    """Occluding contours of planar regions: the welded edges between a face turned toward the viewer and one
+    turned away, both in planar regions (`flat`; next to a curved face, that face's interpolated contour runs
+    along the edge), on the face turned toward the viewer; edges whose faces' normals differ by more than
+    `crease_angle` degrees are left to the creases (None: none are)."""
+    two = ef.second >= 0
+    o1, o2 = ef.first[two], ef.second[two]
+    f1, f2 = o1 // 3, o2 // 3
+    keep = flat[f1] & flat[f2]
+    o1, o2, f1, f2 = o1[keep], o2[keep], f1[keep], f2[keep]
+    g = facing(V[F].mean(axis=1), face_normals, eye)  # one sign over a face's plane
+    keep = (g[f1] > 0.0) != (g[f2] > 0.0)
+    if crease_angle is not None:
+        keep &= np.einsum("ij,ij->i", face_normals[f1], face_normals[f2]) >= np.cos(np.radians(crease_angle))
+    occ = np.where(g[f1] > 0.0, o1, o2)[keep]
+    return _edge_segs(V, F, wid, occ, KIND["contour"], np.ones(len(occ), bool))
 
 
 def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,

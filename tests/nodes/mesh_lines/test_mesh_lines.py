@@ -207,3 +207,73 @@ def test_layered_svg_writes_a_point_repeated_by_rounding_once():
     paths = read_layers(layered_svg(s))["contour"]
     assert len(paths) == 1
     np.testing.assert_allclose(paths[0], [[10, 20], [12, 20], [15, 15]], atol=0.006)
+
+
+def _prism(sides: int = 8, radius: float = 1.0, height: float = 2.0):
+    """A prism along +Y: corners at angles 360 k / sides (one at +X), sides split into two triangles, capped
+    by fans, wound outward."""
+    from nodegraph.scene.meshes import Mesh
+
+    a = 2.0 * np.pi * np.arange(sides) / sides
+    ring = np.stack([radius * np.cos(a), np.zeros(sides), -radius * np.sin(a)], axis=1)
+    V = np.concatenate([ring, ring + (0.0, height, 0.0), [(0.0, 0.0, 0.0), (0.0, height, 0.0)]])
+    k, k1 = np.arange(sides), (np.arange(sides) + 1) % sides
+    F = np.concatenate([np.stack([k, k1, k1 + sides], 1), np.stack([k, k1 + sides, k + sides], 1),
+                        np.stack([np.full(sides, 2 * sides), k1, k], 1),
+                        np.stack([np.full(sides, 2 * sides + 1), k + sides, k1 + sides], 1)])
+    m = Mesh("prism", V, F)
+    centre = V[F].mean(axis=1) - (0.0, height / 2, 0.0)
+    assert (np.einsum("ij,ij->i", m.face_normals(), centre) > 0).all()  # outward
+    return m
+
+
+def _two_boxes():
+    from nodegraph.scene import primitives
+    from nodegraph.scene.meshes import Mesh, merge_meshes
+
+    def box(lo, hi):
+        b = primitives.box(1.0)
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        return Mesh("box", (b.vertices + 0.5) * (hi - lo) + lo, b.faces)
+
+    return merge_meshes([box((-0.8, 0.3, -0.45), (0.8, 0.85, -0.25)), box((-0.8, 0.08, -0.45), (0.8, 0.3, 0.43))],
+                        "two")
+
+
+def test_no_interpolated_contours_across_flat_faces():
+    """Two touching boxes (a sofa's back on its seat): the corners' averaged normals lean over the creases, so
+    n . v interpolated over a side crosses zero inside it. A box's outline is its creases: no contour at all."""
+    from nodegraph_nodes.mesh_lines import object_segments, planar, topology
+
+    m = _two_boxes()
+    weld, nw, _ = topology(m)
+    d = np.array([[x, y, z] for x in (-1, 0, 1) for y in (0.5, 1) for z in (-1, 0, 1) if (x, z) != (0, 0)], float)
+    eyes = [np.r_[5.0 * e / np.linalg.norm(e), 1.0] for e in d]
+    N = m.vertex_normals().astype(np.float64)
+    across = sum(len(extract.contours(m.vertices, m.faces, N, weld, nw, e)) for e in eyes)
+    assert across > 0  # what the sofa drew: lines along its sides' diagonals
+    assert planar(m, weld).all()
+    for e in eyes:
+        s = object_segments(m, e)
+        assert not (s.kind == extract.KIND["contour"]).any()
+        assert (s.kind == extract.KIND["crease"]).sum() > 0
+
+
+def test_a_faceted_prism_outlines_on_its_edges():
+    """An octagonal prism seen across its axis: its sides meet at 45 degrees, under the 60 degree crease angle,
+    so its outline is no crease. Its faces are planar (the sides meet at more than the 40 degree render split),
+    so the contour is the two side edges between faces turned toward and away from the eye: x = +-1, z = 0."""
+    from nodegraph_nodes.mesh_lines import object_segments
+
+    m = _prism()
+    for eye in (np.array([0.0, 0.3, 1.0, 0.0]), np.array([0.0, 3.0, 10.0, 1.0])):  # orthographic, perspective
+        s = object_segments(m, eye)
+        c = s.select(s.kind == extract.KIND["contour"])
+        assert len(c) == 2, len(c)
+        p = c.p.reshape(-1, 3)
+        assert np.allclose(np.abs(p[:, 0]), 1.0) and np.allclose(p[:, 2], 0.0)
+        assert sorted(np.round(p[:, 1], 6).tolist()) == [0.0, 0.0, 2.0, 2.0]
+        assert (s.kind == extract.KIND["crease"]).sum() > 0  # the caps' rims
+    # with creases off, the rims' outline parts are drawn as contours instead of being lost
+    s = object_segments(m, np.array([0.0, 0.3, 1.0, 0.0]), creases=False)
+    assert (s.kind == extract.KIND["contour"]).sum() > 2
