@@ -21,6 +21,14 @@ $sg run pipelines/loose_and_sketchy.yaml -o $i/loose_and_sketchy.png
 $sg run pipelines/loose_and_sketchy.yaml --scene $m/spot.obj -o $i/loose_and_sketchy_spot.png
 $sg run pipelines/loose_and_sketchy_shaded.yaml -o $i/loose_and_sketchy_shaded.png
 $sg run pipelines/loose_and_sketchy_shaded.yaml --scene $m/spot.obj -o $i/loose_and_sketchy_shaded_spot.png
+# sketchy_strokes beside the pixel pipeline it restates (docs/strokes.md)
+mkdir -p out/strokes
+$sg run sketchy_strokes --scene $m/spot.obj --size 384x384 -o out/strokes/spot.png
+$sg run nienhaus_sketchy --scene $m/spot.obj --size 384x384 -o out/strokes/spot_pixels.png
+$sg run sketchy_strokes --scene builtin:cloister --size 384x384 -o out/strokes/cloister.png
+$py docs/side_by_side.py $i/sketchy_strokes.png "sketchy_strokes, spot" out/strokes/spot.png \
+    "nienhaus_sketchy, spot (pixels)" out/strokes/spot_pixels.png "sketchy_strokes, builtin:cloister" \
+    out/strokes/cloister.png
 # the short film (README, docs/animation.md)
 $py examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \
