@@ -39,7 +39,7 @@ class StrokeHatching(Node):
     reference size (times px_scale). `anchor: surface` seeds from points fixed on the surfaces in a fixed order
     instead (surface_seeds), so a film's hatching holds to its objects."""
 
-    version = "1"
+    version = "2"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "curvature": Input(ARRAYS, "Per-object curvature arrays (curvature.out) of the same scene."),
@@ -157,7 +157,18 @@ class StrokeHatching(Node):
         allp = np.concatenate(pts) if pts else np.zeros((0, 2))
         return streamlines.tensor_field(allp, np.concatenate(dirs) if dirs else np.zeros((0, 2)),
                                         np.concatenate(wts) if wts else np.zeros(0), size,
-                                        self.params.cell * px_scale, self.params.smoothing * px_scale)
+                                        self.params.cell * px_scale, self.params.smoothing * px_scale,
+                                        fill=covered(ids, self.params.cell * px_scale))
+
+
+def covered(ids: np.ndarray, cell: float) -> np.ndarray:
+    """(rows, cols) whether an object covers any pixel of each cell of `cell` pixels (tensor_field's grid)."""
+    h, w = ids.shape
+    cols, rows = int(np.ceil(w / cell)), int(np.ceil(h / cell))
+    ys, xs = np.nonzero(ids > 0)
+    out = np.zeros((rows, cols), dtype=bool)
+    out[np.minimum((ys / cell).astype(int), rows - 1), np.minimum((xs / cell).astype(int), cols - 1)] = True
+    return out
 
 
 def p_tol(node: StrokeHatching) -> float:
@@ -207,7 +218,7 @@ def hatch(tensor: np.ndarray, bright: np.ndarray, ids: np.ndarray, size: tuple[i
         if ids[r, c] == 0 or ids[r, c] != state["obj"] or bright[r, c] >= limit:
             return None
         gr, gc = min(int(y / cell), rows - 1), min(int(x / cell), cols - 1)
-        if strength[gr, gc] <= 1e-9:
+        if strength[gr, gc] <= streamlines.EMPTY:
             return None
         d = dirs[gr, gc]
         return float(d[0]), float(d[1])

@@ -15,11 +15,17 @@ import numpy as np
 Field = Callable[[float, float], tuple[float, float] | None]
 
 
+EMPTY = 1e-9  # a cell whose tensor's trace is at most this has no direction
+
+
 def tensor_field(points: np.ndarray, dirs: np.ndarray, weights: np.ndarray, size: tuple[int, int], cell: float,
-                 sigma: float) -> np.ndarray:
+                 sigma: float, fill: np.ndarray | None = None) -> np.ndarray:
     """(rows, cols, 3) smoothed structure tensor (xx, xy, yy) of unsigned screen directions on a grid of `cell`
     pixels: each direction d adds weight x d d^T to its cell; a Gaussian of `sigma` pixels smooths the sums
-    (sign-free, so opposite directions agree)."""
+    (sign-free, so opposite directions agree). `fill` (rows, cols) bool: the cells to give a direction wherever
+    there are points at all (those an object covers): the ones the Gaussian leaves empty (more than about four
+    sigma from every point: the middle of a large flat face, whose only vertices are its corners) take the sums
+    smoothed by a Gaussian twice as wide, and so on, up to the whole grid."""
     from scipy.ndimage import gaussian_filter
 
     w, h = size
@@ -31,7 +37,20 @@ def tensor_field(points: np.ndarray, dirs: np.ndarray, weights: np.ndarray, size
         for k, v in enumerate((dirs[:, 0] ** 2, dirs[:, 0] * dirs[:, 1], dirs[:, 1] ** 2)):
             np.add.at(t[..., k], (ri, ci), weights * v)
     s = max(sigma / cell, 0.0)
-    return np.stack([gaussian_filter(t[..., k], s, mode="nearest") for k in range(3)], axis=-1) if s > 0 else t
+
+    def smooth(width: float) -> np.ndarray:
+        return np.stack([gaussian_filter(t[..., k], width, mode="nearest") for k in range(3)], axis=-1)
+
+    out = smooth(s) if s > 0 else t.copy()
+    if fill is not None and (t[..., 0] + t[..., 2]).max() > EMPTY:
+        width = max(s, 1.0)
+        while True:
+            empty = (out[..., 0] + out[..., 2] <= EMPTY) & fill
+            if not empty.any() or width > 2.0 * max(rows, cols):
+                break
+            width *= 2.0
+            out[empty] = smooth(width)[empty]
+    return out
 
 
 def principal(t: np.ndarray) -> np.ndarray:

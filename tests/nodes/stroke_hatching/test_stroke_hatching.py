@@ -238,3 +238,28 @@ def test_hatch_engines_and_the_python_fallback(monkeypatch):
     fallback = hatch(*args)
     monkeypatch.undo()
     assert [q.tolist() for q in fallback] == [q.tolist() for q in hatch(*args, engine="jit")]
+
+
+def test_the_field_fills_the_middle_of_a_large_face():
+    """Directions only at the corners of a 400 px square (a flat face's vertices): smoothed by 10 px, the middle has
+    no direction, and hatching left it bare (the patches on a box-built sofa). Filled, every cell has one, the
+    cells the Gaussian reached are unchanged, and where all the corners agree the fill agrees with them."""
+    corners = np.array([[4.0, 4.0], [396.0, 4.0], [4.0, 396.0], [396.0, 396.0]])
+    along = np.tile((np.cos(0.5), np.sin(0.5)), (4, 1))
+    plain = streamlines.tensor_field(corners, along, np.ones(4), (400, 400), 4.0, 10.0)
+    everywhere = np.ones((100, 100), dtype=bool)
+    filled = streamlines.tensor_field(corners, along, np.ones(4), (400, 400), 4.0, 10.0, fill=everywhere)
+    trace = lambda t: t[..., 0] + t[..., 2]  # noqa: E731
+    reached = trace(plain) > streamlines.EMPTY
+    assert not reached[50, 50] and reached.mean() < 0.2
+    assert (trace(filled) > streamlines.EMPTY).all()
+    assert np.array_equal(filled[reached], plain[reached])
+    d = streamlines.principal(filled)
+    assert np.allclose(np.abs(d @ np.array([np.cos(0.5), np.sin(0.5)])), 1.0, atol=1e-9)
+    half = everywhere.copy()
+    half[:, 50:] = False  # only the cells an object covers are filled
+    part = streamlines.tensor_field(corners, along, np.ones(4), (400, 400), 4.0, 10.0, fill=half)
+    assert (trace(part)[:, :50] > streamlines.EMPTY).all() and np.array_equal(part[:, 50:], plain[:, 50:])
+    nothing = streamlines.tensor_field(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), (40, 40), 4.0, 10.0,
+                                       fill=np.ones((10, 10), dtype=bool))
+    assert not nothing.any()  # no points: no field to spread
