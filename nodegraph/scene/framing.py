@@ -51,9 +51,9 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
   (`upright_mirror`; not for a subject thin along either: a flat cut-out mirrors itself across its thickness);
   else a clean mirror plane across Z (`mirror_axis`) puts the front along X; else Z. The ratio was chosen on the
   tune set, where the true mirror plane wins by 1.44 (the boxes figure, whose nose and feet are the only
-  difference front to back) to 15.7 (the chair); a posed scan (the horse of the wild set: legs apart, head
-  turned) can be more alike front to back than left to right, and is then seen from its side; a teapot, mirror-
-  symmetric across Z, is seen from its spout or handle end. Of the two ends of that axis, first the legs
+  difference front to back) to 15.7 (the chair); the horse of the wild set, a posed scan with its legs apart and
+  its head turned aside, still mirrors itself 1.7 times more closely left to right; a teapot, mirror-symmetric
+  across Z, is seen from its spout or handle end. Of the two ends of that axis, first the legs
   (`head_ends`): a mesh that stands (`stance`, up +Y) on HEAD_FEET or more feet faces the end where HEAD_SHARE or
   more of its surface reaches past its feet (by HEAD_GAP of the diagonal), at least HEAD_RATIO times the share
   past them at the other end: an animal's head and neck stand out beyond its forelegs, its rump hardly beyond

@@ -10,8 +10,9 @@ chaining follows the surface across faces:
   inside each face: one segment between the zero crossings on the two edges whose ends differ in sign. Not
   inside a planar region (`feature_lines.planar_faces`: the faces of a box, a CAD part's flat sides), where the
   averaged normals of its corners, which lean over the creases around it, put zero crossings across flat faces
-  (a box seen from above drew lines along its sides' diagonals); there the contour is the welded edges between a
-  face turned toward the viewer and one turned away (`facet_contours`), as the render draws the region flat;
+  (boxes touching, as a sofa's back on its seat, drew lines along their sides' diagonals); there the contour is
+  the welded edges between a face turned toward the viewer and one turned away (`facet_contours`), as the render
+  draws the region flat;
 * creases: welded edges between two faces whose normals differ by more than the crease angle;
 * boundaries: welded edges of one face only; `mark_borders` turns those that another object shares (the same
   world position) into borders (object and material borders: glTF primitives are separate objects);
