@@ -725,7 +725,7 @@ _values = st.one_of(
                      "translation", "rotation", "scale", "weights", "image/png", "", "..", "../x.bin", "/etc/passwd",
                      "%2e%2e/x", "data:,", "data:application/octet-stream;base64,AAAA", "perspective",
                      "orthographic"]),
-    st.none(), st.booleans(), st.just([]), st.just({}), st.lists(st.integers(-2, 12), max_size=5),
+    st.none(), st.booleans(), st.builds(list), st.builds(dict), st.lists(st.integers(-2, 12), max_size=5),
     st.lists(st.floats(-2, 2, width=32), min_size=3, max_size=4))
 
 
