@@ -6,6 +6,7 @@ Closed primitives share vertices (no seams): `Mesh.render_arrays` splits normals
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -117,6 +118,12 @@ def _revolve(profile: np.ndarray, segments: int,
     q = np.stack([idx[rows][:, i0], idx[rows][:, i1], idx[nxt][:, i1], idx[nxt][:, i0]], axis=2)
     f = _drop_repeated(_quads(q.reshape(-1, 4)))
     return _compact(v, f)
+
+
+def revolve(profile: Any, segments: int = 32, name: str = "revolved") -> Mesh:
+    """A body of revolution about +Y: (r, y) profile points, the outside to the left of the profile's direction
+    of travel; points with r == 0 are poles."""
+    return Mesh(name, *_revolve(np.asarray(profile, dtype=np.float64), segments))
 
 
 def uv_sphere(radius: float = 1.0, n_u: int = 32, n_v: int = 16) -> Mesh:

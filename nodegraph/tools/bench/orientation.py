@@ -708,7 +708,7 @@ def wine_glass() -> Mesh:
     inside = [(0.0, 0.6), (0.07, 0.61), (0.16, 0.66), (0.25, 0.73), (0.29, 0.82), (0.3, 0.9), (0.29, 1.0)]
     outside = [(0.3, 1.0), (0.31, 0.9), (0.3, 0.8), (0.26, 0.7), (0.18, 0.61), (0.08, 0.56), (0.03, 0.52)]
     foot = [(0.03, 0.05), (0.3, 0.02), (0.3, 0.0), (0.0, 0.0)]
-    return Mesh("wine-glass", *primitives._revolve(np.array(inside + outside + foot), 32))
+    return primitives.revolve(inside + outside + foot, 32, "wine-glass")
 
 
 def park_bench() -> Mesh:
