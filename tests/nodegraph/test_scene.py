@@ -124,6 +124,18 @@ def test_open_cylinder_has_two_boundary_loops() -> None:
     assert c.topology().n_boundary_edges == 40
 
 
+def test_revolve_makes_a_closed_outward_body() -> None:
+    """A cone-topped drum from its (r, y) profile: poles collapse to one vertex, every edge has two faces, the
+    normals point away from the axis, and the volume is the drum's plus the cone's."""
+    r, h, n = 0.5, 1.0, 64
+    m = primitives.revolve([(0.0, h + 0.5), (r, h), (r, 0.0), (0.0, 0.0)], n, "drum")
+    assert m.name == "drum" and m.topology().n_boundary_edges == 0
+    centre = m.vertices[m.faces].mean(axis=1) * (1.0, 0.0, 1.0)
+    assert (np.einsum("ij,ij->i", m.face_normals(), centre) >= -1e-12).all()
+    polygon = 0.5 * n * r * r * math.sin(2 * math.pi / n)  # the n-gon that stands for the circle
+    assert m.signed_volume() == pytest.approx(polygon * (h + 0.5 / 3.0), rel=1e-9)
+
+
 def test_arch_geometry() -> None:
     a = primitives.arch(span=0.8, thickness=0.1, depth=0.2, segments=10)
     lo, hi = a.bounds()
