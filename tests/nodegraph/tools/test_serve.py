@@ -528,7 +528,20 @@ def _client(e):
     return images
 
 
-def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
+class _HeldClock:
+    """The serve engine's `time` with `monotonic` held where the test puts it (the rest real): its quiet period
+    passes only when the test moves the clock on."""
+
+    def __init__(self) -> None:
+        self.now = time.monotonic()
+        self.perf_counter, self.sleep, self.time = time.perf_counter, time.sleep, time.time
+
+    def monotonic(self) -> float:
+        return self.now
+
+
+def test_prefetch_makes_a_later_view_a_read_back(tmp_path, monkeypatch):
+    from nodegraph.tools.serve import engine as engine_module
     from nodegraph.tools.serve.engine import QUIET_S
 
     e = _engine(tmp_path)
@@ -540,7 +553,8 @@ def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
         assert ("gbuf", "normal") not in made  # a port the ordinary run does not make
         _wait(lambda: e._prefetch_next() is None, "the first prefetch")
         counts = dict(e.counts)
-        t_set = time.monotonic()
+        clock = _HeldClock()
+        monkeypatch.setattr(engine_module, "time", clock)
         e.submit(1, {"op": "set", "node": "edges", "param": "normal_threshold", "value": 0.2, "seq": 1})
         _wait(lambda: e.seq == 1 and len(images("sprite.color")) >= 2, "the change's image")
         # the change alone computes what it reaches, and plans only the ordinary ports of those nodes
@@ -549,8 +563,13 @@ def test_prefetch_makes_a_later_view_a_read_back(tmp_path):
         assert ("edges", "profile") not in e.result.values
         assert ("gbuf", "normal") in e.result.values  # prefetched before, and the change left gbuf's key alone
         pre = dict(e.prefetch_counts)
+        assert e._prefetch_next() is not None and e._prefetch_due() == e._last_msg + QUIET_S
+        time.sleep(2 * QUIET_S)  # real time passes, the engine's does not: nothing before the quiet period
+        assert e.prefetch_counts == pre and e._prefetch_next() is not None
+        with e._lock:
+            clock.now += QUIET_S
+            e._lock.notify_all()
         _wait(lambda: e._prefetch_next() is None, "the prefetch after the change")
-        assert time.monotonic() - t_set >= QUIET_S  # not before the quiet period
         # the prefetch computed again only the changed nodes with ports the ordinary run does not make
         assert {n: e.prefetch_counts.get(n, 0) - pre.get(n, 0) for n in ("gbuf", "noise", "edges", "sketch")} \
             == {"gbuf": 0, "noise": 0, "edges": 1, "sketch": 1}
