@@ -226,14 +226,14 @@ def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creas
     weld, nw, ef = topology(mesh)
     V, F = mesh.vertices, mesh.faces
     parts = []
+    fn = mesh.face_normals()
+    face_g = extract.face_facing(V, F, fn, eye_obj)
     if contours:
         flat = planar(mesh, weld)
         parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
-        parts.append(extract.facet_contours(V, F, mesh.face_normals(), weld, ef, eye_obj, flat,
-                                            crease_angle if creases else None))
+        parts.append(extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease_angle if creases else None))
     if creases or boundaries:
-        parts.append(extract.creases_and_boundaries(V, F, mesh.face_normals(), weld, ef, eye_obj, crease_angle,
-                                                    creases, boundaries))
+        parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries))
     return extract.Segs.concat(parts)
 
 

@@ -146,18 +146,25 @@ def _edge_segs(V: np.ndarray, F: np.ndarray, wid: np.ndarray, occ: np.ndarray, k
                 np.stack([wid[va], wid[vb]], axis=1).astype(np.int64), np.full(len(occ), kind, np.uint8), front)
 
 
+def face_facing(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """g per face, at its centroid (one sign over the face's plane): > 0 where it faces the viewer."""
+    return facing(V[F].mean(axis=1), face_normals, eye)
+
+
 def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
-                   eye: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
+                   face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
     """Occluding contours of planar regions: the welded edges between a face turned toward the viewer and one
-    turned away, both in planar regions (`flat`; next to a curved face, that face's interpolated contour runs
-    along the edge), on the face turned toward the viewer; edges whose faces' normals differ by more than
-    `crease_angle` degrees are left to the creases (None: none are)."""
+    turned away (`face_g`, `face_facing`), both in planar regions (`flat`; next to a curved face, that face's
+    interpolated contour runs along the edge), on the face turned toward the viewer; edges whose faces' normals
+    differ by more than `crease_angle` degrees are left to the creases (None: none are)."""
+    if not flat.any():
+        return Segs.empty()
     two = ef.second >= 0
     o1, o2 = ef.first[two], ef.second[two]
     f1, f2 = o1 // 3, o2 // 3
     keep = flat[f1] & flat[f2]
     o1, o2, f1, f2 = o1[keep], o2[keep], f1[keep], f2[keep]
-    g = facing(V[F].mean(axis=1), face_normals, eye)  # one sign over a face's plane
+    g = face_g
     keep = (g[f1] > 0.0) != (g[f2] > 0.0)
     if crease_angle is not None:
         keep &= np.einsum("ij,ij->i", face_normals[f1], face_normals[f2]) >= np.cos(np.radians(crease_angle))
@@ -166,13 +173,11 @@ def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: 
 
 
 def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,
-                           ef: EdgeFaces, eye: np.ndarray, crease_angle: float, creases: bool = True,
+                           ef: EdgeFaces, face_g: np.ndarray, crease_angle: float, creases: bool = True,
                            boundaries: bool = True) -> Segs:
     """Creases (dihedral angle above `crease_angle` degrees, on the face of the pair nearer facing the viewer;
-    `front` False where both faces turn away) and boundaries (edges of one face)."""
+    `front` False where both faces turn away: `face_g`, `face_facing`) and boundaries (edges of one face)."""
     parts = []
-    centroid = V[F].mean(axis=1)
-    face_g = facing(centroid, face_normals, eye)
     if creases:
         two = ef.second >= 0
         o1, o2 = ef.first[two], ef.second[two]

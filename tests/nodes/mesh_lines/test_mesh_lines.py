@@ -110,7 +110,8 @@ def test_boundaries_shared_by_two_objects_become_one_border():
         wid = np.arange(4)
         ef = extract.edge_faces(faces, 4)
         nrm = np.tile([0, 0, 1.0], (2, 1))
-        segs.append(extract.creases_and_boundaries(V, faces, nrm, wid, ef, np.array([0, 0, 5, 1.0]), 60.0))
+        face_g = extract.face_facing(V, faces, nrm, np.array([0, 0, 5, 1.0]))
+        segs.append(extract.creases_and_boundaries(V, faces, nrm, wid, ef, face_g, 60.0))
     out = extract.mark_borders(segs, [np.eye(4), np.eye(4)], 1e-9)
     kinds = [np.bincount(s.kind, minlength=len(LINE_KINDS)) for s in out]
     b, d = LINE_KINDS.index("boundary"), LINE_KINDS.index("border")
