@@ -18,7 +18,7 @@ from nodegraph.values import LINE_KINDS, Strokes
 from .._shared.curvature import object_field
 from .._shared.pencil import view_light
 from .._shared.surface_points import project, surface_points
-from . import streamlines
+from . import planes, streamlines
 
 HATCHING = LINE_KINDS.index("hatching")
 
@@ -37,9 +37,11 @@ class StrokeHatching(Node):
     shorter than `min_length`. Output strokes of kind "hatching", visible, with depth, object, and `pos` (the
     object-space surface point) where `position` is connected; spacing, step and lengths are in pixels at the
     reference size (times px_scale). `anchor: surface` seeds from points fixed on the surfaces in a fixed order
-    instead (surface_seeds), so a film's hatching holds to its objects."""
+    instead (surface_seeds), so a film's hatching holds to its objects. `planes` (with `position` connected):
+    the flat faces of a rigid mesh are hatched with straight lines fixed on the plane instead, along its outline's
+    dominant direction and spaced by its tone, converging in perspective (module planes)."""
 
-    version = "2"
+    version = "3"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "curvature": Input(ARRAYS, "Per-object curvature arrays (curvature.out) of the same scene."),
@@ -84,6 +86,10 @@ class StrokeHatching(Node):
                                                      "coordinates) in a fixed order, so films keep their hatching "
                                                      "from frame to frame.")
 
+        planes: bool = Field(True, description="Flat faces (planes over 0.5 % of their mesh's area) hatched "
+                             "with straight parallel lines fixed on the plane, along its outline; needs `position`. "
+                             "Off: streamlines of the curvature field, blended from the faces' corners, everywhere.")
+
     def hash_extra(self, ctx: HashContext) -> Any:
         return origin.hash_extra(ctx.scene, ctx.frame)
 
@@ -96,26 +102,34 @@ class StrokeHatching(Node):
         ids = np.rint(inputs["object_id"].read()[..., 0]).astype(np.int64)
         cam = scene.camera_at(ctx.frame)
         view, proj = cam.view_matrix(), cam.projection_matrix(w / h)
+        pos = inputs["position"].read() if inputs.get("position") is not None else None
+        use_planes = p.planes and pos is not None
+        nview = inputs["normal"].read()[..., :3].astype(np.float64) \
+            if use_planes or inputs.get("shading") is None else None
         if inputs.get("shading") is not None:
             rgb = inputs["shading"].read()[..., :3].astype(np.float64)
             bright = rgb @ np.array([0.2126, 0.7152, 0.0722])
         else:
-            n = inputs["normal"].read()[..., :3].astype(np.float64)
-            bright = np.maximum(n @ view_light(scene, cam), 0.0)
+            bright = np.maximum(nview @ view_light(scene, cam), 0.0)
         bright = np.where(ids > 0, bright, 1.0)
         from scipy.ndimage import gaussian_filter
 
         bright = gaussian_filter(bright, p.cell * ctx.px_scale * 0.5, mode="nearest")
         s = ctx.px_scale
-        fields = [self._field(inputs["curvature"], scene, view, proj, depth, ids, name, (w, h), s)
-                  for name in ("dmin", "dmax")]
         lo, hi = p.spacing[0] * s, p.spacing[1] * s
-        pos = inputs["position"].read() if inputs.get("position") is not None else None
         lines: list[np.ndarray] = []
-        anchored = surface_seeds(scene, view, proj, depth, ids, (w, h), lo, p.depth_tolerance) \
+        flat = planes.scene_planes(scene, view, proj, pos, nview, ids, (w, h)) if use_planes else None
+        curved = ids  # the pixels the streamlines cover: all but the planes'
+        if flat is not None:
+            for family, limit in ((0, p.white), (1, p.cross_below)):
+                lines += flat.hatching(family, bright, limit, lo, hi, p.min_length * s)
+            curved = np.where(flat.plane >= 0, 0, ids)
+        fields = [self._field(inputs["curvature"], scene, view, proj, depth, curved, name, (w, h), s,
+                              flat.flat_vertices if flat is not None else None) for name in ("dmin", "dmax")]
+        anchored = surface_seeds(scene, view, proj, depth, curved, (w, h), lo, p.depth_tolerance) \
             if p.anchor == "surface" else None
         for family, limit in ((0, p.white), (1, p.cross_below)):
-            lines += hatch(fields[family], bright, ids, (w, h), lo, hi, limit, p.stop_ratio, p.step * s,
+            lines += hatch(fields[family], bright, curved, (w, h), lo, hi, limit, p.stop_ratio, p.step * s,
                            p.min_length * s, p.cell * s, anchored)
         strokes = to_strokes(lines, (w, h), depth, ids, pos, p.width * s, p.tone)
         out: dict[str, Any] = {"strokes": strokes}
@@ -124,8 +138,10 @@ class StrokeHatching(Node):
         return out
 
     def _field(self, curv: Any, scene: Any, view: np.ndarray, proj: np.ndarray, depth: np.ndarray, ids: np.ndarray,
-               name: str, size: tuple[int, int], px_scale: float) -> np.ndarray:
-        """The smoothed tensor field of one curvature direction over every object's visible vertices."""
+               name: str, size: tuple[int, int], px_scale: float,
+               flat_vertices: dict[int, np.ndarray] | None = None) -> np.ndarray:
+        """The smoothed tensor field of one curvature direction over every object's visible vertices, less those
+        on planes only (`flat_vertices` per object index: their directions are measured across creases)."""
         w, h = size
         pts, dirs, wts = [], [], []
         for index, obj in enumerate(scene.objects):
@@ -150,6 +166,8 @@ class StrokeHatching(Node):
             inside = ok & ok2 & (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)
             vis = inside & (ids[iy, ix] == index + 1) & \
                 (np.abs(depth[iy, ix] + vv[:, 2]) <= p_tol(self) * np.maximum(-vv[:, 2], 1e-9)) & (ln > 0)
+            if flat_vertices is not None and index in flat_vertices:
+                vis &= ~flat_vertices[index]
             fore = np.linalg.norm(dv[:, :2], axis=1) / np.maximum(np.linalg.norm(dv, axis=1), 1e-12)
             pts.append(xy[vis])
             dirs.append(sd[vis] / ln[vis, None])

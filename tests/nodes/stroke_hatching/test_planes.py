@@ -1,0 +1,163 @@
+"""stroke_hatching on flat faces (module planes): the planes of a mesh and their directions by hand, and a box's
+hatching checked against the rasterizer's own object-space positions: every stroke straight on the screen, and
+lying on one line of its face, the lines of a face a whole number of gaps apart."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from nodegraph_nodes.stroke_hatching import planes as pl
+
+from nodegraph.values import LINE_KINDS
+from tests.helpers import run_minimal
+
+
+def box(lo, hi, base: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """An axis-aligned box: 8 corners, 12 outward triangles."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    v = np.array([(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)], np.float64)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    f = []
+    for a, b, c, d in quads:
+        f += [(a, b, c), (a, c, d)]
+    return v, np.array(f, np.int64) + base
+
+
+def planes_of(v: np.ndarray, f: np.ndarray) -> pl.Planes:
+    from nodegraph.scene.meshes import Mesh
+
+    mesh = Mesh("t", v, f)
+    return pl.mesh_planes(mesh.vertices, mesh.faces, mesh.weld()[0])
+
+
+def test_a_box_has_six_planes_hatched_along_their_longer_side():
+    v, f = box((0, 0, 0), (2.0, 1.0, 0.5))
+    p = planes_of(v, f)
+    assert len(p) == 6 and p.flat_vertices.all()
+    for n, a, c in zip(p.normal, p.along, p.across, strict=True):
+        axis = int(np.argmax(np.abs(n)))
+        assert np.isclose(abs(n[axis]), 1.0) and abs(a @ n) < 1e-12 and abs(c @ n) < 1e-12
+        assert np.isclose(abs(a @ c), 0.0, atol=1e-12)
+        # the longer side of each face: x (length 2) on the z and y faces, y (1 against 0.5) on the x faces
+        want = 1 if axis == 0 else 0
+        assert np.isclose(abs(a[want]), 1.0), (n, a)
+    # offsets: n . p = d on each face
+    for n, d in zip(p.normal, p.offset, strict=True):
+        on = np.abs(v @ n - d) < 1e-9
+        assert on.sum() == 4
+
+
+def test_a_square_face_is_hatched_level():
+    v, f = box((0, 0, 0), (1.0, 1.0, 1.0))
+    p = planes_of(v, f)
+    for n, a in zip(p.normal, p.along, strict=True):
+        if abs(n[1]) > 0.5:  # top and bottom: along x
+            assert np.isclose(abs(a[0]), 1.0)
+        else:  # the sides: horizontal
+            assert abs(a[1]) < 1e-12
+
+
+def test_touching_boxes_share_their_coplanar_faces():
+    """Two boxes side by side (a sofa's cushions): their tops, bottoms, fronts and backs lie in four shared
+    planes; the faces they touch by have opposite normals and stay apart: 6 + 6 - 4 planes."""
+    va, fa = box((0, 0, 0), (1.0, 0.5, 1.0))
+    vb, fb = box((1.0, 0, 0), (2.0, 0.5, 1.0), base=8)
+    p = planes_of(np.r_[va, vb], np.r_[fa, fb])
+    assert len(p) == 8
+    top = np.flatnonzero(p.normal[:, 1] > 0.5)
+    assert len(top) == 1 and np.isclose(abs(p.along[top[0], 0]), 1.0)  # the shared top runs along both (2 x 1)
+
+
+def icosphere() -> tuple[np.ndarray, np.ndarray]:
+    from nodegraph.scene.primitives import sphere
+
+    m = sphere(1.0, 3)
+    return np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)
+
+
+def test_a_sphere_has_no_plane_and_a_small_facet_is_left_to_the_field():
+    v, f = icosphere()
+    assert len(planes_of(v, f)) == 0
+    area = 4 * np.pi  # about the sphere's
+    for side, planes in ((np.sqrt(0.002 * area), 0), (np.sqrt(0.05 * area), 1)):
+        sq = np.array([(3, 0, 0), (3 + side, 0, 0), (3 + side, side, 0), (3, side, 0)], np.float64)
+        p = planes_of(np.r_[v, sq], np.r_[f, np.array([(0, 1, 2), (0, 2, 3)]) + len(v)])
+        assert len(p) == planes, side  # under MIN_AREA (0.5 %) of the mesh's area: not a plane of its own
+    assert not p.flat_vertices[: len(v)].any() and p.flat_vertices[len(v):].all()
+
+
+def test_the_spacing_ladder():
+    assert pl.spacing_ladder(0.1, 1.0) == 2.0 ** -3.5 or np.isclose(pl.spacing_ladder(0.1, 1.0), 2.0 ** -3.5)
+    for s in (0.003, 0.05, 0.7):
+        got = pl.spacing_ladder(s, 2.0)
+        assert 2 ** -0.25 - 1e-12 <= got / s <= 2 ** 0.25 + 1e-12
+        assert np.isclose(np.log2(got / 2.0) * 2, np.round(np.log2(got / 2.0) * 2))
+
+
+def box_obj(path: Path) -> Path:
+    v, f = box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4))
+    path.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n"
+                                                                           for a, b, c in f))
+    return path
+
+
+def _box_hatching(gl, scene: Path, planes: bool):
+    nodes = ("  gbuf:\n    type: rasterize\n  curv:\n    type: curvature\n  hatch:\n    type: stroke_hatching\n"
+             "    in: {curvature: curv.out, linear_depth: gbuf.linear_depth, normal: gbuf.normal, "
+             "object_id: gbuf.object_id, position: gbuf.position}\n"
+             f"    params: {{white: 1.0, cross_below: 0.0, spacing: [4, 9], planes: {str(planes).lower()}}}\n")
+    _, res = run_minimal(gl, nodes, {"s": "hatch.strokes"}, size=(200, 200), scene=str(scene))
+    return res.values[("hatch", "strokes")]
+
+
+def chord_deviation(q: np.ndarray) -> float:
+    """The largest distance (px) of a polyline's samples from the chord between its ends."""
+    a, b = q[0], q[-1]
+    d = b - a
+    n = np.array([-d[1], d[0]]) / max(np.hypot(*d), 1e-12)
+    return float(np.abs((q - a) @ n).max())
+
+
+def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
+    """Reference: the position buffer the rasterizer wrote, read at each sample (`pos`). Every stroke is straight on
+    the screen, lies on one face (one coordinate at the box's half size), and runs along one line of it (the
+    coordinate across the lines constant within a pixel's footprint); on each face those lines are a whole number
+    of the face's gap apart. With planes off, the streamlines of the corners' blended directions curve."""
+    scene = box_obj(tmp_path / "box.obj")
+    s = _box_hatching(gl, scene, True)
+    assert len(s) > 20 and (s["kind"] == LINE_KINDS.index("hatching")).all()
+    half = np.array([1.0, 0.6, 0.4])
+    p = pl.mesh_planes(*box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4)), np.arange(8))
+    footprint = 2 * 3.0 / 200  # generous: a pixel covers about 0.02 units at this distance
+    faces_seen = set()
+    by_face: dict[int, list[float]] = {}
+    for q, pos in zip(s.polylines, np.split(s["pos"].astype(np.float64), s.starts[1:-1]), strict=True):
+        assert chord_deviation(q.astype(np.float64)) < 0.5
+        inner = pos[1:-1] if len(pos) > 4 else pos  # the ends' pixels may straddle an edge
+        on = np.abs(np.abs(inner) - half) < 0.01
+        axis = int(np.argmax(on.mean(0)))
+        assert on[:, axis].mean() > 0.9, pos
+        k = int(np.flatnonzero((np.abs(p.normal[:, axis]) > 0.5) & (np.sign(p.normal[:, axis]) ==
+                                                                     np.sign(np.median(inner[:, axis]))))[0])
+        faces_seen.add(k)
+        u = inner @ p.across[k]
+        assert np.ptp(u) < 2 * footprint, (k, np.ptp(u))
+        by_face.setdefault(k, []).append(float(np.median(u)))
+    assert len(faces_seen) == 3  # the three faces the default view shows
+    for k, us in by_face.items():
+        us = np.unique(np.round(np.array(us), 3))
+        gaps = np.diff(us)
+        unit = gaps.min()
+        assert np.allclose(gaps / unit, np.round(gaps / unit), atol=0.15), (k, gaps)
+    curved = _box_hatching(gl, scene, False)
+    long = [q.astype(np.float64) for q in curved.polylines if len(q) > 30]
+    assert max(chord_deviation(q) for q in long) > 2.0
+
+
+def test_a_mesh_without_planes_is_hatched_as_before(gl, tmp_path: Path):
+    from tests.nodes.stroke_hatching.test_stroke_hatching import cylinder_obj
+
+    scene = cylinder_obj(tmp_path / "cyl.obj")
+    a, b = _box_hatching(gl, scene, True), _box_hatching(gl, scene, False)
+    assert len(a) > 5 and np.array_equal(a.xy, b.xy) and np.array_equal(a.starts, b.starts)
