@@ -29,6 +29,12 @@ $sg run sketchy_strokes --scene builtin:cloister --size 384x384 -o out/strokes/c
 $py docs/side_by_side.py $i/sketchy_strokes.png "sketchy_strokes, spot" out/strokes/spot.png \
     "nienhaus_sketchy, spot (pixels)" out/strokes/spot_pixels.png "sketchy_strokes, builtin:cloister" \
     out/strokes/cloister.png
+# plotter_lines' straight hatching on flat faces, and the same without it (docs/strokes.md)
+$sg run plotter_lines --scene builtin:cloister --size 400x400 -o out/strokes/plot_cloister.png
+$sg run plotter_lines --scene builtin:cloister --size 400x400 --set hatch.planes=false -o out/strokes/plot_cloister_off.png
+$sg run plotter_lines --scene $m/fandisk.obj --size 400x400 -o out/strokes/plot_fandisk.png
+$py docs/side_by_side.py $i/strokes_planes.png "plotter_lines, builtin:cloister" out/strokes/plot_cloister.png \
+    "planes: false" out/strokes/plot_cloister_off.png "plotter_lines, fandisk" out/strokes/plot_fandisk.png
 # the short film (README, docs/animation.md)
 $py examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \
