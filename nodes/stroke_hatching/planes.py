@@ -8,10 +8,12 @@ along one of its edges. Here a plane's hatching runs along its outline's dominan
 principal direction of the length-weighted structure tensor of its outline edges, which is the longer side of
 a rectangle; an outline with no dominant side (a square, a regular polygon) is hatched level, along the plane's
 horizontal (across the object's y axis; along x on a horizontal plane). The cross-hatching runs across it, in
-the plane. The lines are fixed on the plane: {p : p . across = (k + 1/2) D}, D the gap that gives the tone's
-spacing on the screen at the plane's visible centre, rounded to a ladder of sqrt(2) steps (`spacing_ladder`), so
-they hold from frame to frame until the camera's distance changes the gap by a step. Drawn in perspective,
-they converge as the plane's own lines do.
+the plane. The lines are fixed on the plane: {p : p . across = m G}, nested grids of gaps G x 2^i with G on a
+ladder of powers of two of the mesh's diagonal. The plane's grid is the one spaced nearest the tone's spacing at
+its median pixel; where a plane recedes so far that its lines crowd under half the spacing every other line
+stops, and where they spread over twice the spacing lines come in between (`plane_lines`). A camera that moves
+keeps every line where it was on the plane; lines of a grid come and go where the spacing crosses a bound, or
+all over the plane where its median spacing moves the plane's grid a step.
 
 A plane is a connected set of faces in planar regions (`feature_lines.planar_faces`) joined across manifold
 edges of the welded mesh where their normals agree within PLANAR_DEG; regions in one plane (the same normal
@@ -31,6 +33,7 @@ from .._shared.feature_lines import PLANAR_DEG, planar_faces
 MIN_AREA = 0.005  # a plane smaller than this share of its mesh's area is hatched by the curvature field
 PLANE_TOL = 2e-3  # a pixel lies on a plane within this fraction of the mesh's diagonal
 PIECE = 0.02  # a flat region under this share of MIN_AREA does not count toward a plane
+MAX_LEVEL = 40  # line 0 belongs to every grid
 TIE = 0.9  # an outline whose two principal directions weigh within this ratio has no dominant side
 NORMAL_COS = 0.999  # and its view-space normal within about 2.6 degrees of the plane's (16-bit normals)
 
@@ -196,47 +199,72 @@ def window(points: np.ndarray, mvp: np.ndarray, size: tuple[int, int]) -> tuple[
     return np.stack([(clip[:, 0] / wc + 1) * 0.5 * size[0], (clip[:, 1] / wc + 1) * 0.5 * size[1]], 1), ok
 
 
-def spacing_ladder(spacing: float, diagonal: float) -> float:
-    """`spacing` (object units) rounded to the ladder diagonal x 2^(k/2): lines stay where they are on the plane
-    until the wanted spacing moves by a step of sqrt(2) (the camera coming in or going out)."""
-    return float(diagonal * 2.0 ** (np.round(2.0 * np.log2(spacing / diagonal)) / 2.0))
+def valuation(m: np.ndarray) -> np.ndarray:
+    """The 2-adic valuation of integers (how many times 2 divides each); MAX_LEVEL for 0."""
+    m = np.abs(np.asarray(m, np.int64))
+    out = np.zeros(m.shape, np.int64)
+    rest = m.copy()
+    for _ in range(MAX_LEVEL):
+        even = (rest % 2 == 0) & (rest > 0)
+        if not even.any():
+            break
+        out[even] += 1
+        rest[even] //= 2
+    out[m == 0] = MAX_LEVEL
+    return out
 
 
 def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.ndarray, step_dir: np.ndarray,
                 on_plane: np.ndarray, mvp: np.ndarray, size: tuple[int, int], spacing_px: float, diagonal: float,
                 step: float, min_length: float) -> list[np.ndarray]:
-    """Straight hatching of one plane: the lines {p on the plane : p . step_dir = (k + 1/2) x D} (direction
-    `line`) drawn through the plane's visible pixels (`on_plane` (h, w) bool, rows bottom-up; `points` the
-    object-space positions of those pixels), D = spacing_px / (pixels per object unit across the lines at the
-    pixels' centroid), on spacing_ladder. Each line is sampled every `step` px along its projection and cut
-    where it leaves the plane's pixels; pieces shorter than `min_length` px are dropped. Window coordinates."""
+    """Straight hatching of one plane, fixed on it: the lines {p on the plane : p . step_dir = m G} (direction
+    `line`), G = diagonal x 2^j the finest gap any visible pixel may need. Line m belongs to the grids of gap
+    G x 2^i for i <= v(m) (`valuation`). The plane's grid is the one spaced nearest `spacing_px` on the screen
+    at its median pixel; its lines and coarser grids' are drawn where their grid's lines lie at least
+    spacing_px / 2 apart on the screen, finer grids' where theirs lie at least spacing_px apart. So a plane seen
+    with mild perspective keeps one grid all over (0.5-2 x spacing_px), and where a plane recedes far, every
+    other line stops where the lines crowd, or lines come in between where they spread. `on_plane` (h, w) bool,
+    rows bottom-up; `points` the object-space positions of those pixels, in np.nonzero order. Each line is
+    sampled every `step` px along its projection and cut where it leaves the plane's pixels or its grid; pieces
+    shorter than `min_length` px are dropped. Window coordinates."""
     w, h = size
+    eps = 1e-3 * diagonal
+    here, ok = window(points, mvp, size)
+    across, ok2 = window(points + eps * step_dir, mvp, size)
+    ahead, ok3 = window(points + eps * line, mvp, size)
+    along = ahead - here
+    along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-12)
+    d = across - here
+    ppu = np.where(ok & ok2 & ok3, np.abs(along[:, 0] * d[:, 1] - along[:, 1] * d[:, 0]) / eps, 0.0)
+    if not (ppu > 1e-9).any():
+        return []
+    gap = float(diagonal * 2.0 ** np.floor(np.log2(spacing_px / (ppu.max() * diagonal))))
+    # the plane's own grid: spaced nearest spacing_px at its median pixel
+    base_level = max(int(np.round(np.log2(spacing_px / (gap * float(np.median(ppu[ppu > 1e-9])))))), 0)
+    grid = np.zeros(on_plane.shape)
+    grid[on_plane] = ppu * gap  # px between neighbouring lines of the finest grid, at each pixel of the plane
+    u = points @ step_dir
+    ms = np.arange(np.ceil(u.min() / gap), np.floor(u.max() / gap) + 1).astype(np.int64)
+    if not len(ms):
+        return []
     centre = points.mean(axis=0)
     centre = centre - normal * (centre @ normal - offset)
-    eps = 1e-3 * diagonal
-    (a, c, d), ok = window(np.array([centre, centre + eps * step_dir, centre + eps * line]), mvp, size)
-    if not ok.all():
-        return []
-    along = (d - a) / max(np.linalg.norm(d - a), 1e-12)
-    px_per_unit = abs(along[0] * (c - a)[1] - along[1] * (c - a)[0]) / eps
-    if px_per_unit < 1e-9:
-        return []
-    gap = spacing_ladder(spacing_px / px_per_unit, diagonal)
-    u = points @ step_dir
-    ks = np.arange(np.ceil(u.min() / gap - 0.5), np.floor(u.max() / gap - 0.5) + 1)
-    if not len(ks):
-        return []
-    base = centre + np.outer((ks + 0.5) * gap - centre @ step_dir, step_dir)
+    base = centre + np.outer(ms * gap - centre @ step_dir, step_dir)
     p0, ok0 = window(base, mvp, size)
     p1, ok1 = window(base + eps * line, mvp, size)
     keep = ok0 & ok1
-    p0, dirs = p0[keep], p1[keep] - p0[keep]
-    dirs /= np.maximum(np.linalg.norm(dirs, axis=1, keepdims=True), 1e-12)[:, None][:, 0]
+    p0, ms = p0[keep], ms[keep]
+    dirs = p1[keep] - p0
+    dirs /= np.maximum(np.linalg.norm(dirs, axis=1, keepdims=True), 1e-12)
+    v = valuation(ms)
+    levels = 2.0 ** v.astype(np.float64)
+    # the plane's grid and coarser ones stay down to half the spacing; finer ones come in from the full spacing
+    least = np.where(v >= base_level, 0.5 * spacing_px, spacing_px)
     reach = float(np.hypot(w, h))
     t = np.arange(-reach, reach + step, step)
     out: list[np.ndarray] = []
-    for origin, dv in zip(p0, dirs, strict=True):
-        # the part of the line inside the window, then its samples on the plane's pixels
+    for origin, dv, level, floor in zip(p0, dirs, levels, least, strict=True):
+        # the part of the line inside the window, then its samples on the plane's pixels where its grid is kept
         lo_t, hi_t = -reach, reach
         for o, dd, extent in ((origin[0], dv[0], w), (origin[1], dv[1], h)):
             if abs(dd) < 1e-12:
@@ -250,11 +278,11 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
         tt = t[(t >= lo_t) & (t < hi_t)]
         xy = origin + np.outer(tt, dv)
         r = np.clip(xy[:, 1].astype(int), 0, h - 1)
-        cc = np.clip(xy[:, 0].astype(int), 0, w - 1)
-        inside = on_plane[r, cc]
-        if not inside.any():
+        c = np.clip(xy[:, 0].astype(int), 0, w - 1)
+        drawn = on_plane[r, c] & (grid[r, c] * level >= floor)
+        if not drawn.any():
             continue
-        edges = np.flatnonzero(np.diff(np.r_[0, inside.astype(np.int8), 0]))
+        edges = np.flatnonzero(np.diff(np.r_[0, drawn.astype(np.int8), 0]))
         for s0, s1 in zip(edges[::2], edges[1::2], strict=True):
             if (s1 - s0 - 1) * step >= max(min_length, step):
                 out.append(xy[s0:s1])

@@ -87,12 +87,75 @@ def test_a_sphere_has_no_plane_and_a_small_facet_is_left_to_the_field():
     assert not p.flat_vertices[: len(v)].any() and p.flat_vertices[len(v):].all()
 
 
-def test_the_spacing_ladder():
-    assert pl.spacing_ladder(0.1, 1.0) == 2.0 ** -3.5 or np.isclose(pl.spacing_ladder(0.1, 1.0), 2.0 ** -3.5)
-    for s in (0.003, 0.05, 0.7):
-        got = pl.spacing_ladder(s, 2.0)
-        assert 2 ** -0.25 - 1e-12 <= got / s <= 2 ** 0.25 + 1e-12
-        assert np.isclose(np.log2(got / 2.0) * 2, np.round(np.log2(got / 2.0) * 2))
+def test_valuation():
+    np.testing.assert_array_equal(pl.valuation(np.array([1, 2, 3, 4, -8, 12, 0])), [0, 1, 0, 2, 3, 2, pl.MAX_LEVEL])
+
+
+def floor_view(size: int = 200):
+    """A floor (y = 0, |x| <= 4, -30 <= z <= -0.5) seen from 1 unit above it, looking 10 degrees down: its
+    pixels and their points by ray casting in float64, and the model-view-projection."""
+    eye = np.array([0.0, 1.0, 0.0])
+    fwd = np.array([0.0, -np.sin(np.radians(10)), -np.cos(np.radians(10))])
+    right = np.cross(fwd, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    view = np.eye(4)
+    view[:3, :3] = np.stack([right, up, -fwd])
+    view[:3, 3] = -view[:3, :3] @ eye
+    f = 1.0 / np.tan(np.radians(30))
+    near, far = 0.05, 100.0
+    proj = np.array([[f, 0, 0, 0], [0, f, 0, 0], [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
+                     [0, 0, -1, 0]])
+    ys, xs = np.mgrid[0:size, 0:size] + 0.5
+    nx, ny = xs / size * 2 - 1, ys / size * 2 - 1  # rows bottom-up, as the G-buffer
+    rays = (nx[..., None] / f) * right + (ny[..., None] / f) * up + fwd
+    t = -eye[1] / np.where(rays[..., 1] < 0, rays[..., 1], -1e-300)
+    hit = eye + t[..., None] * rays
+    on = (rays[..., 1] < 0) & (np.abs(hit[..., 0]) <= 4) & (hit[..., 2] <= -0.5) & (hit[..., 2] >= -30)
+
+    def cast(xy: np.ndarray) -> np.ndarray:
+        """Window positions (n, 2) to their points on the floor."""
+        r = (xy[:, :1] / size * 2 - 1) / f * right + (xy[:, 1:] / size * 2 - 1) / f * up + fwd
+        return eye + (-eye[1] / r[:, 1:2]) * r
+
+    return on, hit, proj @ view, cast
+
+
+def test_receding_plane_lines_keep_their_spacing():
+    """Lines running away from the eye on a floor converge on the screen; each point keeps one grid's lines,
+    0.5-2 x the spacing apart (where the lines crowd, every other line stops: several nested grids are in use),
+    and every line lies at a whole number of the finest gap, on the plane."""
+    size, spacing = 200, 6.0
+    on, hit, mvp, cast = floor_view(size)
+    lines = pl.plane_lines(hit[on], np.array([0.0, 1.0, 0.0]), 0.0, np.array([0.0, 0.0, 1.0]),
+                           np.array([1.0, 0.0, 0.0]), on, mvp, (size, size), spacing, 30.0, 1.0, 4.0)
+    assert len(lines) > 10
+    pts = np.concatenate(lines)
+    owner = np.repeat(np.arange(len(lines)), [len(q) for q in lines])
+    from scipy.spatial import cKDTree
+
+    near = []
+    tree = cKDTree(pts)
+    for k, q in enumerate(lines):
+        d, idx = tree.query(q[2:-2], k=40)
+        other = owner[idx] != k
+        first = np.argmax(other, axis=1)
+        found = other.any(axis=1)
+        near.append(d[np.arange(len(d)), first][found])
+    gaps = np.concatenate(near)
+    lo, hi = np.percentile(gaps, [5, 95])
+    assert lo >= 0.45 * spacing and hi <= 2.1 * spacing, (lo, hi)
+    # several nested grids are in use: the lines' indices m (x = m G) have several 2-adic valuations
+    # the lines' x on the floor (their u), cast back from the window in float64, are whole multiples of a gap
+    xs = np.array([np.median(cast(q)[:, 0]) for q in lines])
+    spread = max(np.ptp(cast(q)[:, 0]) for q in lines)
+    assert spread < 1e-6  # each stroke is one line of the floor
+    d = np.diff(np.sort(xs))
+    unit = d[d > 1e-6].min()
+    assert np.allclose(xs / unit, np.round(xs / unit), atol=1e-4)
+    assert np.isclose(np.log2(30.0 / unit), np.round(np.log2(30.0 / unit)))  # the ladder: diagonal x 2^-j
+    m = np.round(xs / unit).astype(np.int64)
+    assert len(np.unique(pl.valuation(m[m != 0]))) >= 3
 
 
 def box_obj(path: Path) -> Path:
@@ -107,8 +170,8 @@ def _box_hatching(gl, scene: Path, planes: bool):
              "    in: {curvature: curv.out, linear_depth: gbuf.linear_depth, normal: gbuf.normal, "
              "object_id: gbuf.object_id, position: gbuf.position}\n"
              f"    params: {{white: 1.0, cross_below: 0.0, spacing: [4, 9], planes: {str(planes).lower()}}}\n")
-    _, res = run_minimal(gl, nodes, {"s": "hatch.strokes"}, size=(200, 200), scene=str(scene))
-    return res.values[("hatch", "strokes")]
+    ex, res = run_minimal(gl, nodes, {"s": "hatch.strokes"}, size=(200, 200), scene=str(scene))
+    return res.values[("hatch", "strokes")], ex.plan.pipeline.scene
 
 
 def chord_deviation(q: np.ndarray) -> float:
@@ -120,16 +183,28 @@ def chord_deviation(q: np.ndarray) -> float:
 
 
 def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
-    """Reference: the position buffer the rasterizer wrote, read at each sample (`pos`). Every stroke is straight on
-    the screen, lies on one face (one coordinate at the box's half size), and runs along one line of it (the
-    coordinate across the lines constant within a pixel's footprint); on each face those lines are a whole number
-    of the face's gap apart. With planes off, the streamlines of the corners' blended directions curve."""
+    """References: the position buffer the rasterizer wrote, read at each sample (`pos`), says which face a stroke
+    lies on; its samples' window positions cast as rays (float64, from the camera's matrices) onto that face's
+    plane say where on it. Every stroke is straight on the screen, lies on one face (one coordinate at the box's
+    half size), and runs along one line of it (the coordinate across the lines constant to 1e-6); on each face
+    those lines are a whole number of the finest gap apart. With planes off, the streamlines of the corners'
+    blended directions curve."""
     scene = box_obj(tmp_path / "box.obj")
-    s = _box_hatching(gl, scene, True)
+    s, sc = _box_hatching(gl, scene, True)
     assert len(s) > 20 and (s["kind"] == LINE_KINDS.index("hatching")).all()
     half = np.array([1.0, 0.6, 0.4])
     p = pl.mesh_planes(*box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4)), np.arange(8))
-    footprint = 2 * 3.0 / 200  # generous: a pixel covers about 0.02 units at this distance
+    cam = sc.camera_at(0)
+    inv = np.linalg.inv(cam.projection_matrix(1.0) @ cam.view_matrix() @ np.asarray(sc.objects[0].transform))
+
+    def cast(xy: np.ndarray, n: np.ndarray, d: float) -> np.ndarray:
+        ndc = np.c_[xy / 200.0 * 2 - 1]
+        a = np.c_[ndc, -np.ones(len(xy)), np.ones(len(xy))] @ inv.T
+        b = np.c_[ndc, np.ones(len(xy)), np.ones(len(xy))] @ inv.T
+        a, b = a[:, :3] / a[:, 3:], b[:, :3] / b[:, 3:]
+        t = (d - a @ n) / ((b - a) @ n)
+        return a + t[:, None] * (b - a)
+
     faces_seen = set()
     by_face: dict[int, list[float]] = {}
     for q, pos in zip(s.polylines, np.split(s["pos"].astype(np.float64), s.starts[1:-1]), strict=True):
@@ -141,16 +216,16 @@ def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
         k = int(np.flatnonzero((np.abs(p.normal[:, axis]) > 0.5) & (np.sign(p.normal[:, axis]) ==
                                                                      np.sign(np.median(inner[:, axis]))))[0])
         faces_seen.add(k)
-        u = inner @ p.across[k]
-        assert np.ptp(u) < 2 * footprint, (k, np.ptp(u))
+        u = cast(q.astype(np.float64), p.normal[k], p.offset[k]) @ p.across[k]
+        assert np.ptp(u) < 1e-6, (k, np.ptp(u))
         by_face.setdefault(k, []).append(float(np.median(u)))
     assert len(faces_seen) == 3  # the three faces the default view shows
     for k, us in by_face.items():
-        us = np.unique(np.round(np.array(us), 3))
+        us = np.sort(np.array(us))
         gaps = np.diff(us)
-        unit = gaps.min()
-        assert np.allclose(gaps / unit, np.round(gaps / unit), atol=0.15), (k, gaps)
-    curved = _box_hatching(gl, scene, False)
+        unit = gaps[gaps > 1e-6].min()
+        assert np.allclose(us / unit, np.round(us / unit), atol=1e-4), (k, us / unit)
+    curved, _ = _box_hatching(gl, scene, False)
     long = [q.astype(np.float64) for q in curved.polylines if len(q) > 30]
     assert max(chord_deviation(q) for q in long) > 2.0
 
@@ -159,5 +234,5 @@ def test_a_mesh_without_planes_is_hatched_as_before(gl, tmp_path: Path):
     from tests.nodes.stroke_hatching.test_stroke_hatching import cylinder_obj
 
     scene = cylinder_obj(tmp_path / "cyl.obj")
-    a, b = _box_hatching(gl, scene, True), _box_hatching(gl, scene, False)
+    a, b = _box_hatching(gl, scene, True)[0], _box_hatching(gl, scene, False)[0]
     assert len(a) > 5 and np.array_equal(a.xy, b.xy) and np.array_equal(a.starts, b.starts)
