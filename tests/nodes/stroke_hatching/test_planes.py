@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from nodegraph_nodes._shared import planes as shared
 from nodegraph_nodes.stroke_hatching import planes as pl
 
 from nodegraph.values import LINE_KINDS
@@ -24,11 +25,11 @@ def box(lo, hi, base: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return v, np.array(f, np.int64) + base
 
 
-def planes_of(v: np.ndarray, f: np.ndarray) -> pl.Planes:
+def planes_of(v: np.ndarray, f: np.ndarray) -> shared.Planes:
     from nodegraph.scene.meshes import Mesh
 
     mesh = Mesh("t", v, f)
-    return pl.mesh_planes(mesh.vertices, mesh.faces, mesh.weld()[0])
+    return shared.mesh_planes(mesh.vertices, mesh.faces, mesh.weld()[0])
 
 
 def test_a_box_has_six_planes_hatched_along_their_longer_side():
@@ -43,9 +44,10 @@ def test_a_box_has_six_planes_hatched_along_their_longer_side():
         want = 1 if axis == 0 else 0
         assert np.isclose(abs(a[want]), 1.0), (n, a)
     # offsets: n . p = d on each face
-    for n, d in zip(p.normal, p.offset, strict=True):
+    for k, (n, d) in enumerate(zip(p.normal, p.offset, strict=True)):
         on = np.abs(v @ n - d) < 1e-9
         assert on.sum() == 4
+        assert (p.face_plane == k).sum() == 2 and on[f[p.face_plane == k]].all()
 
 
 def test_a_square_face_is_hatched_level():
@@ -193,7 +195,7 @@ def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
     s, sc = _box_hatching(gl, scene, True)
     assert len(s) > 20 and (s["kind"] == LINE_KINDS.index("hatching")).all()
     half = np.array([1.0, 0.6, 0.4])
-    p = pl.mesh_planes(*box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4)), np.arange(8))
+    p = shared.mesh_planes(*box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4)), np.arange(8))
     cam = sc.camera_at(0)
     inv = np.linalg.inv(cam.projection_matrix(1.0) @ cam.view_matrix() @ np.asarray(sc.objects[0].transform))
 
