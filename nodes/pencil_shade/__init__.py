@@ -36,13 +36,14 @@ class PencilShade(Node):
     blends the three frames of its triangle's vertices by its barycentric weights (3-way blending), which
     sum to 1, so where the three directions agree it is one rotated texture. Where a direction is
     unreliable (the curvature node's fixed-frame fallback, or seen nearly end-on) it turns towards
-    `fallback_angle` on screen. Up to `layers` hatching layers are drawn, lighter first: layer k starts at
-    darkness k x layer_offset, is turned by its layer angle and multiplies the result, so crossings
-    darken. Graphite is modulated by the paper grain: the dot product of the grain normal and the stroke
-    direction. `color` adds the contours (multiplied) and the paper colour; `shade` is the hatching value
-    alone; `blend` holds the weights (rgb) and the tone index (a; -1 off the objects)."""
+    `fallback_angle` on screen. On flat faces (`planes`) the direction is the plane's own instead
+    (nodes/_shared/planes.py: along its outline), so a box's side is hatched one way all over. Up to `layers`
+    hatching layers are drawn, lighter first: layer k starts at darkness k x layer_offset, is turned by its layer
+    angle and multiplies the result, so crossings darken. Graphite is modulated by the paper grain: the dot product
+    of the grain normal and the stroke direction. `color` adds the contours (multiplied) and the paper colour;
+    `shade` is the hatching value alone; `blend` holds the weights (rgb) and the tone index (a; -1 off the objects)."""
 
-    version = "3"  # 3: mirrored objects shaded from their outside (their tone was inverted)
+    version = "4"  # 3: mirrored objects shaded from their outside (their tone was inverted); 4: planes
     shaders = ("pencil_shade.glsl", "hatch.glsl")
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
@@ -100,6 +101,10 @@ class PencilShade(Node):
                                      "it is the whole floor).")
         crease_angle: float = Field(40.0, ge=0, le=180, description="Dihedral angle in degrees above which "
                                     "normals are split (sharp creases shade flat).")
+        planes: bool = Field(True, description="Flat faces of a rigid mesh (planes over 0.5 % of its area) "
+                             "hatched along their plane's direction (its outline's longer side) instead of the "
+                             "curvature directions measured at their corners across the creases, which turn "
+                             "from corner to corner.")
         albedo_weight: float = Field(1.0, ge=0, le=4, description="With `albedo` connected: brightness is N.L x "
                                      "(L* / L*_ref) ^ albedo_weight, L* the albedo's CIE lightness (its value, as "
                                      "an artist judges it), L*_ref the default mesh colour's, 81.8 (objects of that "
@@ -183,7 +188,7 @@ class PencilShade(Node):
             bind(prog, {}, {"u_tam_size": float(tam.size[0])})
         with gl.depth_test() as state:
             for index, obj in enumerate(scene.objects):
-                geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self, surface)
+                geometry = _geometry(gl, prog, obj.mesh, curv, index, p.crease_angle, self, surface, p.planes)
                 if geometry is None:
                     continue
                 vao, local, slots = geometry
@@ -354,7 +359,7 @@ def _sampler(gl: Any, mipmaps: bool) -> Any:
 
 
 def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle: float,
-              node: Node, surface: bool = False) -> tuple[Any, np.ndarray, np.ndarray] | None:
+              node: Node, surface: bool = False, planes: bool = False) -> tuple[Any, np.ndarray, np.ndarray] | None:
     """The program's vertex array over position (relative to the mesh's origin, nodegraph/scene/origin.py), split
     normal, curvature direction, trust and corner slot (`surface`: and the rest-pose frame, `surface_frame`),
     built once per (mesh, crease angle, curvature) and kept across frames, that origin, and each triangle's
@@ -378,26 +383,35 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
         sv = _slotted(mesh.topology_mesh(), crease_angle)  # a posed part: its rest pose's, made once
         vertex = sv["vertex"]
         trust = (curv.data[object_field(index, "source")][src[vertex]] != DirectionSource.FIXED_FRAME)
+        dirs = skinned_directions(mesh, dmin, src[vertex])
+        flat = plane_directions(mesh, ra) if planes else None
+        if flat is not None:
+            on = flat[1][vertex]
+            dirs = dirs.copy()
+            dirs[on] = flat[0][vertex][on]
+            trust = trust | on
         arrays = {"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
                   "in_normal": (ra.normals[vertex], "3f"),
-                  "in_dir": (skinned_directions(mesh, dmin, src[vertex]), "3f"),
+                  "in_dir": (dirs, "3f"),
                   "in_trust": (trust.astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")}
         if surface:
-            rest, rdir, rperp = surface_frame(mesh.topology_mesh(), dmin, crease_angle)
+            rest, rdir, rperp = surface_frame(mesh.topology_mesh(), dmin, crease_angle, flat)
             arrays.update(in_rest=(rest[vertex], "3f"), in_rdir=(rdir[vertex], "3f"), in_rperp=(rperp[vertex], "3f"))
         return MeshArrays(arrays, sv["indices"], meta={"origin": local, "slots": sv["codes"]})
 
     # a posed part's buffers take each frame's vertices in place (slot: its rest pose)
-    kind = "pencil_shade.surface" if surface else "pencil_shade.slots"
+    kind = ("pencil_shade.surface" if surface else "pencil_shade.slots") + (".planes" if planes else "")
     slot = (kind, mesh.rest.content_hash(), float(crease_angle), ckey) if mesh.rest is not None else None
     entry = gl.mesh_buffers((kind, mesh.content_hash(), float(crease_angle), ckey), build, slot)
     return entry.vao(prog), entry.meta["origin"], entry.meta["slots"]
 
 
-def surface_frame(rest: Any, dmin: np.ndarray, crease_angle: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def surface_frame(rest: Any, dmin: np.ndarray, crease_angle: float,
+                  flat: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per render vertex of the rest-pose mesh `rest` (float32, (k, 3) each): its position relative to the centre
-    of the rest pose's box, its minimum-curvature direction made tangent to its (split) normal n and unit (0
-    where it has none), and n x that direction: the frame `anchor: surface` hatches in."""
+    of the rest pose's box, its minimum-curvature direction (or, where `flat` = plane_directions marks it, its
+    plane's direction) made tangent to its (split) normal n and unit (0 where it has none), and n x that
+    direction: the frame `anchor: surface` hatches in."""
     ra = rest.render_arrays(crease_angle)
     src = ra.source_vertex
     lo, hi = (np.asarray(b, dtype=np.float64) for b in rest.bounds())
@@ -405,6 +419,8 @@ def surface_frame(rest: Any, dmin: np.ndarray, crease_angle: float) -> tuple[np.
     n = np.asarray(ra.normals, dtype=np.float64)
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     d = np.asarray(dmin, dtype=np.float64)[src]
+    if flat is not None:
+        d[flat[1]] = flat[0][flat[1]]
     d = d - n * np.einsum("ij,ij->i", d, n)[:, None]
     length = np.linalg.norm(d, axis=1, keepdims=True)
     d = np.divide(d, length, out=np.zeros_like(d), where=length > 1e-9)
@@ -473,6 +489,30 @@ def _slot_codes(slots: np.ndarray) -> np.ndarray:
     codes = np.zeros(-(-len(slots) // SLOT_ROW) * SLOT_ROW, dtype=np.uint8)
     codes[: len(slots)] = slots[:, 0] + 3 * slots[:, 1]
     return codes.reshape(-1, SLOT_ROW)
+
+
+def plane_directions(mesh: Any, ra: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """The planes' directions at the render vertices `ra` of a rigid mesh: ((k, 3) float32 directions, (k,) bool
+    where a render vertex's triangles all lie in one plane (nodes/_shared/planes.py), which then takes that
+    plane's `along`); None for a posed mesh or one without planes."""
+    from .._shared.planes import cached_planes
+
+    if mesh.rest is not None:
+        return None
+    found = cached_planes(mesh)
+    if not len(found):
+        return None
+    k = ra.n_vertices
+    idx = np.asarray(ra.indices, np.int64).ravel()
+    fp = np.repeat(found.face_plane, 3)
+    lo = np.full(k, np.iinfo(np.int64).max)
+    hi = np.full(k, -1, np.int64)
+    np.minimum.at(lo, idx, fp)
+    np.maximum.at(hi, idx, fp)
+    on = (lo == hi) & (hi >= 0)
+    dirs = np.zeros((k, 3), np.float32)
+    dirs[on] = found.along[hi[on]]
+    return dirs, on
 
 
 def skinned_directions(mesh: Any, directions: np.ndarray, src: np.ndarray) -> np.ndarray:

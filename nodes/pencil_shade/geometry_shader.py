@@ -26,7 +26,7 @@ _GEOMETRY_PORTS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND"}
 
 
 def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-    from . import _sampler, skinned_directions
+    from . import _sampler, plane_directions, skinned_directions
 
     p = node.params
     gl = ctx.gl
@@ -83,14 +83,19 @@ def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozense
                     src = ra.source_vertex
                     local = origin.mesh_origin(mesh)
                     fixed = curv.data[object_field(index, "source")][src] == DirectionSource.FIXED_FRAME
+                    dirs = skinned_directions(mesh, dmin, src)
+                    flat = plane_directions(mesh, ra) if p.planes else None
+                    if flat is not None:  # as the deferred node: flat faces take their plane's direction
+                        dirs = np.where(flat[1][:, None], flat[0], dirs).astype(np.float32)
+                        fixed = fixed & ~flat[1]
                     return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"),
                                        "in_normal": (ra.normals, "3f"),
-                                       "in_dir": (skinned_directions(mesh, dmin, src), "3f"),
+                                       "in_dir": (dirs, "3f"),
                                        "in_trust": ((~fixed).astype(np.float32), "1f")}, ra.indices,
                                       meta={"origin": local})
 
                 entry = gl.mesh_buffers(("pencil_shade.geometry_shader", mesh.content_hash(), float(p.crease_angle),
-                                         ckey), build)
+                                         ckey, bool(p.planes)), build)
                 local = entry.meta["origin"]
                 state.front_face(clockwise=obj.mirrored)  # as the deferred node: gl_FrontFacing means outside
                 face = None

@@ -52,6 +52,7 @@ def tam() -> np.ndarray:
 
 def render(gl, scene: Scene, curv: Arrays, tam: np.ndarray, paper: np.ndarray | None = None,
            ports: frozenset[str] = frozenset({"shade", "blend"}), **params) -> dict[str, np.ndarray]:
+    params.setdefault("planes", False)  # the directions given here, not the quad's plane's
     node = PencilShade("shade", PencilShade.Params(**params))
     inputs = {"tam": gl.texture_array((tam.shape[2], tam.shape[1]), tam.shape[0], "R8", tam),
               "curvature": curv}

@@ -29,6 +29,7 @@ def tam() -> np.ndarray:
 
 def shade(gl, scene: Scene, curv, tam: np.ndarray, **params) -> tuple[np.ndarray, np.ndarray]:
     """(h, w, 3, 2) corner coordinates in corner order (`blend` asked for) and the `blend` output."""
+    params.setdefault("planes", False)  # the directions given here, not a flat mesh's plane's
     node = PencilShade("shade", PencilShade.Params(anchor="surface", texel_scale=TEXEL_SCALE, **params))
     inputs = {"tam": gl.texture_array((tam.shape[2], tam.shape[1]), tam.shape[0], "R8", tam), "curvature": curv}
     out = node.compute(RunContext(node, gl=gl, size=(W, H), pipeline_seed=1, scene=scene), inputs,
