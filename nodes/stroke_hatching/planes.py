@@ -20,30 +20,24 @@ MAX_LEVEL = 40  # line 0 belongs to every grid
 NORMAL_COS = 0.999  # a pixel's view-space normal within about 2.6 degrees of its plane's (16-bit normals)
 
 
-def pixel_planes(planes: Planes, pos: np.ndarray, nview: np.ndarray, on_object: np.ndarray,
-                 normal_matrix: np.ndarray) -> np.ndarray:
-    """(h, w) int: the index of the plane each pixel of an object lies on, -1 elsewhere. `pos` (h, w, 3) the
-    object-space position of the G-buffer, `nview` (h, w, 3) its view-space normal, `on_object` (h, w) the
-    object's pixels, `normal_matrix` (3, 3) object to view space for normals. A pixel lies on a plane where its
-    position is within PLANE_TOL x diagonal of it and its normal within NORMAL_COS of the plane's."""
-    out = np.full(on_object.shape, -1, np.int64)
-    if not len(planes) or not on_object.any():
-        return out
-    r, c = np.nonzero(on_object)
-    p = pos[r, c].astype(np.float64)
-    nv = nview[r, c].astype(np.float64)
-    nv /= np.maximum(np.linalg.norm(nv, axis=1, keepdims=True), 1e-12)
+def pixel_planes(planes: Planes, points: np.ndarray, nview: np.ndarray, normal_matrix: np.ndarray) -> np.ndarray:
+    """(n,) int: the index of the plane each of an object's pixels lies on, -1 for none. `points` (n, 3) their
+    object-space positions (the G-buffer's), `nview` (n, 3) their view-space normals, `normal_matrix` (3, 3)
+    object to view space for normals. A pixel lies on a plane where its position is within PLANE_TOL x diagonal
+    of it and its normal within NORMAL_COS of the plane's (the nearest plane where several pass)."""
+    got = np.full(len(points), -1, np.int64)
+    if not len(planes) or not len(points):
+        return got
+    nv = nview / np.maximum(np.linalg.norm(nview, axis=1, keepdims=True), 1e-12)
     pn = planes.normal @ normal_matrix.T
     pn /= np.maximum(np.linalg.norm(pn, axis=1, keepdims=True), 1e-300)
-    best = np.full(len(r), np.inf)
-    got = np.full(len(r), -1, np.int64)
+    best = np.full(len(points), np.inf)
     tol = PLANE_TOL * planes.diagonal
     for k in range(len(planes)):
-        dist = np.abs(p @ planes.normal[k] - planes.offset[k])
+        dist = np.abs(points @ planes.normal[k] - planes.offset[k])
         hit = (dist <= tol) & (nv @ pn[k] >= NORMAL_COS) & (dist < best)
         got[hit], best[hit] = k, dist[hit]
-    out[r, c] = got
-    return out
+    return got
 
 
 def window(points: np.ndarray, mvp: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -70,18 +64,20 @@ def valuation(m: np.ndarray) -> np.ndarray:
 
 
 def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.ndarray, step_dir: np.ndarray,
-                on_plane: np.ndarray, mvp: np.ndarray, size: tuple[int, int], spacing_px: float, diagonal: float,
-                step: float, min_length: float) -> list[np.ndarray]:
+                labels: np.ndarray, label: int, pixels: np.ndarray, mvp: np.ndarray, size: tuple[int, int],
+                spacing_px: float, diagonal: float, step: float, min_length: float,
+                scratch: np.ndarray | None = None) -> list[np.ndarray]:
     """Straight hatching of one plane, fixed on it: the lines {p on the plane : p . step_dir = m G} (direction
     `line`), G = diagonal x 2^j the finest gap any visible pixel may need. Line m belongs to the grids of gap
     G x 2^i for i <= v(m) (`valuation`). The plane's grid is the one spaced nearest `spacing_px` on the screen
     at its median pixel; its lines and coarser grids' are drawn where their grid's lines lie at least
     spacing_px / 2 apart on the screen, finer grids' where theirs lie at least spacing_px apart. So a plane seen
     with mild perspective keeps one grid all over (0.5-2 x spacing_px), and where a plane recedes far, every
-    other line stops where the lines crowd, or lines come in between where they spread. `on_plane` (h, w) bool,
-    rows bottom-up; `points` the object-space positions of those pixels, in np.nonzero order. Each line is
-    sampled every `step` px along its projection and cut where it leaves the plane's pixels or its grid; pieces
-    shorter than `min_length` px are dropped. Window coordinates."""
+    other line stops where the lines crowd, or lines come in between where they spread. The plane's pixels are
+    those where `labels` (h, w; rows bottom-up) is `label`; `pixels` their flat indices and `points` (n, 3) their
+    object-space positions, in the same order. `scratch`: an (h, w) float array to write the spacing into (its
+    other pixels are not read). Each line is sampled every `step` px along its projection and cut where it leaves
+    the plane's pixels or its grid; pieces shorter than `min_length` px are dropped. Window coordinates."""
     w, h = size
     eps = 1e-3 * diagonal
     here, ok = window(points, mvp, size)
@@ -96,8 +92,8 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     gap = float(diagonal * 2.0 ** np.floor(np.log2(spacing_px / (ppu.max() * diagonal))))
     # the plane's own grid: spaced nearest spacing_px at its median pixel
     base_level = max(int(np.round(np.log2(spacing_px / (gap * float(np.median(ppu[ppu > 1e-9])))))), 0)
-    grid = np.zeros(on_plane.shape)
-    grid[on_plane] = ppu * gap  # px between neighbouring lines of the finest grid, at each pixel of the plane
+    grid = np.empty(labels.shape) if scratch is None else scratch
+    grid.ravel()[pixels] = ppu * gap  # px between neighbouring lines of the finest grid, at the plane's pixels
     u = points @ step_dir
     ms = np.arange(np.ceil(u.min() / gap), np.floor(u.max() / gap) + 1).astype(np.int64)
     if not len(ms):
@@ -134,7 +130,7 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
         xy = origin + np.outer(tt, dv)
         r = np.clip(xy[:, 1].astype(int), 0, h - 1)
         c = np.clip(xy[:, 0].astype(int), 0, w - 1)
-        drawn = on_plane[r, c] & (grid[r, c] * level >= floor)
+        drawn = (labels[r, c] == label) & (grid[r, c] * level >= floor)
         if not drawn.any():
             continue
         edges = np.flatnonzero(np.diff(np.r_[0, drawn.astype(np.int8), 0]))
@@ -145,13 +141,13 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
 
 
 class ScenePlanes:
-    """The planes seen in a frame: `plane` (h, w) int, an index per plane seen (-1 off the planes), and for each
-    index its object's planes, its own index among them and the object's model-view-projection; `points` the
-    object-space positions of the frame's pixels; `flat_vertices` per object index (Planes.flat_vertices)."""
+    """The planes seen in a frame: `plane` (h, w) int, an index per plane seen (-1 off the planes); for each index
+    its object's planes, its own index among them, the object's model-view-projection, its pixels' flat indices
+    and their object-space positions; `flat_vertices` per object index (Planes.flat_vertices)."""
 
-    def __init__(self, plane: np.ndarray, entries: list[tuple[Planes, int, np.ndarray]], points: np.ndarray,
+    def __init__(self, plane: np.ndarray, entries: list[tuple[Planes, int, np.ndarray, np.ndarray, np.ndarray]],
                  flat_vertices: dict[int, np.ndarray], size: tuple[int, int], step: float) -> None:
-        self.plane, self.entries, self.points = plane, entries, points
+        self.plane, self.entries = plane, entries
         self.flat_vertices, self.size, self.step = flat_vertices, size, step
 
     def hatching(self, family: int, bright: np.ndarray, limit: float, lo: float, hi: float,
@@ -159,14 +155,16 @@ class ScenePlanes:
         """Family 0 (along each plane's outline) or 1 (across it) on every plane whose median brightness is
         under `limit`, spaced lo + (hi - lo) x brightness px as the streamlines are."""
         out: list[np.ndarray] = []
-        for g, (pl, k, mvp) in enumerate(self.entries):
-            on = self.plane == g
-            b = float(np.median(bright[on]))
+        scratch = np.empty(self.plane.shape)
+        flat_bright = bright.ravel()
+        for g, (pl, k, mvp, pixels, points) in enumerate(self.entries):
+            b = float(np.median(flat_bright[pixels]))
             if b >= limit:
                 continue
             line, across = (pl.along[k], pl.across[k]) if family == 0 else (pl.across[k], pl.along[k])
-            out += plane_lines(self.points[on], pl.normal[k], float(pl.offset[k]), line, across, on, mvp, self.size,
-                               lo + (hi - lo) * min(max(b, 0.0), 1.0), pl.diagonal, self.step, min_length)
+            out += plane_lines(points, pl.normal[k], float(pl.offset[k]), line, across, self.plane, g, pixels, mvp,
+                               self.size, lo + (hi - lo) * min(max(b, 0.0), 1.0), pl.diagonal, self.step,
+                               min_length, scratch)
         return out
 
 
@@ -177,12 +175,17 @@ def scene_planes(scene: Any, view: np.ndarray, proj: np.ndarray, pos: np.ndarray
     from nodegraph.scene import origin
 
     plane = np.full(ids.shape, -1, np.int64)
-    points = np.zeros(ids.shape + (3,))
-    entries: list[tuple[Planes, int, np.ndarray]] = []
+    entries: list[tuple[Planes, int, np.ndarray, np.ndarray, np.ndarray]] = []
     flat_vertices: dict[int, np.ndarray] = {}
+    flat_ids = ids.ravel()
+    order = np.argsort(flat_ids, kind="stable")  # every object's pixels, grouped
+    bounds = np.searchsorted(flat_ids[order], np.arange(len(scene.objects) + 2))
+    pos_flat = pos[..., :3].reshape(-1, 3)
+    n_flat = nview.reshape(-1, 3)
     for index, obj in enumerate(scene.objects):
         mesh = obj.mesh
-        if mesh.rest is not None or not (ids == index + 1).any():
+        pixels = order[bounds[index + 1]:bounds[index + 2]]
+        if mesh.rest is not None or not len(pixels):
             continue
         planes = cached_planes(mesh)
         if not len(planes):
@@ -191,14 +194,17 @@ def scene_planes(scene: Any, view: np.ndarray, proj: np.ndarray, pos: np.ndarray
         mv = view @ np.asarray(obj.transform, np.float64)
         if abs(np.linalg.det(mv[:3, :3])) < 1e-300:
             continue
-        on_obj = ids == index + 1
-        p = pos[..., :3].astype(np.float64) + origin.mesh_origin(mesh)
-        points[on_obj] = p[on_obj]
-        which = pixel_planes(planes, p, nview, on_obj, np.linalg.inv(mv[:3, :3]).T)
+        points = pos_flat[pixels].astype(np.float64) + origin.mesh_origin(mesh)
+        which = pixel_planes(planes, points, n_flat[pixels].astype(np.float64), np.linalg.inv(mv[:3, :3]).T)
         mvp = proj @ mv
-        for k in np.unique(which[which >= 0]):
-            plane[which == k] = len(entries)
-            entries.append((planes, int(k), mvp))
+        by = np.argsort(which, kind="stable")
+        cuts = np.searchsorted(which[by], np.arange(len(planes) + 1))
+        for k in range(len(planes)):
+            sel = by[cuts[k]:cuts[k + 1]]
+            if not len(sel):
+                continue
+            plane.ravel()[pixels[sel]] = len(entries)
+            entries.append((planes, k, mvp, pixels[sel], points[sel]))
     if not entries:
         return None
-    return ScenePlanes(plane, entries, points, flat_vertices, size, step)
+    return ScenePlanes(plane, entries, flat_vertices, size, step)

@@ -130,7 +130,8 @@ def test_receding_plane_lines_keep_their_spacing():
     size, spacing = 200, 6.0
     on, hit, mvp, cast = floor_view(size)
     lines = pl.plane_lines(hit[on], np.array([0.0, 1.0, 0.0]), 0.0, np.array([0.0, 0.0, 1.0]),
-                           np.array([1.0, 0.0, 0.0]), on, mvp, (size, size), spacing, 30.0, 1.0, 4.0)
+                           np.array([1.0, 0.0, 0.0]), on.astype(np.int64), 1, np.flatnonzero(on), mvp, (size, size),
+                           spacing, 30.0, 1.0, 4.0)
     assert len(lines) > 10
     pts = np.concatenate(lines)
     owner = np.repeat(np.arange(len(lines)), [len(q) for q in lines])
