@@ -58,8 +58,25 @@ def _components(n: int, pairs: np.ndarray) -> np.ndarray:
     return connected_components(g, directed=False)[1]
 
 
-def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float = MIN_AREA) -> Planes:
-    """The planes of a mesh (module docstring). `weld`: vertex ids with the copies at seams sharing one."""
+_PLANAR: dict[str, np.ndarray] = {}  # mesh content hash -> its faces in planar regions
+
+
+def planar(mesh: Any, weld: np.ndarray) -> np.ndarray:
+    """The faces of a (posed) mesh in planar regions (`feature_lines.planar_faces` with its face normals, welded by
+    `weld`), kept for a few meshes: mesh_lines and the planes ask for the same mesh's."""
+    key = mesh.content_hash()
+    got = _PLANAR.get(key)
+    if got is None:
+        if len(_PLANAR) >= 8:
+            _PLANAR.pop(next(iter(_PLANAR)))
+        got = _PLANAR[key] = planar_faces(mesh.faces, mesh.face_normals(), weld)
+    return got
+
+
+def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float = MIN_AREA,
+                flat: np.ndarray | None = None) -> Planes:
+    """The planes of a mesh (module docstring). `weld`: vertex ids with the copies at seams sharing one; `flat`:
+    its faces in planar regions where already known (`planar`)."""
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     diag = float(np.linalg.norm(V.max(0) - V.min(0))) if len(V) else 1.0
@@ -73,8 +90,8 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
     ok = area2 > 1e-12 * max(diag, 1e-300) ** 2
     nf = cross / np.where(ok, area2, 1.0)[:, None]
     wid = np.asarray(weld, np.int64)[F]
-    flat = planar_faces(F, nf, weld) & ok
-    if not flat.any():
+    flat = (planar_faces(F, nf, weld) if flat is None else np.asarray(flat, bool)) & ok
+    if area2[flat].sum() < min_area * area2[ok].sum():  # not even all flat faces together would make a plane
         return empty
     # manifold edges of the welded mesh between two flat faces whose normals agree
     e = np.sort(np.concatenate([wid[:, [0, 1]], wid[:, [1, 2]], wid[:, [2, 0]]]), axis=1)
@@ -174,5 +191,6 @@ def cached_planes(mesh: Any) -> Planes:
     if got is None:
         if len(_STORE) >= 8:
             _STORE.pop(next(iter(_STORE)))
-        got = _STORE[key] = mesh_planes(mesh.vertices, mesh.faces, mesh.weld()[0])
+        weld = mesh.weld()[0]
+        got = _STORE[key] = mesh_planes(mesh.vertices, mesh.faces, weld, flat=planar(mesh, weld))
     return got

@@ -13,12 +13,12 @@ from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunCont
 from nodegraph.scene import origin
 from nodegraph.types import ARRAYS, SCENE, STROKES, Texture
 
+from .._shared import planes
 from . import extract
 
 _FEATURES = ("suggestive", "ridges", "valleys")
 _TOPOLOGY: dict[str, tuple[np.ndarray, int, extract.EdgeFaces]] = {}  # mesh topology hash -> (weld, n, edges)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
-_PLANAR: dict[str, np.ndarray] = {}  # mesh content hash -> its faces in planar regions
 
 
 class _FeatureDefaults:
@@ -207,19 +207,6 @@ def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
     return got
 
 
-def planar(mesh: Any, weld: np.ndarray) -> np.ndarray:
-    """The faces of a (posed) mesh in planar regions (`feature_lines.planar_faces`), kept for a few meshes."""
-    from .._shared.feature_lines import planar_faces
-
-    key = mesh.content_hash()
-    got = _PLANAR.get(key)
-    if got is None:
-        if len(_PLANAR) >= 8:
-            _PLANAR.pop(next(iter(_PLANAR)))
-        got = _PLANAR[key] = planar_faces(mesh.faces, mesh.face_normals(), weld)
-    return got
-
-
 def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
                     boundaries: bool = True, crease_angle: float = 60.0) -> extract.Segs:
     """Contour, crease and boundary segments of one mesh seen from `eye_obj` (homogeneous, object space)."""
@@ -229,7 +216,7 @@ def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creas
     fn = mesh.face_normals()
     face_g = extract.face_facing(V, F, fn, eye_obj)
     if contours:
-        flat = planar(mesh, weld)
+        flat = planes.planar(mesh, weld)
         parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
         parts.append(extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease_angle if creases else None))
     if creases or boundaries:

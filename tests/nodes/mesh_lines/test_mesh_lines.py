@@ -244,7 +244,8 @@ def _two_boxes():
 def test_no_interpolated_contours_across_flat_faces():
     """Two touching boxes (a sofa's back on its seat): the corners' averaged normals lean over the creases, so
     n . v interpolated over a side crosses zero inside it. A box's outline is its creases: no contour at all."""
-    from nodegraph_nodes.mesh_lines import object_segments, planar, topology
+    from nodegraph_nodes._shared.planes import planar
+    from nodegraph_nodes.mesh_lines import object_segments, topology
 
     m = _two_boxes()
     weld, nw, _ = topology(m)
