@@ -36,7 +36,8 @@ class Planes:
     """The planes of one mesh, object space: unit normals (k, 3), offsets (k,) with n . p = d on the plane,
     hatching directions (k, 3) and cross directions (k, 3), both unit and in the plane, which vertices touch
     only faces of these planes (those whose curvature directions are measured across creases), and the plane of
-    each face (-1 off the planes)."""
+    each face (-1 off the planes); `centre`, the mesh's bounding-box centre, so that what is fixed on a plane does
+    not depend on where the mesh lies."""
 
     normal: np.ndarray
     offset: np.ndarray
@@ -45,6 +46,7 @@ class Planes:
     flat_vertices: np.ndarray
     diagonal: float
     face_plane: np.ndarray
+    centre: np.ndarray  # (3,) the mesh's bounding-box centre: where lines fixed on its planes are counted from
 
     def __len__(self) -> int:
         return len(self.offset)
@@ -80,8 +82,9 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
     V = np.asarray(V, np.float64)
     F = np.asarray(F, np.int64)
     diag = float(np.linalg.norm(V.max(0) - V.min(0))) if len(V) else 1.0
+    centre = 0.5 * (V.min(0) + V.max(0)) if len(V) else np.zeros(3)
     empty = Planes(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(len(V), bool), diag,
-                   np.full(len(F), -1, np.int64))
+                   np.full(len(F), -1, np.int64), centre)
     if len(F) == 0:
         return empty
     p = V[F]
@@ -149,7 +152,7 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
     flat_v = np.zeros(len(V), bool)
     flat_v[F[in_plane].ravel()] = True
     return Planes(np.array(normals), np.array(offsets), np.array(along), np.array(across), flat_v & ~touched, diag,
-                  face_plane)
+                  face_plane, centre)
 
 
 def _outline_direction(V: np.ndarray, F: np.ndarray, wid: np.ndarray, n: np.ndarray) -> np.ndarray:

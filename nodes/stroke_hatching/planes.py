@@ -162,9 +162,12 @@ class ScenePlanes:
             if b >= limit:
                 continue
             line, across = (pl.along[k], pl.across[k]) if family == 0 else (pl.across[k], pl.along[k])
-            out += plane_lines(points, pl.normal[k], float(pl.offset[k]), line, across, self.plane, g, pixels, mvp,
-                               self.size, lo + (hi - lo) * min(max(b, 0.0), 1.0), pl.diagonal, self.step,
-                               min_length, scratch)
+            # counted from the mesh's centre, so the lines lie on the plane alike wherever the mesh is
+            shift = np.eye(4)
+            shift[:3, 3] = pl.centre
+            out += plane_lines(points - pl.centre, pl.normal[k], float(pl.offset[k] - pl.normal[k] @ pl.centre), line,
+                               across, self.plane, g, pixels, mvp @ shift, self.size,
+                               lo + (hi - lo) * min(max(b, 0.0), 1.0), pl.diagonal, self.step, min_length, scratch)
         return out
 
 

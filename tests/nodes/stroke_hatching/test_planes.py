@@ -239,3 +239,28 @@ def test_a_mesh_without_planes_is_hatched_as_before(gl, tmp_path: Path):
     scene = cylinder_obj(tmp_path / "cyl.obj")
     a, b = _box_hatching(gl, scene, True)[0], _box_hatching(gl, scene, False)[0]
     assert len(a) > 5 and np.array_equal(a.xy, b.xy) and np.array_equal(a.starts, b.starts)
+
+
+def test_plane_hatching_is_the_same_far_from_the_origin(tmp_path: Path, gl):
+    """A small box written as OBJ text at the origin and moved by 1e5 and 1e6: the same hatching strokes (within
+    1e-3 px). The lines are counted from the mesh's centre; counted from the origin they fell elsewhere on the
+    faces and thinned differently (147 strokes against 124 at 1e5)."""
+    from nodegraph import pipeline as pipes
+    from nodegraph.executor import Executor
+    from nodegraph.scene.primitives import box as prim_box
+
+    m = prim_box((0.2, 0.1, 0.06))
+    direction = np.array([1.0, 0.6, -0.8])
+    root = Path(__file__).resolve().parents[3]
+    got = {}
+    for offset in (0.0, 1e5, 1e6):
+        path = tmp_path / f"box_{offset:g}.obj"
+        path.write_text("".join(f"v {float(x)!r} {float(y)!r} {float(z)!r}\n"
+                                for x, y, z in np.asarray(m.vertices) + direction * offset)
+                        + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in m.faces))
+        pipe = pipes.load(root / "pipelines" / "plotter_lines.yaml", size=(160, 160), scene=str(path))
+        got[offset] = Executor(pipe, None, gl=gl, requested=[("hatch", "strokes")]).run().values[("hatch", "strokes")]
+    assert len(got[0.0]) > 20
+    for offset in (1e5, 1e6):
+        assert np.array_equal(got[offset].starts, got[0.0].starts), offset
+        assert np.abs(got[offset].xy.astype(np.float64) - got[0.0].xy).max() < 1e-3, offset
