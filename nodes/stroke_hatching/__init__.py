@@ -118,7 +118,7 @@ class StrokeHatching(Node):
         s = ctx.px_scale
         lo, hi = p.spacing[0] * s, p.spacing[1] * s
         lines: list[np.ndarray] = []
-        flat = planes.scene_planes(scene, view, proj, pos, nview, ids, (w, h)) if use_planes else None
+        flat = planes.scene_planes(scene, view, proj, pos, nview, ids, (w, h), p.step * s) if use_planes else None
         curved = ids  # the pixels the streamlines cover: all but the planes'
         if flat is not None:
             for family, limit in ((0, p.white), (1, p.cross_below)):

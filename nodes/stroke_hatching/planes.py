@@ -1,12 +1,12 @@
 """Straight hatching on flat faces (nodes/_shared/planes.py finds the planes and their directions): the pixels
 of the G-buffer that lie on each plane, and lines fixed on the plane drawn through them.
 
-The lines are {p : (p - c) . across = m G}, c the mesh's bounding-box centre, nested grids of gaps G x 2^i with
-G on a ladder of powers of two of the mesh's diagonal. The plane's grid is the one spaced nearest the tone's spacing at its median pixel; where a
-plane recedes so far that its lines crowd under half the spacing every other line stops, and where they spread
-over twice the spacing lines come in between (`plane_lines`). A camera that moves keeps every line where it was
-on the plane; lines of a grid come and go where the spacing crosses a bound, or all over the plane where its
-median spacing moves the plane's grid a step."""
+The lines are {p : (p - c) . across = m G}, c the mesh's bounding-box centre, nested grids of gaps G x 2^i with G
+on a ladder of powers of two of the mesh's diagonal. The plane's grid is the one spaced nearest the tone's spacing
+at its median pixel; where a plane recedes so far that its lines crowd under half the spacing every other line
+stops, and where they spread over twice the spacing lines come in between (`plane_lines`). A camera that moves
+keeps every line where it was on the plane; lines of a grid come and go where the spacing crosses a bound, or all
+over the plane where its median spacing moves the plane's grid a step."""
 
 from __future__ import annotations
 
