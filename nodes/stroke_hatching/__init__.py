@@ -114,6 +114,7 @@ class StrokeHatching(Node):
         bright = np.where(ids > 0, bright, 1.0)
         from scipy.ndimage import gaussian_filter
 
+        raw = bright  # the planes' tone: their own pixels', not blurred across their edges
         bright = gaussian_filter(bright, p.cell * ctx.px_scale * 0.5, mode="nearest")
         s = ctx.px_scale
         lo, hi = p.spacing[0] * s, p.spacing[1] * s
@@ -122,7 +123,7 @@ class StrokeHatching(Node):
         curved = ids  # the pixels the streamlines cover: all but the planes'
         if flat is not None:
             for family, limit in ((0, p.white), (1, p.cross_below)):
-                lines += flat.hatching(family, bright, limit, lo, hi, p.min_length * s)
+                lines += flat.hatching(family, raw, limit, lo, hi, p.min_length * s)
             curved = np.where(flat.plane >= 0, 0, ids)
         fields = [self._field(inputs["curvature"], scene, view, proj, depth, curved, name, (w, h), s,
                               flat.flat_vertices if flat is not None else None) for name in ("dmin", "dmax")]

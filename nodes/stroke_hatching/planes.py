@@ -66,7 +66,7 @@ def valuation(m: np.ndarray) -> np.ndarray:
 def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.ndarray, step_dir: np.ndarray,
                 labels: np.ndarray, label: int, pixels: np.ndarray, mvp: np.ndarray, size: tuple[int, int],
                 spacing_px: float, diagonal: float, step: float, min_length: float,
-                scratch: np.ndarray | None = None) -> list[np.ndarray]:
+                scratch: np.ndarray | None = None, local: np.ndarray | None = None) -> list[np.ndarray]:
     """Straight hatching of one plane, fixed on it: the lines {p on the plane : p . step_dir = m G} (direction
     `line`), G = diagonal x 2^j the finest gap any visible pixel may need. Line m belongs to the grids of gap
     G x 2^i for i <= v(m) (`valuation`). The plane's grid is the one spaced nearest `spacing_px` on the screen
@@ -76,8 +76,11 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     other line stops where the lines crowd, or lines come in between where they spread. The plane's pixels are
     those where `labels` (h, w; rows bottom-up) is `label`; `pixels` their flat indices and `points` (n, 3) their
     object-space positions, in the same order. `scratch`: an (h, w) float array to write the spacing into (its
-    other pixels are not read). Each line is sampled every `step` px along its projection and cut where it leaves
-    the plane's pixels or its grid; pieces shorter than `min_length` px are dropped. Window coordinates."""
+    other pixels are not read). `local` (h, w): the spacing wanted at each pixel (the tone's; inf: no hatching
+    there), which then takes spacing_px's place in the two bounds pixel by pixel, so a plane whose tone varies
+    (a point light) is hatched denser where it is darker; spacing_px still chooses the plane's grid. Each line is
+    sampled every `step` px along its projection and cut where it leaves the plane's pixels or its grid; pieces
+    shorter than `min_length` px are dropped. Window coordinates."""
     w, h = size
     eps = 1e-3 * diagonal
     here, ok = window(points, mvp, size)
@@ -89,7 +92,11 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     ppu = np.where(ok & ok2 & ok3, np.abs(along[:, 0] * d[:, 1] - along[:, 1] * d[:, 0]) / eps, 0.0)
     if not (ppu > 1e-9).any():
         return []
-    gap = float(diagonal * 2.0 ** np.floor(np.log2(spacing_px / (ppu.max() * diagonal))))
+    finest = spacing_px
+    if local is not None:
+        wanted = local.ravel()[pixels]
+        finest = min(spacing_px, float(wanted[np.isfinite(wanted)].min())) if np.isfinite(wanted).any() else finest
+    gap = float(diagonal * 2.0 ** np.floor(np.log2(finest / (ppu.max() * diagonal))))
     # the plane's own grid: spaced nearest spacing_px at its median pixel
     base_level = max(int(np.round(np.log2(spacing_px / (gap * float(np.median(ppu[ppu > 1e-9])))))), 0)
     grid = np.empty(labels.shape) if scratch is None else scratch
@@ -110,11 +117,11 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     v = valuation(ms)
     levels = 2.0 ** v.astype(np.float64)
     # the plane's grid and coarser ones stay down to half the spacing; finer ones come in from the full spacing
-    least = np.where(v >= base_level, 0.5 * spacing_px, spacing_px)
+    share = np.where(v >= base_level, 0.5, 1.0)  # of the wanted spacing
     reach = float(np.hypot(w, h))
     t = np.arange(-reach, reach + step, step)
     out: list[np.ndarray] = []
-    for origin, dv, level, floor in zip(p0, dirs, levels, least, strict=True):
+    for origin, dv, level, part in zip(p0, dirs, levels, share, strict=True):
         # the part of the line inside the window, then its samples on the plane's pixels where its grid is kept
         lo_t, hi_t = -reach, reach
         for o, dd, extent in ((origin[0], dv[0], w), (origin[1], dv[1], h)):
@@ -130,7 +137,8 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
         xy = origin + np.outer(tt, dv)
         r = np.clip(xy[:, 1].astype(int), 0, h - 1)
         c = np.clip(xy[:, 0].astype(int), 0, w - 1)
-        drawn = (labels[r, c] == label) & (grid[r, c] * level >= floor)
+        want = spacing_px if local is None else local[r, c]
+        drawn = (labels[r, c] == label) & (grid[r, c] * level >= part * want)
         if not drawn.any():
             continue
         edges = np.flatnonzero(np.diff(np.r_[0, drawn.astype(np.int8), 0]))
@@ -152,22 +160,26 @@ class ScenePlanes:
 
     def hatching(self, family: int, bright: np.ndarray, limit: float, lo: float, hi: float,
                  min_length: float) -> list[np.ndarray]:
-        """Family 0 (along each plane's outline) or 1 (across it) on every plane whose median brightness is
-        under `limit`, spaced lo + (hi - lo) x brightness px as the streamlines are."""
+        """Family 0 (along each plane's outline) or 1 (across it) where the brightness is under `limit`, spaced
+        lo + (hi - lo) x brightness px pixel by pixel as the streamlines are (the plane's grid from the median
+        of its hatched pixels)."""
         out: list[np.ndarray] = []
         scratch = np.empty(self.plane.shape)
-        flat_bright = bright.ravel()
+        tone = np.clip(bright, 0.0, 1.0)
+        local = np.where(bright < limit, lo + (hi - lo) * tone, np.inf)
+        flat_bright = tone.ravel()
         for g, (pl, k, mvp, pixels, points) in enumerate(self.entries):
-            b = float(np.median(flat_bright[pixels]))
-            if b >= limit:
+            hatched = flat_bright[pixels][bright.ravel()[pixels] < limit]
+            if not len(hatched):
                 continue
+            b = float(np.median(hatched))
             line, across = (pl.along[k], pl.across[k]) if family == 0 else (pl.across[k], pl.along[k])
             # counted from the mesh's centre, so the lines lie on the plane alike wherever the mesh is
             shift = np.eye(4)
             shift[:3, 3] = pl.centre
             out += plane_lines(points - pl.centre, pl.normal[k], float(pl.offset[k] - pl.normal[k] @ pl.centre), line,
                                across, self.plane, g, pixels, mvp @ shift, self.size,
-                               lo + (hi - lo) * min(max(b, 0.0), 1.0), pl.diagonal, self.step, min_length, scratch)
+                               lo + (hi - lo) * b, pl.diagonal, self.step, min_length, scratch, local)
         return out
 
 

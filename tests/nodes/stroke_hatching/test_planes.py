@@ -264,3 +264,39 @@ def test_plane_hatching_is_the_same_far_from_the_origin(tmp_path: Path, gl):
     for offset in (1e5, 1e6):
         assert np.array_equal(got[offset].starts, got[0.0].starts), offset
         assert np.abs(got[offset].xy.astype(np.float64) - got[0.0].xy).max() < 1e-3, offset
+
+
+def wall_view(size: int = 200):
+    """A wall (z = 0, |x|, |y| <= 1.5) seen head-on from 5 units away: its pixels and points by ray casting in
+    float64, and the model-view-projection."""
+    f = 1.0 / np.tan(np.radians(20))
+    near, far = 0.05, 100.0
+    proj = np.array([[f, 0, 0, 0], [0, f, 0, 0], [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
+                     [0, 0, -1, 0]])
+    view = np.eye(4)
+    view[2, 3] = -5.0
+    ys, xs = np.mgrid[0:size, 0:size] + 0.5
+    hit = np.stack([(xs / size * 2 - 1) / f * 5.0, (ys / size * 2 - 1) / f * 5.0, np.zeros(xs.shape)], -1)
+    on = (np.abs(hit[..., 0]) <= 1.5) & (np.abs(hit[..., 1]) <= 1.5)
+    return on, hit, proj @ view
+
+
+def test_plane_lines_follow_the_tone_pixel_by_pixel():
+    """A wall lit unevenly (a point light): the wanted spacing 4 px on its left half, 12 px on its right, and no
+    hatching in its top quarter (brighter than `white`). The vertical lines lie 2-8 px apart on the left and 6-24
+    px on the right (half to twice the spacing), and none is drawn in the top quarter."""
+    size = 200
+    on, hit, mvp = wall_view(size)
+    local = np.where(np.arange(size)[None, :] < size // 2, 4.0, 12.0) * np.ones((size, 1))
+    local[int(size * 0.75):] = np.inf
+    lines = pl.plane_lines(hit[on], np.array([0.0, 0.0, 1.0]), 0.0, np.array([0.0, 1.0, 0.0]),
+                           np.array([1.0, 0.0, 0.0]), on.astype(np.int64), 1, np.flatnonzero(on), mvp, (size, size),
+                           8.0, 4.25, 1.0, 4.0, None, local)
+    assert lines
+    pts = np.concatenate(lines)
+    assert pts[:, 1].max() < size * 0.75 + 1
+    xs = np.sort([float(np.median(q[:, 0])) for q in lines if np.median(q[:, 1]) < size * 0.5])
+    left, right = np.diff(xs[xs < size / 2 - 6]), np.diff(xs[xs > size / 2 + 6])
+    assert len(left) > 5 and len(right) > 2
+    assert 2.0 <= left.min() and left.max() <= 8.0, left
+    assert 6.0 <= right.min() and right.max() <= 24.0, right
