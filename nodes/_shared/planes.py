@@ -8,7 +8,10 @@ illustrator hatches a flat face with straight parallel lines, usually along one 
 direction here is its outline's dominant direction (our choice): the principal direction of the
 length-weighted structure tensor of its outline edges, which is the longer side of a rectangle; an outline with
 no dominant side (a square, a regular polygon) is hatched level, along the plane's horizontal (across the
-object's y axis; along x on a horizontal plane). `across` is the direction in the plane perpendicular to it.
+object's y axis; along x on a horizontal plane). Planes facing the same way (parallel, the same side out) share
+one direction, taken from all their outlines together, as technical illustration hatches faces by orientation: a
+staircase's risers are hatched alike whatever part of each is hidden. `across` is the direction in the plane
+perpendicular to it.
 
 A plane is a connected set of faces in planar regions (`feature_lines.planar_faces`) joined across manifold
 edges of the welded mesh where their normals agree within PLANAR_DEG; regions in one plane (the same normal
@@ -129,7 +132,7 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
             continue
         match = (rn_a @ rn_a[i] >= cos_tol) & (np.abs(rd_a - rd_a[i]) <= d_tol) & (group == np.arange(len(group)))
         group[match] = i
-    normals, offsets, along, across = [], [], [], []
+    normals, offsets, kept = [], [], []
     in_plane = np.zeros(len(F), bool)
     face_plane = np.full(len(F), -1, np.int64)
     for g in np.unique(group):
@@ -139,12 +142,25 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
         faces = np.isin(label, members)
         in_plane |= faces
         face_plane[faces] = len(normals)
-        n = rn_a[g]
-        direction = _outline_direction(V, F[faces], wid[faces], n)
-        normals.append(n)
+        normals.append(rn_a[g])
         offsets.append(rd_a[g])
-        along.append(direction)
-        across.append(np.cross(n, direction))
+        kept.append(faces)
+    # planes facing one way (parallel, the same side out) share one direction, from all their outlines together:
+    # a staircase's risers are hatched alike, however much of each shows
+    along: list[np.ndarray] = [np.zeros(3)] * len(normals)
+    done = np.zeros(len(normals), bool)
+    cos_tol = np.cos(np.radians(PLANAR_DEG))
+    for i in range(len(normals)):
+        if done[i]:
+            continue
+        same = [j for j in range(len(normals)) if not done[j] and normals[j] @ normals[i] >= cos_tol]
+        faces = np.logical_or.reduce([kept[j] for j in same])
+        direction = _outline_direction(V, F[faces], wid[faces], normals[i])
+        for j in same:
+            d = direction - normals[j] * (direction @ normals[j])
+            along[j] = d / max(np.linalg.norm(d), 1e-300)
+            done[j] = True
+    across = [np.cross(n, a) for n, a in zip(normals, along, strict=True)]
     if not normals:
         return empty
     touched = np.zeros(len(V), bool)

@@ -17,6 +17,7 @@ import numpy as np
 from .._shared.planes import PLANE_TOL, Planes, cached_planes
 
 MAX_LEVEL = 40  # line 0 belongs to every grid
+EDGE_MARGIN = 0.4  # a plane line running along its plane's edge closer than this share of the spacing is left out
 NORMAL_COS = 0.999  # a pixel's view-space normal within about 2.6 degrees of its plane's (16-bit normals)
 
 
@@ -66,7 +67,8 @@ def valuation(m: np.ndarray) -> np.ndarray:
 def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.ndarray, step_dir: np.ndarray,
                 labels: np.ndarray, label: int, pixels: np.ndarray, mvp: np.ndarray, size: tuple[int, int],
                 spacing_px: float, diagonal: float, step: float, min_length: float,
-                scratch: np.ndarray | None = None, local: np.ndarray | None = None) -> list[np.ndarray]:
+                scratch: np.ndarray | None = None, local: np.ndarray | None = None,
+                edge: np.ndarray | None = None) -> list[np.ndarray]:
     """Straight hatching of one plane, fixed on it: the lines {p on the plane : p . step_dir = m G} (direction
     `line`), G = diagonal x 2^j the finest gap any visible pixel may need. Line m belongs to the grids of gap
     G x 2^i for i <= v(m) (`valuation`). The plane's grid is the one spaced nearest `spacing_px` on the screen
@@ -80,7 +82,10 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     there), which then takes spacing_px's place in the two bounds pixel by pixel, so a plane whose tone varies
     (a point light) is hatched denser where it is darker; spacing_px still chooses the plane's grid. Each line is
     sampled every `step` px along its projection and cut where it leaves the plane's pixels or its grid; pieces
-    shorter than `min_length` px are dropped. Window coordinates."""
+    shorter than `min_length` px are dropped, and, where `edge` (h, w: each pixel's distance in px to the nearest
+    pixel off its plane) is given, pieces that run along the plane's edge closer than EDGE_MARGIN x the wanted
+    spacing (their median distance): a hatch line a pixel beside an outline drew a doubled, heavy edge on thin
+    faces. A piece that crosses the plane keeps its ends at the edges. Window coordinates."""
     w, h = size
     eps = 1e-3 * diagonal
     here, ok = window(points, mvp, size)
@@ -143,8 +148,14 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
             continue
         edges = np.flatnonzero(np.diff(np.r_[0, drawn.astype(np.int8), 0]))
         for s0, s1 in zip(edges[::2], edges[1::2], strict=True):
-            if (s1 - s0 - 1) * step >= max(min_length, step):
-                out.append(xy[s0:s1])
+            if (s1 - s0 - 1) * step < max(min_length, step):
+                continue
+            if edge is not None:  # a piece running along its plane's edge, closer than the margin, is left out
+                near = edge[r[s0:s1], c[s0:s1]]
+                wanted = want if np.isscalar(want) else want[s0:s1]
+                if np.median(near - EDGE_MARGIN * wanted) < 0.0:
+                    continue
+            out.append(xy[s0:s1])
     return out
 
 
@@ -163,8 +174,19 @@ class ScenePlanes:
         """Family 0 (along each plane's outline) or 1 (across it) where the brightness is under `limit`, spaced
         lo + (hi - lo) x brightness px pixel by pixel as the streamlines are (the plane's grid from the median
         of its hatched pixels)."""
+        from scipy.ndimage import distance_transform_edt
+
         out: list[np.ndarray] = []
         scratch = np.empty(self.plane.shape)
+        lab = self.plane
+        rim = np.zeros(lab.shape, bool)  # pixels beside a pixel of another plane, the background or off the image
+        rim[:-1] |= lab[:-1] != lab[1:]
+        rim[1:] |= lab[1:] != lab[:-1]
+        rim[:, :-1] |= lab[:, :-1] != lab[:, 1:]
+        rim[:, 1:] |= lab[:, 1:] != lab[:, :-1]
+        rim[[0, -1]] = True
+        rim[:, [0, -1]] = True
+        edge = distance_transform_edt(~rim) + 0.5
         tone = np.clip(bright, 0.0, 1.0)
         local = np.where(bright < limit, lo + (hi - lo) * tone, np.inf)
         flat_bright = tone.ravel()
@@ -179,7 +201,7 @@ class ScenePlanes:
             shift[:3, 3] = pl.centre
             out += plane_lines(points - pl.centre, pl.normal[k], float(pl.offset[k] - pl.normal[k] @ pl.centre), line,
                                across, self.plane, g, pixels, mvp @ shift, self.size,
-                               lo + (hi - lo) * b, pl.diagonal, self.step, min_length, scratch, local)
+                               lo + (hi - lo) * b, pl.diagonal, self.step, min_length, scratch, local, edge)
         return out
 
 

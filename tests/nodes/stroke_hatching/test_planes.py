@@ -71,6 +71,20 @@ def test_touching_boxes_share_their_coplanar_faces():
     assert len(top) == 1 and np.isclose(abs(p.along[top[0], 0]), 1.0)  # the shared top runs along both (2 x 1)
 
 
+def test_planes_facing_one_way_share_a_direction():
+    """A staircase of six boxes, each 1.5 wide and 0.3 to 1.8 tall, all facing +z: hatched each by its own
+    outline, the tallest riser (1.8 high) would run vertical and the rest horizontal. Faces turned the same way
+    share the direction of all their outlines together: every riser horizontal (x)."""
+    parts = [box((0.0, 0.0, -0.3 * i), (1.5, 0.3 * (i + 1), -0.3 * i + 0.3), base=8 * i) for i in range(6)]
+    p = planes_of(np.concatenate([v for v, _ in parts]), np.concatenate([f for _, f in parts]))
+    risers = np.flatnonzero(p.normal[:, 2] > 0.99)
+    assert len(risers) == 6
+    assert np.allclose(np.abs(p.along[risers, 0]), 1.0)
+    alone = planes_of(*box((0.0, 0.0, 0.0), (1.5, 1.8, 0.3)))
+    front = int(np.flatnonzero(alone.normal[:, 2] > 0.99)[0])
+    assert np.isclose(abs(alone.along[front, 1]), 1.0)  # the tallest alone: vertical
+
+
 def icosphere() -> tuple[np.ndarray, np.ndarray]:
     from nodegraph.scene.primitives import sphere
 
@@ -194,7 +208,7 @@ def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
     blended directions curve."""
     scene = box_obj(tmp_path / "box.obj")
     s, sc = _box_hatching(gl, scene, True)
-    assert len(s) > 20 and (s["kind"] == LINE_KINDS.index("hatching")).all()
+    assert len(s) > 10 and (s["kind"] == LINE_KINDS.index("hatching")).all()
     half = np.array([1.0, 0.6, 0.4])
     p = shared.mesh_planes(*box((-1.0, -0.6, -0.4), (1.0, 0.6, 0.4)), np.arange(8))
     cam = sc.camera_at(0)
@@ -223,9 +237,12 @@ def test_a_box_is_hatched_with_straight_lines_on_its_faces(gl, tmp_path: Path):
         assert np.ptp(u) < 1e-6, (k, np.ptp(u))
         by_face.setdefault(k, []).append(float(np.median(u)))
     assert len(faces_seen) == 3  # the three faces the default view shows
+    assert max(len(us) for us in by_face.values()) >= 3
     for k, us in by_face.items():
         us = np.sort(np.array(us))
         gaps = np.diff(us)
+        if not (gaps > 1e-6).any():
+            continue
         unit = gaps[gaps > 1e-6].min()
         assert np.allclose(us / unit, np.round(us / unit), atol=1e-4), (k, us / unit)
     curved, _ = _box_hatching(gl, scene, False)
@@ -300,3 +317,28 @@ def test_plane_lines_follow_the_tone_pixel_by_pixel():
     assert len(left) > 5 and len(right) > 2
     assert left.min() >= 2.0 and left.max() <= 8.0, left
     assert right.min() >= 6.0 and right.max() <= 24.0, right
+
+
+def test_no_hatch_line_hugs_a_plane_edge():
+    """With each pixel's distance to its plane's edge given: on a strip 6 px tall, lines along it would lie within
+    a few pixels of its outline (a doubled, heavy edge) and are left out; on the whole wall, lines crossing it keep
+    their ends at its edges."""
+    from scipy.ndimage import distance_transform_edt
+
+    size = 200
+    on, hit, mvp = wall_view(size)
+    strip = on & (np.abs(np.arange(size) - 100.5)[:, None] < 3)
+
+    def lines(mask: np.ndarray, along: np.ndarray, across: np.ndarray, with_edge: bool) -> list[np.ndarray]:
+        edge = distance_transform_edt(mask) if with_edge else None
+        return pl.plane_lines(hit[mask], np.array([0.0, 0.0, 1.0]), 0.0, along, across, mask.astype(np.int64), 1,
+                              np.flatnonzero(mask), mvp, (size, size), 8.0, 4.25, 1.0, 4.0, None, None, edge)
+
+    x, y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    assert lines(strip, x, y, False)  # without the rule the strip gets lines along it
+    assert not lines(strip, x, y, True)
+    crossing = lines(on, y, x, True)
+    assert len(crossing) > 10
+    rows = np.flatnonzero(on.any(axis=1))
+    ends = np.concatenate([q[:, 1] for q in crossing])
+    assert ends.min() <= rows.min() + 2 and ends.max() >= rows.max() - 1
