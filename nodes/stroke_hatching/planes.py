@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._shared.planes import PLANE_TOL, Planes, cached_planes
+from .._shared.surface_points import project
 
 MAX_LEVEL = 40  # line 0 belongs to every grid
 EDGE_MARGIN = 0.4  # a plane line running along its plane's edge closer than this share of the spacing is left out
@@ -39,14 +40,6 @@ def pixel_planes(planes: Planes, points: np.ndarray, nview: np.ndarray, normal_m
         hit = (dist <= tol) & (nv @ pn[k] >= NORMAL_COS) & (dist < best)
         got[hit], best[hit] = k, dist[hit]
     return got
-
-
-def window(points: np.ndarray, mvp: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Object-space points (n, 3) to window positions (n, 2) (x right, y up) and whether they lie in front."""
-    clip = np.c_[points, np.ones(len(points))] @ mvp.T
-    ok = clip[:, 3] > 1e-9
-    wc = np.where(ok, clip[:, 3], 1.0)
-    return np.stack([(clip[:, 0] / wc + 1) * 0.5 * size[0], (clip[:, 1] / wc + 1) * 0.5 * size[1]], 1), ok
 
 
 def valuation(m: np.ndarray) -> np.ndarray:
@@ -88,9 +81,9 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     faces. A piece that crosses the plane keeps its ends at the edges. Window coordinates."""
     w, h = size
     eps = 1e-3 * diagonal
-    here, ok = window(points, mvp, size)
-    across, ok2 = window(points + eps * step_dir, mvp, size)
-    ahead, ok3 = window(points + eps * line, mvp, size)
+    here, ok = project(points, mvp, size)
+    across, ok2 = project(points + eps * step_dir, mvp, size)
+    ahead, ok3 = project(points + eps * line, mvp, size)
     along = ahead - here
     along /= np.maximum(np.linalg.norm(along, axis=1, keepdims=True), 1e-12)
     d = across - here
@@ -113,8 +106,8 @@ def plane_lines(points: np.ndarray, normal: np.ndarray, offset: float, line: np.
     centre = points.mean(axis=0)
     centre = centre - normal * (centre @ normal - offset)
     base = centre + np.outer(ms * gap - centre @ step_dir, step_dir)
-    p0, ok0 = window(base, mvp, size)
-    p1, ok1 = window(base + eps * line, mvp, size)
+    p0, ok0 = project(base, mvp, size)
+    p1, ok1 = project(base + eps * line, mvp, size)
     keep = ok0 & ok1
     p0, ms = p0[keep], ms[keep]
     dirs = p1[keep] - p0
@@ -168,25 +161,33 @@ class ScenePlanes:
                  flat_vertices: dict[int, np.ndarray], size: tuple[int, int], step: float) -> None:
         self.plane, self.entries = plane, entries
         self.flat_vertices, self.size, self.step = flat_vertices, size, step
+        self._edge: np.ndarray | None = None
+
+    def edge(self) -> np.ndarray:
+        """(h, w) each pixel's distance in px to the nearest pixel off its plane (another plane, the background or
+        off the image), made once a frame for both families."""
+        if self._edge is None:
+            from scipy.ndimage import distance_transform_edt
+
+            lab = self.plane
+            rim = np.zeros(lab.shape, bool)  # pixels beside a pixel of another label, or on the image's border
+            rim[:-1] |= lab[:-1] != lab[1:]
+            rim[1:] |= lab[1:] != lab[:-1]
+            rim[:, :-1] |= lab[:, :-1] != lab[:, 1:]
+            rim[:, 1:] |= lab[:, 1:] != lab[:, :-1]
+            rim[[0, -1]] = True
+            rim[:, [0, -1]] = True
+            self._edge = distance_transform_edt(~rim) + 0.5
+        return self._edge
 
     def hatching(self, family: int, bright: np.ndarray, limit: float, lo: float, hi: float,
                  min_length: float) -> list[np.ndarray]:
         """Family 0 (along each plane's outline) or 1 (across it) where the brightness is under `limit`, spaced
         lo + (hi - lo) x brightness px pixel by pixel as the streamlines are (the plane's grid from the median
         of its hatched pixels)."""
-        from scipy.ndimage import distance_transform_edt
-
         out: list[np.ndarray] = []
         scratch = np.empty(self.plane.shape)
-        lab = self.plane
-        rim = np.zeros(lab.shape, bool)  # pixels beside a pixel of another plane, the background or off the image
-        rim[:-1] |= lab[:-1] != lab[1:]
-        rim[1:] |= lab[1:] != lab[:-1]
-        rim[:, :-1] |= lab[:, :-1] != lab[:, 1:]
-        rim[:, 1:] |= lab[:, 1:] != lab[:, :-1]
-        rim[[0, -1]] = True
-        rim[:, [0, -1]] = True
-        edge = distance_transform_edt(~rim) + 0.5
+        edge = self.edge()
         tone = np.clip(bright, 0.0, 1.0)
         local = np.where(bright < limit, lo + (hi - lo) * tone, np.inf)
         flat_bright = tone.ravel()
