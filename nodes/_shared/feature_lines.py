@@ -85,14 +85,12 @@ def _smoothstep(lo: float, hi: float, x: np.ndarray) -> np.ndarray:
     return t * t * (3.0 - 2.0 * t)
 
 
-def planar_faces(F: np.ndarray, face_normal: np.ndarray, weld: np.ndarray | None = None,
-                 planar_deg: float = PLANAR_DEG, crease_deg: float = CREASE_DEG) -> np.ndarray:
-    """(m,) whether each face lies in a planar region: no neighbour across a manifold edge of the welded mesh
-    (`weld`: vertex ids, copies at seams sharing one) meets it at an angle between `planar_deg` and
-    `crease_deg`. Boundary and non-manifold edges say nothing either way."""
+def manifold_pairs(F: np.ndarray, weld: np.ndarray | None = None) -> np.ndarray:
+    """(k, 2) the two faces of each manifold edge (used by exactly two faces) of the mesh welded by `weld` (vertex
+    ids, copies at seams sharing one)."""
     m = len(F)
     if m == 0:
-        return np.zeros(0, dtype=bool)
+        return np.zeros((0, 2), dtype=np.int64)
     ids = np.asarray(F, dtype=np.int64) if weld is None else np.asarray(weld, dtype=np.int64)[F]
     e = np.sort(np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [2, 0]]]), axis=1)
     key = e[:, 0] * (int(ids.max()) + 1) + e[:, 1]
@@ -101,7 +99,18 @@ def planar_faces(F: np.ndarray, face_normal: np.ndarray, weld: np.ndarray | None
     start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
     count = np.diff(np.r_[start, len(key)])
     first = start[count == 2]  # manifold edges: two faces, next to each other in the sorted list
-    pairs = np.stack([face[first], face[first + 1]], axis=1)
+    return np.stack([face[first], face[first + 1]], axis=1)
+
+
+def planar_faces(F: np.ndarray, face_normal: np.ndarray, weld: np.ndarray | None = None,
+                 planar_deg: float = PLANAR_DEG, crease_deg: float = CREASE_DEG) -> np.ndarray:
+    """(m,) whether each face lies in a planar region: no neighbour across a manifold edge of the welded mesh
+    (`weld`: vertex ids, copies at seams sharing one) meets it at an angle between `planar_deg` and
+    `crease_deg`. Boundary and non-manifold edges say nothing either way."""
+    m = len(F)
+    if m == 0:
+        return np.zeros(0, dtype=bool)
+    pairs = manifold_pairs(F, weld)
     cos = np.sum(face_normal[pairs[:, 0]] * face_normal[pairs[:, 1]], axis=1)
     bends = (cos < np.cos(np.radians(planar_deg))) & (cos >= np.cos(np.radians(crease_deg)))
     curved = np.zeros(m, dtype=bool)

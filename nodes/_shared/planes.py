@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .feature_lines import PLANAR_DEG, planar_faces
+from .feature_lines import PLANAR_DEG, manifold_pairs, planar_faces
 
 MIN_AREA = 0.005  # a plane smaller than this share of its mesh's area is left to the curvature directions
 PLANE_TOL = 2e-3  # coplanar within this fraction of the mesh's diagonal
@@ -100,14 +100,7 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
     if area2[flat].sum() < min_area * area2[ok].sum():  # not even all flat faces together would make a plane
         return empty
     # manifold edges of the welded mesh between two flat faces whose normals agree
-    e = np.sort(np.concatenate([wid[:, [0, 1]], wid[:, [1, 2]], wid[:, [2, 0]]]), axis=1)
-    key = e[:, 0] * (int(wid.max()) + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    skey, face = key[order], np.tile(np.arange(len(F)), 3)[order]
-    start = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
-    count = np.diff(np.r_[start, len(skey)])
-    first = start[count == 2]
-    pairs = np.stack([face[first], face[first + 1]], axis=1)
+    pairs = manifold_pairs(F, weld)
     same = flat[pairs[:, 0]] & flat[pairs[:, 1]] & \
         (np.sum(nf[pairs[:, 0]] * nf[pairs[:, 1]], axis=1) >= np.cos(np.radians(PLANAR_DEG)))
     label = _components(len(F), pairs[same])
@@ -145,11 +138,12 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
         normals.append(rn_a[g])
         offsets.append(rd_a[g])
         kept.append(faces)
+    if not normals:
+        return empty
     # planes facing one way (parallel, the same side out) share one direction, from all their outlines together:
     # a staircase's risers are hatched alike, however much of each shows
     along: list[np.ndarray] = [np.zeros(3)] * len(normals)
     done = np.zeros(len(normals), bool)
-    cos_tol = np.cos(np.radians(PLANAR_DEG))
     for i in range(len(normals)):
         if done[i]:
             continue
@@ -161,8 +155,6 @@ def mesh_planes(V: np.ndarray, F: np.ndarray, weld: np.ndarray, min_area: float 
             along[j] = d / max(np.linalg.norm(d), 1e-300)
             done[j] = True
     across = [np.cross(n, a) for n, a in zip(normals, along, strict=True)]
-    if not normals:
-        return empty
     touched = np.zeros(len(V), bool)
     touched[F[~in_plane].ravel()] = True
     flat_v = np.zeros(len(V), bool)
