@@ -378,22 +378,14 @@ def _geometry(gl: Any, prog: Any, mesh: Any, curv: Any, index: int, crease_angle
 
     def build() -> MeshArrays:
         ra = mesh.render_arrays(crease_angle)
-        src = ra.source_vertex
         local = origin.mesh_origin(mesh)
         sv = _slotted(mesh.topology_mesh(), crease_angle)  # a posed part: its rest pose's, made once
         vertex = sv["vertex"]
-        trust = (curv.data[object_field(index, "source")][src[vertex]] != DirectionSource.FIXED_FRAME)
-        dirs = skinned_directions(mesh, dmin, src[vertex])
-        flat = plane_directions(mesh, ra) if planes else None
-        if flat is not None:
-            on = flat[1][vertex]
-            dirs = dirs.copy()
-            dirs[on] = flat[0][vertex][on]
-            trust = trust | on
+        dirs, trust, flat = vertex_directions(mesh, ra, dmin, curv.data[object_field(index, "source")], planes)
         arrays = {"in_pos": (origin.positions(mesh, ra, local)[vertex], "3f"),
                   "in_normal": (ra.normals[vertex], "3f"),
-                  "in_dir": (dirs, "3f"),
-                  "in_trust": (trust.astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")}
+                  "in_dir": (dirs[vertex], "3f"),
+                  "in_trust": (trust[vertex].astype(np.float32), "1f"), "in_corner": (sv["corner"], "1f")}
         if surface:
             rest, rdir, rperp = surface_frame(mesh.topology_mesh(), dmin, crease_angle, flat)
             arrays.update(in_rest=(rest[vertex], "3f"), in_rdir=(rdir[vertex], "3f"), in_rperp=(rperp[vertex], "3f"))
@@ -489,6 +481,22 @@ def _slot_codes(slots: np.ndarray) -> np.ndarray:
     codes = np.zeros(-(-len(slots) // SLOT_ROW) * SLOT_ROW, dtype=np.uint8)
     codes[: len(slots)] = slots[:, 0] + 3 * slots[:, 1]
     return codes.reshape(-1, SLOT_ROW)
+
+
+def vertex_directions(mesh: Any, ra: Any, dmin: np.ndarray, source: np.ndarray, planes: bool
+                      ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """Per render vertex of `ra` (both shading paths): its hatching direction (`skinned_directions` of the
+    curvature node's `dmin`, or on a plane its plane's direction), whether that direction is trusted (not the
+    curvature node's fixed-frame fallback, or on a plane), and `plane_directions` (None with `planes` off)."""
+    src = ra.source_vertex
+    dirs = skinned_directions(mesh, dmin, src)
+    trust = source[src] != DirectionSource.FIXED_FRAME
+    flat = plane_directions(mesh, ra) if planes else None
+    if flat is not None:
+        dirs = dirs.copy()
+        dirs[flat[1]] = flat[0][flat[1]]
+        trust = trust | flat[1]
+    return dirs, trust, flat
 
 
 def plane_directions(mesh: Any, ra: Any) -> tuple[np.ndarray, np.ndarray] | None:

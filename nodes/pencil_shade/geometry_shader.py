@@ -16,7 +16,7 @@ from nodegraph.gpu.gl import MeshArrays, bind
 from nodegraph.node import RunContext
 from nodegraph.scene import origin
 
-from .._shared.curvature import DirectionSource, object_field
+from .._shared.curvature import object_field
 from .._shared.pencil import view_light
 from . import reference
 
@@ -26,7 +26,7 @@ _GEOMETRY_PORTS = {"shade": "LOC_SHADE", "blend": "LOC_BLEND"}
 
 
 def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
-    from . import _sampler, plane_directions, skinned_directions
+    from . import _sampler, vertex_directions
 
     p = node.params
     gl = ctx.gl
@@ -80,18 +80,13 @@ def compute(node: Any, ctx: RunContext, inputs: dict[str, Any], needed: frozense
 
                 def build(mesh: Any = mesh, dmin: np.ndarray = dmin, index: int = index) -> MeshArrays:
                     ra = mesh.render_arrays(p.crease_angle)
-                    src = ra.source_vertex
                     local = origin.mesh_origin(mesh)
-                    fixed = curv.data[object_field(index, "source")][src] == DirectionSource.FIXED_FRAME
-                    dirs = skinned_directions(mesh, dmin, src)
-                    flat = plane_directions(mesh, ra) if p.planes else None
-                    if flat is not None:  # as the deferred node: flat faces take their plane's direction
-                        dirs = np.where(flat[1][:, None], flat[0], dirs).astype(np.float32)
-                        fixed = fixed & ~flat[1]
+                    dirs, trust, _ = vertex_directions(mesh, ra, dmin, curv.data[object_field(index, "source")],
+                                                       p.planes)
                     return MeshArrays({"in_pos": (origin.positions(mesh, ra, local), "3f"),
                                        "in_normal": (ra.normals, "3f"),
                                        "in_dir": (dirs, "3f"),
-                                       "in_trust": ((~fixed).astype(np.float32), "1f")}, ra.indices,
+                                       "in_trust": (trust.astype(np.float32), "1f")}, ra.indices,
                                       meta={"origin": local})
 
                 entry = gl.mesh_buffers(("pencil_shade.geometry_shader", mesh.content_hash(), float(p.crease_angle),
