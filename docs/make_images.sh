@@ -35,6 +35,16 @@ $sg run plotter_lines --scene builtin:cloister --size 400x400 --set hatch.planes
 $sg run plotter_lines --scene $m/fandisk.obj --size 400x400 -o out/strokes/plot_fandisk.png
 $py docs/side_by_side.py $i/strokes_planes.png "plotter_lines, builtin:cloister" out/strokes/plot_cloister.png \
     "planes: false" out/strokes/plot_cloister_off.png "plotter_lines, fandisk" out/strokes/plot_fandisk.png
+# the outline of coarse meshes (mesh_lines `outline`, docs/strokes.md): low-poly rocks made in code (the tests')
+$py -c "from pathlib import Path; from tests.nodes.mesh_lines.test_mesh_lines_outline import rock
+rock(Path('out/strokes/rock80.obj'), 33, 1, 0.1, True, 250); rock(Path('out/strokes/rock320.obj'), 35, 2, 0.08, True, 160)"
+for r in rock80 rock320; do
+    $sg run plotter_lines --scene out/strokes/$r.obj --size 400x400 -o out/strokes/$r.png
+    $sg run plotter_lines --scene out/strokes/$r.obj --size 400x400 --set lines.outline=0 -o out/strokes/${r}_off.png
+done
+$py docs/side_by_side.py $i/strokes_outline.png "plotter_lines, 80-face rock" out/strokes/rock80.png \
+    "lines.outline: 0" out/strokes/rock80_off.png "320-face rock" out/strokes/rock320.png \
+    "lines.outline: 0" out/strokes/rock320_off.png
 # the short film (README, docs/animation.md)
 $py examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \

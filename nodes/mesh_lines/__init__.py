@@ -39,7 +39,9 @@ class MeshLines(Node):
     """Lines found on every object's posed mesh in object space, each frame, as `Strokes` (nodegraph/values.py;
     docs/strokes.md): occluding contours (interpolated zero crossings of n . v inside faces, n the smooth vertex
     normal, v towards the eye, or the constant view direction of an orthographic camera; in planar regions, where
-    those normals lean over the creases around them, the edges between faces turned toward and away), creases (welded
+    those normals lean over the creases around them, the edges between faces turned toward and away; on a coarse
+    mesh, where the interpolated contours stray from the polygonal silhouette by more than `outline` pixels, that
+    silhouette, on the image's outline: `extract.reconcile_outline`), creases (welded
     edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
     (boundaries another object shares: object and material borders) and, where a curvature node is connected,
     feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
@@ -51,7 +53,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "5"
+    version = "6"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -84,6 +86,10 @@ class MeshLines(Node):
         depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A sample is hidden where every pixel "
                                        "of the 2 x 2 whose centres surround it is nearer by more than this "
                                        "fraction of its depth.")
+        outline: float = Field(1.0, ge=0, le=64, description="Where the interpolated contours stray more than "
+                               "this many pixels (at the reference size, times px_scale) from the mesh's polygonal "
+                               "silhouette (a coarse mesh), the silhouette draws the outline and the strays are "
+                               "dropped (extract.reconcile_outline); 0: interpolated contours only.")
         hidden: bool = Field(False, description="Keep hidden strokes (visible = False: their own layers).")
         width: float = Field(1.0, gt=0, le=64, description="Stroke width in pixels at the reference size (times "
                              "px_scale).")
@@ -113,21 +119,23 @@ class MeshLines(Node):
                 continue
             model = np.asarray(obj.transform, dtype=np.float64)
             eye_obj = np.linalg.inv(model) @ eye
-            s = object_segments(obj.mesh, eye_obj, p.contours, p.creases, p.boundaries, p.crease_angle)
+            s, outline = object_lines(obj.mesh, eye_obj, p.contours, p.creases, p.boundaries, p.crease_angle,
+                                      p.outline > 0)
             if features:
                 s = extract.Segs.concat([s, self.feature_segments(curv, index, obj.mesh, eye_obj, features)])
-            objs.append((index, model))
+            objs.append((index, model, outline))
             segs.append(s)
             transforms.append(model)
         if p.boundaries and len(segs) > 1:
             lo, hi = scene.bounds()
             segs = extract.mark_borders(segs, transforms, 1e-6 * max(float(np.linalg.norm(hi - lo)), 1e-12))
         parts = []
-        for (index, model), s in zip(objs, segs, strict=True):
+        far = extract.outline_far(zbuf)
+        for (index, model, outline), s in zip(objs, segs, strict=True):
             mv = view @ model
             parts.append(strokes_of(index, s, extract.View(proj @ mv, mv, (w, h)), zbuf, p.spacing * ctx.px_scale,
                                     p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
-                                    p.junction_turn))
+                                    p.junction_turn, outline, p.outline * ctx.px_scale, far))
         return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
 
     def feature_segments(self, curv: Any, index: int, mesh: Any, eye_obj: np.ndarray, kinds: set[str]) -> Any:
@@ -210,28 +218,62 @@ def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
 def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
                     boundaries: bool = True, crease_angle: float = 60.0) -> extract.Segs:
     """Contour, crease and boundary segments of one mesh seen from `eye_obj` (homogeneous, object space)."""
+    return object_lines(mesh, eye_obj, contours, creases, boundaries, crease_angle)[0]
+
+
+def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
+                 boundaries: bool = True, crease_angle: float = 60.0,
+                 outline: bool = False) -> tuple[extract.Segs, tuple[extract.Segs, np.ndarray] | None]:
+    """`object_segments`, and with `outline` (and `contours`) the mesh's polygonal silhouette outside planar
+    regions (`extract.outline_edges`; edges sharper than `crease_angle` left to the creases where they are
+    drawn) with its faces in planar regions, for `strokes_of`."""
     weld, nw, ef = topology(mesh)
     V, F = mesh.vertices, mesh.faces
     parts = []
     fn = mesh.face_normals()
     face_g = extract.face_facing(V, F, fn, eye_obj)
+    edges = None
     if contours:
         flat = planes.planar(mesh, weld)
+        crease = crease_angle if creases else None
         parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
-        parts.append(extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease_angle if creases else None))
+        parts.append(extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease))
+        if outline:
+            edges = (extract.outline_edges(V, F, fn, weld, ef, face_g, flat, crease), flat)
     if creases or boundaries:
         parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries))
-    return extract.Segs.concat(parts)
+    return extract.Segs.concat(parts), edges
+
+
+def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float, tolerance: float,
+            junction_turn: float, far: np.ndarray | None = None) -> tuple[extract.Samples, np.ndarray]:
+    """Segments chained, sampled along the screen and tested against the depth buffer (`far`: its
+    `extract.outline_far`, where made already)."""
+    half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
+    sm = extract.sample(segs, half, offsets, view, spacing)
+    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far)
+    return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
 
 
 def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float,
                tolerance: float, split_angle: float, min_length: float, hidden: bool,
-               junction_turn: float = extract.JUNCTION_TURN) -> tuple[Any, ...]:
-    """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`."""
-    half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
-    sm = extract.sample(segs, half, offsets, view, spacing)
-    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance)
-    state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
+               junction_turn: float = extract.JUNCTION_TURN,
+               outline: tuple[extract.Segs, np.ndarray] | None = None, radius: float = 1.0,
+               far: np.ndarray | None = None) -> tuple[Any, ...]:
+    """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`. With `outline`
+    (`object_lines`) the polygonal silhouette draws the outline where the interpolated contours stray from it
+    by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`)."""
+    far = extract.outline_far(zbuf) if far is None else far
+    sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
+    if outline is not None:
+        edges, flat = outline
+        so, st_o = sampled(extract.outline_candidates(edges, view, far), view, zbuf, spacing, tolerance,
+                           junction_turn, far)
+        interpolated = (sm.kind == extract.KIND["contour"]) & ~flat[sm.face]
+        state, st_o = extract.reconcile_outline(sm, state, interpolated, so, st_o,
+                                                sm.kind == extract.KIND["crease"], radius, far,
+                                                extract.edge_points(edges, view, 0.5 * radius))
+        sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
     idx, off = extract.split(sm, state, split_angle, min_length, hidden)
     return (index, sm, state, idx, off)
 

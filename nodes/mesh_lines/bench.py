@@ -87,12 +87,23 @@ def picture(svg_text: str, png: Path, title: str = "") -> None:
     plt.close(fig)
 
 
+def _visible(segs: Any, half: np.ndarray, off: np.ndarray, view: Any, zbuf: np.ndarray,
+             p: Any) -> tuple[Any, np.ndarray]:
+    """Chained segments sampled and tested against the depth buffer (mesh_lines.sampled after its chaining,
+    which the caller times apart)."""
+    from . import extract
+
+    sm = extract.sample(segs, half, off, view, p.spacing)
+    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance)
+    return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
+
+
 def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, name: str = "") -> dict[str, Any]:
     from nodegraph import pipeline as pl
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg
 
-    from . import MeshLines, extract, object_segments
+    from . import MeshLines, extract, object_lines
 
     text = (f"pipeline: b\nsize: [{size}, {size}]\nreference_size: {size}\nscene: builtin:box\nnodes:\n"
             "  gbuf:\n    type: rasterize\noutputs:\n  z: gbuf.linear_depth\n")
@@ -113,19 +124,28 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
     for rep in range(repeats + 1):
         t = {k: 0.0 for k in times}
         parts = []
+        far = None
         t_all = time.perf_counter()
         for index, obj in enumerate(scene.objects):
             model = np.asarray(obj.transform, np.float64)
             eye_obj = np.linalg.inv(model) @ eye
             t0 = time.perf_counter()
-            segs = object_segments(obj.mesh, eye_obj, True, True, True, p.crease_angle)
+            segs, (edges, flat) = object_lines(obj.mesh, eye_obj, True, True, True, p.crease_angle, True)
+            mv = view @ model
+            v = extract.View(proj @ mv, mv, (size, size))
+            far = extract.outline_far(zbuf) if far is None else far
+            silhouette = extract.edge_points(edges, v, 0.5 * p.outline)
+            edges = extract.outline_candidates(edges, v, far)
             t1 = time.perf_counter()
             half, off = extract.chain(segs.key, segs.kind, segs.p, p.junction_turn)
+            half_o, off_o = extract.chain(edges.key, edges.kind, edges.p, p.junction_turn)
             t2 = time.perf_counter()
-            mv = view @ model
-            sm = extract.sample(segs, half, off, extract.View(proj @ mv, mv, (size, size)), p.spacing)
-            state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance)
-            state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
+            sm, state = _visible(segs, half, off, v, zbuf, p)
+            so, st_o = _visible(edges, half_o, off_o, v, zbuf, p)
+            state, st_o = extract.reconcile_outline(sm, state, (sm.kind == extract.KIND["contour"]) & ~flat[sm.face],
+                                                    so, st_o, sm.kind == extract.KIND["crease"], p.outline, far,
+                                                    silhouette)
+            sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
             t3 = time.perf_counter()
             idx, soff = extract.split(sm, state, p.split_angle, p.min_length, True)
             parts.append((index, sm, state, idx, soff))

@@ -151,6 +151,27 @@ def face_facing(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, eye: np.
     return facing(V[F].mean(axis=1), face_normals, eye)
 
 
+def silhouette_edges(face_normals: np.ndarray, ef: EdgeFaces, face_g: np.ndarray, select: np.ndarray,
+                     crease_angle: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The welded edges between a face turned toward the viewer and one turned away (`face_g`, `face_facing`)
+    whose two faces pass `select(f1, f2)` (a (n_pairs,) bool over the manifold edges), as occurrences on the face
+    turned toward the viewer, and whether each is sharper than `crease_angle` degrees (all False for None)."""
+    two = ef.second >= 0
+    o1, o2 = ef.first[two][select], ef.second[two][select]
+    f1, f2 = o1 // 3, o2 // 3
+    keep = (face_g[f1] > 0.0) != (face_g[f2] > 0.0)
+    o1, o2, f1, f2 = o1[keep], o2[keep], f1[keep], f2[keep]
+    sharp = np.zeros(len(o1), bool)
+    if crease_angle is not None:
+        sharp = np.einsum("ij,ij->i", face_normals[f1], face_normals[f2]) < np.cos(np.radians(crease_angle))
+    return np.where(face_g[f1] > 0.0, o1, o2), sharp
+
+
+def _pair_faces(ef: EdgeFaces) -> tuple[np.ndarray, np.ndarray]:
+    two = ef.second >= 0
+    return ef.first[two] // 3, ef.second[two] // 3
+
+
 def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
                    face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
     """Occluding contours of planar regions: the welded edges between a face turned toward the viewer and one
@@ -159,16 +180,21 @@ def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: 
     differ by more than `crease_angle` degrees are left to the creases (None: none are)."""
     if not flat.any():
         return Segs.empty()
-    two = ef.second >= 0
-    o1, o2 = ef.first[two], ef.second[two]
-    f1, f2 = o1 // 3, o2 // 3
-    keep = flat[f1] & flat[f2]
-    o1, o2, f1, f2 = o1[keep], o2[keep], f1[keep], f2[keep]
-    g = face_g
-    keep = (g[f1] > 0.0) != (g[f2] > 0.0)
-    if crease_angle is not None:
-        keep &= np.einsum("ij,ij->i", face_normals[f1], face_normals[f2]) >= np.cos(np.radians(crease_angle))
-    occ = np.where(g[f1] > 0.0, o1, o2)[keep]
+    f1, f2 = _pair_faces(ef)
+    occ, sharp = silhouette_edges(face_normals, ef, face_g, flat[f1] & flat[f2], crease_angle)
+    occ = occ[~sharp]
+    return _edge_segs(V, F, wid, occ, KIND["contour"], np.ones(len(occ), bool))
+
+
+def outline_edges(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
+                  face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
+    """The polygonal silhouette outside planar regions: the welded edges between a face turned toward the viewer
+    and one turned away, not both in planar regions (`facet_contours` draws those), on the face turned toward
+    the viewer, as contour segments; those sharper than `crease_angle` degrees are left to the creases (None: none
+    are). `reconcile_outline` draws them where the interpolated contours miss the mesh's outline."""
+    f1, f2 = _pair_faces(ef)
+    occ, sharp = silhouette_edges(face_normals, ef, face_g, ~(flat[f1] & flat[f2]), crease_angle)
+    occ = occ[~sharp]
     return _edge_segs(V, F, wid, occ, KIND["contour"], np.ones(len(occ), bool))
 
 
@@ -339,7 +365,8 @@ class View:
         return xy, depth
 
 
-def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolerance: float) -> np.ndarray:
+def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolerance: float,
+                     far: np.ndarray | None = None) -> np.ndarray:
     """Per sample: 1 visible, 0 hidden, -1 off the canvas. `zbuf` (H, W): linear view depth, row 0 at the
     bottom, 0 = background. A sample is visible where one of the 2 x 2 pixels whose centres surround it is
     background or no nearer than depth x (1 - tolerance): a line on a silhouette sees the background or its own
@@ -348,13 +375,13 @@ def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolera
     a ray cast hides it, and the bunny's precision against the ray-cast reference was 0.973-0.976 from two of four
     views; with 2 x 2 it is 0.987-0.998.)"""
     h, w = zbuf.shape
-    far = np.pad(np.where(zbuf > 0.0, zbuf, np.inf), 1, constant_values=np.inf)
+    far = outline_far(zbuf) if far is None else far  # padded by 2
     ix = np.floor(xy[:, 0]).astype(np.int64)
     iy = np.floor(xy[:, 1]).astype(np.int64)
     on = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h) & (depth > 0.0)
     state = np.full(len(xy), -1, np.int8)
-    x0 = np.floor(xy[on, 0] - 0.5).astype(np.int64) + 1  # the 2 x 2 pixels whose centres surround the sample
-    y0 = np.floor(xy[on, 1] - 0.5).astype(np.int64) + 1
+    x0 = np.floor(xy[on, 0] - 0.5).astype(np.int64) + 2  # the 2 x 2 pixels whose centres surround the sample
+    y0 = np.floor(xy[on, 1] - 0.5).astype(np.int64) + 2
     near_max = np.maximum(np.maximum(far[y0, x0], far[y0, x0 + 1]), np.maximum(far[y0 + 1, x0], far[y0 + 1, x0 + 1]))
     state[on] = (near_max >= depth[on] * (1.0 - tolerance)).astype(np.int8)
     return state
@@ -450,6 +477,102 @@ def split(sm: Samples, state: np.ndarray, split_angle: float, min_length: float,
     starts, counts = starts[keep], counts[keep]
     idx = np.repeat(starts - np.r_[0, np.cumsum(counts)[:-1]], counts) + np.arange(int(counts.sum()))
     return idx, np.r_[0, np.cumsum(counts)].astype(np.int64)
+
+
+OUTLINE_JUMP = 0.02
+"""`reconcile_outline`: a silhouette sample is on the image's outline where a pixel of the 3 x 3 around it is
+background or farther than its depth by more than this fraction of it."""
+
+
+def outline_far(zbuf: np.ndarray) -> np.ndarray:
+    """The linear depth buffer with the background at inf, padded by two pixels of background all round, for
+    `at_outline`."""
+    return np.pad(np.where(zbuf > 0.0, zbuf, np.inf), 2, constant_values=np.inf)
+
+
+def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """Per point (pixels, y up; linear depth): on the image's outline, where a pixel of the 3 x 3 around its pixel
+    is background or farther than its depth by OUTLINE_JUMP of it (`far`: `outline_far`; off the canvas: True)."""
+    h, w = far.shape
+    ix = np.clip(np.floor(xy[:, 0]).astype(np.int64) + 2, 1, w - 2)
+    iy = np.clip(np.floor(xy[:, 1]).astype(np.int64) + 2, 1, h - 2)
+    most = np.full(len(ix), -np.inf)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            most = np.maximum(most, far[iy + dy, ix + dx])
+    return most > depth * (1.0 + OUTLINE_JUMP)
+
+
+def outline_candidates(edges: Segs, view: View, far: np.ndarray) -> Segs:
+    """The silhouette edges (`outline_edges`) with an end or their middle on the image's outline (`at_outline`):
+    the others cannot draw any of it (`reconcile_outline` drops their samples), so they are not chained."""
+    if not len(edges):
+        return edges
+    keep = np.zeros(len(edges), bool)
+    for point in (edges.p[:, 0], edges.p[:, 1], 0.5 * (edges.p[:, 0] + edges.p[:, 1])):
+        xy, depth = view.screen(point)
+        keep |= at_outline(xy, depth, far)
+    return edges.select(keep)
+
+
+def edge_points(segs: Segs, view: View, step: float) -> np.ndarray:
+    """Points along every segment on the screen (pixels, y up), at most `step` pixels apart, ends included,
+    without chaining (for distances)."""
+    if not len(segs):
+        return np.zeros((0, 2))
+    a, _ = view.screen(segs.p[:, 0])
+    b, _ = view.screen(segs.p[:, 1])
+    n = np.minimum(np.maximum(1, np.ceil(np.hypot(*(b - a).T) / step)), 4096).astype(np.int64) + 1
+    rep = np.repeat(np.arange(len(segs)), n)
+    t = (np.arange(int(n.sum())) - np.repeat(np.r_[0, np.cumsum(n)[:-1]], n)) / (n[rep] - 1)
+    return a[rep] + t[:, None] * (b - a)[rep]
+
+
+def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, outline: Samples,
+                      outline_state: np.ndarray, sharp: np.ndarray, radius: float, far: np.ndarray,
+                      silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One outline from a mesh's interpolated contours and its polygonal silhouette (`outline_edges`), which agree
+    within a pixel on a finely tessellated smooth mesh and part on a coarse one (a low-poly rock: the interpolated
+    zero set cuts across faces turned toward the viewer, inside the outline the render draws, or lies hidden
+    behind them). `sm`, `state`: the other lines' samples and visibility, `interpolated` marking the interpolated
+    contour samples and `sharp` the crease samples; `outline`, `outline_state` the silhouette's. Returns the two
+    states with dropped samples at -1 (as off the canvas: never kept):
+
+    * a visible interpolated contour sample farther than `radius` px from every point of the silhouette
+      (`silhouette`: `edge_points` of every `outline_edges` segment, visible or not) and every crease sample on
+      the canvas is dropped: nothing of the mesh turns away there;
+    * a silhouette sample is dropped where it is hidden (the hidden layer keeps the interpolated contours), off
+      the image's outline (`far`, `outline_far`: no pixel of the 3 x 3 around it is background or farther than
+      its depth by OUTLINE_JUMP; the small folds of a scanned mesh's bumps turn faces away inside the outline),
+      and where a kept visible interpolated contour sample lies within `radius` px (that one draws it there).
+
+    So the silhouette draws the outline only where no interpolated contour does."""
+    from scipy.spatial import cKDTree
+
+    state, outline_state = state.copy(), outline_state.copy()
+    ref = np.concatenate([silhouette, sm.xy[sharp & (state >= 0)]])
+    cand = interpolated & (state > 0)
+    if cand.any():
+        stray = np.ones(int(cand.sum()), bool)
+        if len(ref):
+            stray = cKDTree(ref).query(sm.xy[cand], distance_upper_bound=radius)[0] > radius
+        state[np.flatnonzero(cand)[stray]] = -1
+    outline_state[outline_state == 0] = -1
+    vis = outline_state > 0
+    outline_state[np.flatnonzero(vis)[~at_outline(outline.xy[vis], outline.depth[vis], far)]] = -1
+    kept = interpolated & (state > 0)
+    vis = outline_state > 0
+    if kept.any() and vis.any():
+        near = cKDTree(sm.xy[kept]).query(outline.xy[vis], distance_upper_bound=radius)[0] <= radius
+        outline_state[np.flatnonzero(vis)[near]] = -1
+    return state, outline_state
+
+
+def concat_samples(a: Samples, b: Samples) -> Samples:
+    """Two sets of sampled chains as one (b's chains after a's)."""
+    fields = ("p", "face", "bary", "kind", "front", "xy", "depth")
+    return Samples(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in fields),
+                   np.r_[a.offsets, b.offsets[1:] + a.offsets[-1]].astype(np.int64))
 
 
 def to_strokes(parts: list[tuple[int, Samples, np.ndarray, np.ndarray, np.ndarray]], size: tuple[int, int],

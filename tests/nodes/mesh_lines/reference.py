@@ -124,3 +124,32 @@ def vertex_rings(F: np.ndarray, weld: np.ndarray) -> list[set[int]]:
 def project(points: np.ndarray, mvp: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     h = np.c_[points, np.ones(len(points))] @ mvp.T
     return (h[:, :2] / h[:, 3:4] * 0.5 + 0.5) * np.asarray(size, float)
+
+
+def silhouette_points(V: np.ndarray, F: np.ndarray, weld: np.ndarray, eye: np.ndarray, k: int = 8
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Points (q, 3) on the mesh's polygonal silhouette and the face (q,) of each: k + 1 points along every edge
+    (by welded vertex ids) that two faces share, one turned toward the eye and one away (the sign of the face's
+    plane normal . (e - e_w centroid), float64), with the face turned toward it."""
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    n = np.cross(B - A, C - A)
+    centroid = (A + B + C) / 3.0
+    toward = eye[:3] - eye[3] * centroid
+    front = np.einsum("ij,ij->i", n, toward) > 0.0
+    faces_of: dict[tuple[int, int], list[tuple[int, int, int]]] = {}
+    wF = weld[F]
+    for f, (tri, vs) in enumerate(zip(wF.tolist(), F.tolist(), strict=True)):
+        for c in range(3):
+            key = (min(tri[c], tri[(c + 1) % 3]), max(tri[c], tri[(c + 1) % 3]))
+            faces_of.setdefault(key, []).append((f, vs[c], vs[(c + 1) % 3]))
+    t = np.linspace(0.0, 1.0, k + 1)[:, None]
+    pts, fids = [], []
+    for pair in faces_of.values():
+        if len(pair) != 2 or front[pair[0][0]] == front[pair[1][0]]:
+            continue
+        f, a, b = pair[0] if front[pair[0][0]] else pair[1]
+        pts.append(V[a] + t * (V[b] - V[a]))
+        fids.append(np.full(k + 1, f))
+    if not pts:
+        return np.zeros((0, 3)), np.zeros(0, np.int64)
+    return np.concatenate(pts), np.concatenate(fids)
