@@ -262,20 +262,37 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
                far: np.ndarray | None = None) -> tuple[Any, ...]:
     """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`. With `outline`
     (`object_lines`) the polygonal silhouette draws the outline where the interpolated contours stray from it
-    by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`)."""
+    by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`), in pieces of
+    at least twice `min_length`."""
     far = extract.outline_far(zbuf) if far is None else far
     sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
+    filled = None
     if outline is not None:
         edges, flat = outline
         so, st_o = sampled(extract.outline_candidates(edges, view, far), view, zbuf, spacing, tolerance,
                            junction_turn, far)
-        interpolated = (sm.kind == extract.KIND["contour"]) & ~flat[sm.face]
-        state, st_o = extract.reconcile_outline(sm, state, interpolated, so, st_o,
-                                                sm.kind == extract.KIND["crease"], radius, far,
-                                                extract.edge_points(edges, view, 0.5 * radius))
-        sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
+        state, st_o = reconciled(sm, state, so, st_o, flat, radius, far, extract.edge_points(edges, view, 0.5 * radius))
+        filled = (so, st_o)
+    return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled))
+
+
+def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,
+               radius: float, far: np.ndarray, silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`extract.reconcile_outline` for one object's sampled lines (`sm`, `state`) and silhouette (`so`, `st_o`):
+    its interpolated contours are the contour samples outside planar regions (`flat`)."""
+    interpolated = (sm.kind == extract.KIND["contour"]) & ~flat[sm.face]
+    return extract.reconcile_outline(sm, state, interpolated, so, st_o, sm.kind == extract.KIND["crease"], radius,
+                                     far, silhouette)
+
+
+def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_length: float, hidden: bool,
+                filled: tuple[extract.Samples, np.ndarray] | None = None) -> tuple[Any, ...]:
+    """(samples, state, vertex indices, stroke offsets): the lines, and the silhouette's samples where it fills the
+    outline (`filled`: samples and states after `reconciled`), cut into strokes (`extract.split`)."""
+    if filled is not None:
+        sm, state = extract.concat_samples(sm, filled[0]), np.r_[state, filled[1]].astype(np.int8)
     idx, off = extract.split(sm, state, split_angle, min_length, hidden)
-    return (index, sm, state, idx, off)
+    return sm, state, idx, off
 
 
 NODE = MeshLines

@@ -87,14 +87,14 @@ def picture(svg_text: str, png: Path, title: str = "") -> None:
     plt.close(fig)
 
 
-def _visible(segs: Any, half: np.ndarray, off: np.ndarray, view: Any, zbuf: np.ndarray,
-             p: Any) -> tuple[Any, np.ndarray]:
+def _visible(segs: Any, half: np.ndarray, off: np.ndarray, view: Any, zbuf: np.ndarray, p: Any,
+             far: np.ndarray) -> tuple[Any, np.ndarray]:
     """Chained segments sampled and tested against the depth buffer (mesh_lines.sampled after its chaining,
     which the caller times apart)."""
     from . import extract
 
     sm = extract.sample(segs, half, off, view, p.spacing)
-    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance)
+    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance, far)
     return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
 
 
@@ -103,7 +103,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg
 
-    from . import MeshLines, extract, object_lines
+    from . import MeshLines, extract, object_lines, reconciled, split_lines
 
     text = (f"pipeline: b\nsize: [{size}, {size}]\nreference_size: {size}\nscene: builtin:box\nnodes:\n"
             "  gbuf:\n    type: rasterize\noutputs:\n  z: gbuf.linear_depth\n")
@@ -140,14 +140,11 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             half, off = extract.chain(segs.key, segs.kind, segs.p, p.junction_turn)
             half_o, off_o = extract.chain(edges.key, edges.kind, edges.p, p.junction_turn)
             t2 = time.perf_counter()
-            sm, state = _visible(segs, half, off, v, zbuf, p)
-            so, st_o = _visible(edges, half_o, off_o, v, zbuf, p)
-            state, st_o = extract.reconcile_outline(sm, state, (sm.kind == extract.KIND["contour"]) & ~flat[sm.face],
-                                                    so, st_o, sm.kind == extract.KIND["crease"], p.outline, far,
-                                                    silhouette)
-            sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
+            sm, state = _visible(segs, half, off, v, zbuf, p, far)
+            so, st_o = _visible(edges, half_o, off_o, v, zbuf, p, far)
+            state, st_o = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
             t3 = time.perf_counter()
-            idx, soff = extract.split(sm, state, p.split_angle, p.min_length, True)
+            sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, (so, st_o))
             parts.append((index, sm, state, idx, soff))
             t4 = time.perf_counter()
             t["extract"] += t1 - t0
