@@ -53,7 +53,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "6"
+    version = "7"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -273,7 +273,7 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
                            junction_turn, far)
         state, st_o = reconciled(sm, state, so, st_o, flat, radius, far, extract.edge_points(edges, view, 0.5 * radius))
         filled = (so, st_o)
-    return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled))
+    return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled, radius, spacing))
 
 
 def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,
@@ -286,12 +286,25 @@ def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o
 
 
 def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_length: float, hidden: bool,
-                filled: tuple[extract.Samples, np.ndarray] | None = None) -> tuple[Any, ...]:
+                filled: tuple[extract.Samples, np.ndarray] | None = None, radius: float = 1.0,
+                spacing: float = 1.0) -> tuple[Any, ...]:
     """(samples, state, vertex indices, stroke offsets): the lines, and the silhouette's samples where it fills the
-    outline (`filled`: samples and states after `reconciled`), cut into strokes (`extract.split`)."""
-    if filled is not None:
-        sm, state = extract.concat_samples(sm, filled[0]), np.r_[state, filled[1]].astype(np.int8)
+    outline (`filled`: samples and states after `reconciled` with `radius`), cut into strokes (`extract.split`).
+    A filled piece is joined to the interpolated contours whose ends lie within `radius` + 3 `spacing` px of its
+    ends (`extract.join_ends`), so that an outline runs on as one stroke where the fill takes over (one pen stroke,
+    one overshoot); one shorter than twice `min_length` with an end that near is dropped (a cusp's fold)."""
+    if filled is None:
+        idx, off = extract.split(sm, state, split_angle, min_length, hidden)
+        return sm, state, idx, off
+    so, st_o = filled
     idx, off = extract.split(sm, state, split_angle, min_length, hidden)
+    idx_o, off_o = extract.split(so, st_o, split_angle, min_length, hidden)
+    n = len(sm.xy)
+    sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
+    idx, off = np.r_[idx, idx_o + n], np.r_[off, off_o[1:] + off[-1]]
+    first = idx[off[:-1]]
+    role = np.where(first >= n, 2, np.where(sm.kind[first] == extract.KIND["contour"], 1, 0))
+    idx, off = extract.join_ends(sm.xy, idx, off, role, state[first], radius + 3.0 * spacing, 2.0 * min_length)
     return sm, state, idx, off
 
 

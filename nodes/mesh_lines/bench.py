@@ -144,7 +144,8 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             so, st_o = _visible(edges, half_o, off_o, v, zbuf, p, far)
             state, st_o = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
             t3 = time.perf_counter()
-            sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, (so, st_o))
+            sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, (so, st_o),
+                                              p.outline, p.spacing)
             parts.append((index, sm, state, idx, soff))
             t4 = time.perf_counter()
             t["extract"] += t1 - t0

@@ -568,6 +568,71 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
     return state, outline_state
 
 
+def join_ends(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, role: np.ndarray, group: np.ndarray,
+              dist: float, speck: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Strokes (vertex indices `idx` into `xy`, offsets `off`) with each stroke of role 2 (a filled piece of
+    outline) joined end to end with strokes of role 1 (interpolated contours) of the same `group` (visibility)
+    whose ends lie within `dist` px of its ends, nearest pairs first, each end once; role 0 strokes are left as
+    they are. Joined strokes run through both in turn (one reversed where needed); a chain that closes on itself
+    stays one stroke. A role 2 stroke shorter than `speck` px with an end that near a role 1 end is dropped: the
+    fold of the polygonal silhouette at a cusp, where an interpolated contour ends (it doubles back on itself).
+    Returns the new (idx, off)."""
+    from scipy.spatial import cKDTree
+
+    m = len(off) - 1
+    if m == 0 or not (role == 2).any() or not (role == 1).any():
+        return idx, off
+    first, last = idx[off[:-1]], idx[off[1:] - 1]
+    ends = np.r_[xy[first], xy[last]]  # end e of stroke i: e = i (start) or i + m (end)
+    which = np.r_[np.arange(m), np.arange(m)]
+    fill_e = np.flatnonzero(role[which] == 2)
+    line_e = np.flatnonzero(role[which] == 1)
+    pairs = cKDTree(ends[line_e]).query_ball_point(ends[fill_e], dist)
+    cand = [(float(np.hypot(*(ends[f] - ends[line_e[j]]))), int(f), int(line_e[j]))
+            for f, js in zip(fill_e, pairs, strict=True) for j in js if group[which[f]] == group[which[line_e[j]]]]
+    if not cand:
+        return idx, off
+    drop = np.zeros(m, bool)
+    if speck > 0.0:
+        d = np.diff(xy[idx], axis=0)
+        step = np.r_[0.0, np.hypot(d[:, 0], d[:, 1])]
+        step[off[:-1]] = 0.0
+        length = np.add.reduceat(step, off[:-1])
+        near = np.zeros(m, bool)
+        near[[which[f] for _, f, _ in cand]] = True
+        drop = (role == 2) & (length < speck) & near
+    link = np.full(2 * m, -1, np.int64)
+    for _, a, b in sorted(cand):
+        if link[a] < 0 and link[b] < 0 and not drop[which[a]]:
+            link[a], link[b] = b, a
+    seen = drop.copy()
+    out_idx, counts = [], []
+
+    def walk(start: int, enter: int) -> None:
+        """Append the chain that starts at stroke `start`, entered at its end `enter` (0 start, 1 end)."""
+        parts, i, e = [], start, enter
+        while True:
+            seen[i] = True
+            verts = idx[off[i]:off[i + 1]]
+            parts.append(verts if e == 0 else verts[::-1])
+            nxt = link[i + m * (1 - e)]  # across the end we leave by
+            if nxt < 0 or seen[which[nxt]]:
+                break
+            i, e = int(which[nxt]), int(nxt >= m)
+        out_idx.append(np.concatenate(parts))
+        counts.append(len(out_idx[-1]))
+
+    for i in range(m):  # chains with a free end first, from that end
+        if not seen[i] and (link[i] < 0 or link[i + m] < 0):
+            walk(i, 0 if link[i] < 0 else 1)
+    for i in range(m):  # what is left are closed chains
+        if not seen[i]:
+            walk(i, 0)
+    if not out_idx:
+        return np.zeros(0, np.int64), np.zeros(1, np.int64)
+    return np.concatenate(out_idx).astype(np.int64), np.r_[0, np.cumsum(counts)].astype(np.int64)
+
+
 def concat_samples(a: Samples, b: Samples) -> Samples:
     """Two sets of sampled chains as one (b's chains after a's)."""
     fields = ("p", "face", "bary", "kind", "front", "xy", "depth")
