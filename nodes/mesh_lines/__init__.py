@@ -53,7 +53,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "7"
+    version = "8"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -87,9 +87,10 @@ class MeshLines(Node):
                                        "of the 2 x 2 whose centres surround it is nearer by more than this "
                                        "fraction of its depth.")
         outline: float = Field(1.0, ge=0, le=64, description="Where the interpolated contours stray more than "
-                               "this many pixels (at the reference size, times px_scale) from the mesh's polygonal "
-                               "silhouette (a coarse mesh), the silhouette draws the outline and the strays are "
-                               "dropped (extract.reconcile_outline); 0: interpolated contours only.")
+                               "this many pixels (at the reference size, times px_scale, and at least one pixel of "
+                               "the image: a smaller difference does not show) from the mesh's polygonal silhouette "
+                               "(a coarse mesh), the silhouette draws the outline and the strays are dropped "
+                               "(extract.reconcile_outline); 0: interpolated contours only.")
         hidden: bool = Field(False, description="Keep hidden strokes (visible = False: their own layers).")
         width: float = Field(1.0, gt=0, le=64, description="Stroke width in pixels at the reference size (times "
                              "px_scale).")
@@ -135,7 +136,7 @@ class MeshLines(Node):
             mv = view @ model
             parts.append(strokes_of(index, s, extract.View(proj @ mv, mv, (w, h)), zbuf, p.spacing * ctx.px_scale,
                                     p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
-                                    p.junction_turn, outline, p.outline * ctx.px_scale, far))
+                                    p.junction_turn, outline, max(p.outline * ctx.px_scale, 1.0), far))
         return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
 
     def feature_segments(self, curv: Any, index: int, mesh: Any, eye_obj: np.ndarray, kinds: set[str]) -> Any:

@@ -129,3 +129,25 @@ def test_rock_outline_small(tmp_path):
     on, off = measure(path, 1.0, 160), measure(path, 0.0, 160)
     assert on["recall"] >= 0.9 and on["precision"] >= 0.98, on
     assert off["recall"] <= on["recall"] - 0.2, (on, off)
+
+
+def test_small_render_of_a_smooth_mesh_unchanged():
+    """At 256 px for an 800 px reference (px_scale 0.32) the tolerance stays one pixel of the image: the built-in
+    torus, whose interpolated contours stray from its polygonal silhouette by under a pixel there, draws the same
+    strokes with the rule as without it."""
+    from nodegraph import pipeline as pl
+    from nodegraph.executor import Executor
+
+    got = []
+    for outline in (1.0, 0.0):
+        text = ("pipeline: t\nsize: [256, 256]\nreference_size: 800\nscene: builtin:torus\nnodes:\n"
+                + NODES.format(outline=outline) + "outputs:\n  s: lines.strokes\n")
+        ex = Executor(pl.loads(text, "t.yaml"), None)
+        try:
+            got.append(ex.run().values[("lines", "strokes")])
+        finally:
+            ex.close()
+    a, b = got
+    assert len(a.xy) > 100
+    np.testing.assert_array_equal(a.xy, b.xy)
+    np.testing.assert_array_equal(a.starts, b.starts)
