@@ -53,7 +53,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "8"
+    version = "9"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -272,40 +272,51 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
         edges, flat = outline
         so, st_o = sampled(extract.outline_candidates(edges, view, far), view, zbuf, spacing, tolerance,
                            junction_turn, far)
-        state, st_o = reconciled(sm, state, so, st_o, flat, radius, far, extract.edge_points(edges, view, 0.5 * radius))
-        filled = (so, st_o)
+        state, filled = reconciled(sm, state, so, st_o, flat, radius, far,
+                                   extract.edge_points(edges, view, 0.5 * radius))
     return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled, radius, spacing))
 
 
 def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,
-               radius: float, far: np.ndarray, silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               radius: float, far: np.ndarray, silhouette: np.ndarray) -> tuple[np.ndarray, tuple[Any, ...]]:
     """`extract.reconcile_outline` for one object's sampled lines (`sm`, `state`) and silhouette (`so`, `st_o`):
-    its interpolated contours are the contour samples outside planar regions (`flat`)."""
+    its interpolated contours are the contour samples outside planar regions (`flat`). Returns the lines' states
+    and the `filled` argument of `split_lines`."""
     interpolated = (sm.kind == extract.KIND["contour"]) & ~flat[sm.face]
-    return extract.reconcile_outline(sm, state, interpolated, so, st_o, sm.kind == extract.KIND["crease"], radius,
-                                     far, silhouette)
+    state, st_o = extract.reconcile_outline(sm, state, interpolated, so, st_o, sm.kind == extract.KIND["crease"],
+                                            radius, far, silhouette)
+    return state, (so, st_o, interpolated)
 
 
 def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_length: float, hidden: bool,
-                filled: tuple[extract.Samples, np.ndarray] | None = None, radius: float = 1.0,
-                spacing: float = 1.0) -> tuple[Any, ...]:
-    """(samples, state, vertex indices, stroke offsets): the lines, and the silhouette's samples where it fills the
-    outline (`filled`: samples and states after `reconciled` with `radius`), cut into strokes (`extract.split`).
-    A filled piece is joined to the interpolated contours whose ends lie within `radius` + 3 `spacing` px of its
-    ends (`extract.join_ends`), so that an outline runs on as one stroke where the fill takes over (one pen stroke,
-    one overshoot); one shorter than twice `min_length` with an end that near is dropped (a cusp's fold)."""
-    if filled is None:
-        idx, off = extract.split(sm, state, split_angle, min_length, hidden)
-        return sm, state, idx, off
-    so, st_o = filled
+                filled: tuple[Any, ...] | None = None, radius: float = 1.0, spacing: float = 1.0) -> tuple[Any, ...]:
+    """(samples, state, vertex indices, stroke offsets): the lines cut into strokes (`extract.split`), and with
+    `filled` (from `reconciled`: the silhouette's samples and states, and which line samples are interpolated
+    contours) the silhouette where it fills the outline: its samples within 2 `radius` + 1 px of the interpolated
+    contours' drawn strokes are dropped (`extract.suppress_filled`), the rest cut into strokes and joined to the
+    interpolated contours whose ends lie within `radius` + 3 `spacing` px of their ends (`extract.join_ends`), so
+    that an outline runs on as one stroke where the fill takes over (one pen stroke, one overshoot); a group of
+    filled pieces spanning under max(2 `min_length`, 4 `radius`) px (a cusp's folds) is dropped, and so is an
+    interpolated contour stroke that short left between strays `reconcile_outline` dropped
+    (`extract.drop_fragments`)."""
     idx, off = extract.split(sm, state, split_angle, min_length, hidden)
+    if filled is None:
+        return sm, state, idx, off
+    so, st_o, interpolated = filled
+    speck = max(2.0 * min_length, 4.0 * radius)
+    idx, off = extract.drop_fragments(sm, state, idx, off, interpolated, speck)
+    first = idx[off[:-1]]
+    drawn_stroke = interpolated[first] & (state[first] > 0)
+    drawn = sm.xy[idx[np.repeat(drawn_stroke, np.diff(off))]]
+    st_o = extract.suppress_filled(drawn, so, st_o, 2.0 * radius + 1.0)
     idx_o, off_o = extract.split(so, st_o, split_angle, min_length, hidden)
     n = len(sm.xy)
     sm, state = extract.concat_samples(sm, so), np.r_[state, st_o].astype(np.int8)
     idx, off = np.r_[idx, idx_o + n], np.r_[off, off_o[1:] + off[-1]]
     first = idx[off[:-1]]
     role = np.where(first >= n, 2, np.where(sm.kind[first] == extract.KIND["contour"], 1, 0))
-    idx, off = extract.join_ends(sm.xy, idx, off, role, state[first], radius + 3.0 * spacing, 2.0 * min_length)
+    idx, off = extract.join_ends(sm.xy, idx, off, role, state[first], radius + 3.0 * spacing, speck,
+                                 1.5 * spacing)
     return sm, state, idx, off
 
 

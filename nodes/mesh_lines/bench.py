@@ -98,7 +98,25 @@ def _visible(segs: Any, half: np.ndarray, off: np.ndarray, view: Any, zbuf: np.n
     return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
 
 
-def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, name: str = "") -> dict[str, Any]:
+def outline_coverage(strokes: Any, zbuf: np.ndarray) -> float:
+    """The share of the image's outline (the pixels at the rim of the depth buffer's covered region) that has a
+    visible stroke sample within 1.5 px: how much of the silhouette the lines draw."""
+    from scipy.ndimage import binary_erosion
+    from scipy.spatial import cKDTree
+
+    covered = zbuf > 0.0
+    rows, cols = np.nonzero(covered & ~binary_erosion(covered))
+    pts = strokes.xy[strokes["visible"]].astype(np.float64) if strokes.n_vertices else np.zeros((0, 2))
+    if not len(rows):
+        return float("nan")
+    if not len(pts):
+        return 0.0
+    d = cKDTree(pts).query(np.c_[cols + 0.5, rows + 0.5])[0]  # zbuf row 0 is the bottom: y up, as the strokes
+    return float((d <= 1.5).mean())
+
+
+def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, name: str = "",
+            outline: float = 1.0) -> dict[str, Any]:
     from nodegraph import pipeline as pl
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg
@@ -114,7 +132,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
         zbuf = ex.run(0).values[("gbuf", "linear_depth")].read()[:, :, 0].astype(np.float64)
     finally:
         ex.close()
-    p = MeshLines.Params()
+    p = MeshLines.Params(outline=outline)
     cam = scene.camera_at(0)
     view, proj = cam.view_matrix(), cam.projection_matrix(1.0)
     eye = np.r_[np.linalg.inv(view)[:3, 3], 1.0] if not cam.orthographic else cam.toward_eye()
@@ -130,22 +148,27 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             model = np.asarray(obj.transform, np.float64)
             eye_obj = np.linalg.inv(model) @ eye
             t0 = time.perf_counter()
-            segs, (edges, flat) = object_lines(obj.mesh, eye_obj, True, True, True, p.crease_angle, True)
+            segs, outlined = object_lines(obj.mesh, eye_obj, True, True, True, p.crease_angle, p.outline > 0)
             mv = view @ model
             v = extract.View(proj @ mv, mv, (size, size))
             far = extract.outline_far(zbuf) if far is None else far
-            silhouette = extract.edge_points(edges, v, 0.5 * p.outline)
-            edges = extract.outline_candidates(edges, v, far)
+            if outlined is not None:
+                edges, flat = outlined
+                silhouette = extract.edge_points(edges, v, 0.5 * p.outline)
+                edges = extract.outline_candidates(edges, v, far)
             t1 = time.perf_counter()
             half, off = extract.chain(segs.key, segs.kind, segs.p, p.junction_turn)
-            half_o, off_o = extract.chain(edges.key, edges.kind, edges.p, p.junction_turn)
+            if outlined is not None:
+                half_o, off_o = extract.chain(edges.key, edges.kind, edges.p, p.junction_turn)
             t2 = time.perf_counter()
             sm, state = _visible(segs, half, off, v, zbuf, p, far)
-            so, st_o = _visible(edges, half_o, off_o, v, zbuf, p, far)
-            state, st_o = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
+            filled = None
+            if outlined is not None:
+                so, st_o = _visible(edges, half_o, off_o, v, zbuf, p, far)
+                state, filled = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
             t3 = time.perf_counter()
-            sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, (so, st_o),
-                                              p.outline, p.spacing)
+            sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, filled, p.outline,
+                                              p.spacing)
             parts.append((index, sm, state, idx, soff))
             t4 = time.perf_counter()
             t["extract"] += t1 - t0
@@ -180,6 +203,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
                                                                               & vis).any()},
             "length_px": {"total": round(float(lens.sum()), 1), **{f"p{q}": round(float(np.percentile(lens, q)), 1)
                                                                   for q in (10, 50, 90)}} if len(lens) else {},
+            "outline_coverage": round(outline_coverage(strokes, zbuf), 4),
             "ms": med, "total_ms": round(sum(med.values()), 2), "first_ms": round(first, 2)}
 
 
@@ -245,8 +269,10 @@ def plotter(scene: Any, size: int, page: str = "A4", repeats: int = 3) -> dict[s
 @click.option("--plotter/--no-plotter", "with_plotter", default=True, show_default=True,
               help="Also run plotter_lines (lines and hatching) on each mesh, on an A4 page, and report its pen-up "
               "travel after vpype's linesort (needs vpype: the [test] extra).")
+@click.option("--outline", default=1.0, show_default=True, type=click.FloatRange(0, 64),
+              help="mesh_lines' `outline` for the lines measured (0: the interpolated contours alone).")
 def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | None, pictures: Path | None,
-            with_plotter: bool) -> None:
+            with_plotter: bool, outline: float) -> None:
     out: dict[str, Any] = {}
     if with_plotter:
         from nodegraph.registry import node_module
@@ -262,12 +288,13 @@ def command(size: int, repeats: int, meshes: tuple[str, ...], json_path: Path | 
         if scene is None:
             click.echo(f"{name}: skipped (not found in {SHARED})")
             continue
-        m = out[name] = measure(scene, size, repeats, pictures, name)
+        m = out[name] = measure(scene, size, repeats, pictures, name, outline)
         lp = m["length_px"]
         click.echo(f"{name}: {m['triangles']} triangles, {m['strokes_visible']} visible strokes "
                    f"({m['strokes_hidden']} hidden), lengths px p10/p50/p90 {lp.get('p10')}/{lp.get('p50')}/"
                    f"{lp.get('p90')}, total {lp.get('total')}; ms: "
-                   + ", ".join(f"{k} {v}" for k, v in m["ms"].items()) + f"; total {m['total_ms']} ms")
+                   + ", ".join(f"{k} {v}" for k, v in m["ms"].items()) + f"; total {m['total_ms']} ms; outline "
+                   f"coverage {m['outline_coverage']}")
         if with_plotter:
             pm = m["plotter"] = plotter(scene, size, repeats=repeats)
             hm = pm["hatching"]

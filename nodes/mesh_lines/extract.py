@@ -539,71 +539,147 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
     states with dropped samples at -1 (as off the canvas: never kept):
 
     * a visible interpolated contour sample farther than `radius` px from every point of the silhouette
-      (`silhouette`: `edge_points` of every `outline_edges` segment, visible or not) and every crease sample on
-      the canvas is dropped: nothing of the mesh turns away there;
-    * a silhouette sample is dropped where it is hidden (the hidden layer keeps the interpolated contours), off
+      (`silhouette`: `edge_points` of every `outline_edges` segment, visible or not) and every visible crease
+      sample (a stray: nothing of the mesh turns away there) is dropped where it is off the image's outline
+      (a line across faces turned toward the viewer) or where a visible silhouette sample on the outline lies
+      within 2 `radius` + 1 px (the silhouette takes over there). A stray on the outline with no silhouette to
+      take over (where a tube's contour meets the crease round its cap) is kept: dropping it left a gap;
+    * a silhouette sample is dropped where it is hidden (the hidden layer keeps the interpolated contours) or off
       the image's outline (`far`, `outline_far`: no pixel of the 3 x 3 around it is background or farther than
-      its depth by OUTLINE_JUMP; the small folds of a scanned mesh's bumps turn faces away inside the outline),
-      and where a kept visible interpolated contour sample lies within `radius` px (that one draws it there).
+      its depth by OUTLINE_JUMP; the small folds of a scanned mesh's bumps turn faces away inside the outline).
 
-    So the silhouette draws the outline only where no interpolated contour does."""
+    `suppress_filled` then drops the silhouette samples near the interpolated contours that are drawn, so the
+    silhouette draws the outline only where no interpolated contour does."""
     from scipy.spatial import cKDTree
 
     state, outline_state = state.copy(), outline_state.copy()
-    ref = np.concatenate([silhouette, sm.xy[sharp & (state >= 0)]])
-    cand = interpolated & (state > 0)
-    if cand.any():
-        stray = np.ones(int(cand.sum()), bool)
-        if len(ref):
-            stray = cKDTree(ref).query(sm.xy[cand], distance_upper_bound=radius)[0] > radius
-        state[np.flatnonzero(cand)[stray]] = -1
     outline_state[outline_state == 0] = -1
     vis = outline_state > 0
     outline_state[np.flatnonzero(vis)[~at_outline(outline.xy[vis], outline.depth[vis], far)]] = -1
-    kept = interpolated & (state > 0)
-    vis = outline_state > 0
-    if kept.any() and vis.any():
-        near = cKDTree(sm.xy[kept]).query(outline.xy[vis], distance_upper_bound=radius)[0] <= radius
-        outline_state[np.flatnonzero(vis)[near]] = -1
+    ref = np.concatenate([silhouette, sm.xy[sharp & (state > 0)]])
+    cand = np.flatnonzero(interpolated & (state > 0))
+    if len(cand):
+        stray = np.ones(len(cand), bool)
+        if len(ref):
+            stray = cKDTree(ref).query(sm.xy[cand], distance_upper_bound=radius)[0] > radius
+        cand = cand[stray]
+        drop = ~at_outline(sm.xy[cand], sm.depth[cand], far)
+        fill = outline_state > 0
+        if fill.any():
+            reach = 2.0 * radius + 1.0
+            drop |= cKDTree(outline.xy[fill]).query(sm.xy[cand], distance_upper_bound=reach)[0] <= reach
+        state[cand[drop]] = -1
     return state, outline_state
 
 
+def suppress_filled(drawn: np.ndarray, outline: Samples, outline_state: np.ndarray, radius: float) -> np.ndarray:
+    """The silhouette's states with its visible samples within `radius` px of a drawn interpolated contour sample
+    (`drawn`, (k, 2) pixels: samples of the visible strokes cut from them, so not the odd visible sample of a
+    contour that runs just behind the outline, flickering between visible and hidden, and drawn nowhere) dropped
+    (-1): that contour draws the outline there (`split_lines` passes 2 x its tolerance + 1 px: a contour kept
+    within the tolerance of a fold of the silhouette can run that far from the fold's outer edge, which drew a
+    second line beside it)."""
+    from scipy.spatial import cKDTree
+
+    out = outline_state.copy()
+    vis = out > 0
+    if len(drawn) and vis.any():
+        near = cKDTree(drawn).query(outline.xy[vis], distance_upper_bound=radius)[0] <= radius
+        out[np.flatnonzero(vis)[near]] = -1
+    return out
+
+
+def drop_fragments(sm: Samples, state: np.ndarray, idx: np.ndarray, off: np.ndarray, interpolated: np.ndarray,
+                   short: float) -> tuple[np.ndarray, np.ndarray]:
+    """Strokes (`idx`, `off` from `split`) without the interpolated contour strokes under `short` px whose chain
+    goes on, before or after them, in a dropped sample (state -1: by `reconcile_outline`, or off the canvas): what
+    is left of a stray between the samples dropped around it."""
+    m = len(off) - 1
+    if m == 0:
+        return idx, off
+    first, last = idx[off[:-1]], idx[off[1:] - 1]
+    d = np.diff(sm.xy[idx], axis=0)
+    step = np.r_[0.0, np.hypot(d[:, 0], d[:, 1])]
+    step[off[:-1]] = 0.0
+    length = np.add.reduceat(step, off[:-1])
+    chain = np.searchsorted(sm.offsets, np.arange(len(sm.xy)), side="right") - 1
+    n = len(sm.xy)
+
+    def dropped(j: np.ndarray, i: np.ndarray) -> np.ndarray:
+        ok = (j >= 0) & (j < n)
+        jj = np.clip(j, 0, n - 1)
+        return ok & (chain[jj] == chain[i]) & (state[jj] < 0)
+
+    frag = interpolated[first] & (length < short) & (dropped(first - 1, first) | dropped(last + 1, last))
+    if not frag.any():
+        return idx, off
+    keep = np.repeat(~frag, np.diff(off))
+    return idx[keep], np.r_[0, np.cumsum(np.diff(off)[~frag])].astype(np.int64)
+
+
+def _group_span(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, member: np.ndarray, ends: np.ndarray,
+               which: np.ndarray, touch: float) -> np.ndarray:
+    """Per stroke: the diagonal of the bounding box of its group, the `member` strokes whose ends lie within
+    `touch` px of each other, transitively (one polyline cut where it turned or its visibility changed); inf for
+    the others."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    m = len(off) - 1
+    out = np.full(m, np.inf)
+    e = np.flatnonzero(member[which])
+    if not len(e):
+        return out
+    pairs = cKDTree(ends[e]).query_pairs(touch, output_type="ndarray")
+    pairs = pairs.reshape(-1, 2)
+    a, b = which[e[pairs[:, 0]]], which[e[pairs[:, 1]]]
+    _, label = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m)), directed=False)
+    pts_stroke = np.repeat(np.arange(m), np.diff(off))
+    lab = label[pts_stroke]
+    keep = member[pts_stroke]
+    p = xy[idx][keep]
+    lab = lab[keep]
+    n = int(label.max()) + 1
+    lo = np.full((n, 2), np.inf)
+    hi = np.full((n, 2), -np.inf)
+    np.minimum.at(lo, lab, p)
+    np.maximum.at(hi, lab, p)
+    span = np.hypot(*(hi - lo).T)
+    out[member] = span[label[member]]
+    return out
+
+
 def join_ends(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, role: np.ndarray, group: np.ndarray,
-              dist: float, speck: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+              dist: float, speck: float = 0.0, touch: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Strokes (vertex indices `idx` into `xy`, offsets `off`) with each stroke of role 2 (a filled piece of
     outline) joined end to end with strokes of role 1 (interpolated contours) of the same `group` (visibility)
     whose ends lie within `dist` px of its ends, nearest pairs first, each end once; role 0 strokes are left as
     they are. Joined strokes run through both in turn (one reversed where needed); a chain that closes on itself
-    stays one stroke. A role 2 stroke shorter than `speck` px with an end that near a role 1 end is dropped: the
-    fold of the polygonal silhouette at a cusp, where an interpolated contour ends (it doubles back on itself).
+    stays one stroke. Role 2 strokes whose ends touch (within `touch` px, transitively: one polyline cut where it
+    turned or its visibility changed) form a group; a group whose bounding box spans under `speck` px is dropped:
+    the polygonal silhouette folds back and forth in a few pixels by a cusp, where an interpolated contour ends.
     Returns the new (idx, off)."""
     from scipy.spatial import cKDTree
 
     m = len(off) - 1
-    if m == 0 or not (role == 2).any() or not (role == 1).any():
+    if m == 0 or not (role == 2).any():
         return idx, off
     first, last = idx[off[:-1]], idx[off[1:] - 1]
     ends = np.r_[xy[first], xy[last]]  # end e of stroke i: e = i (start) or i + m (end)
     which = np.r_[np.arange(m), np.arange(m)]
     fill_e = np.flatnonzero(role[which] == 2)
     line_e = np.flatnonzero(role[which] == 1)
-    pairs = cKDTree(ends[line_e]).query_ball_point(ends[fill_e], dist)
+    pairs = cKDTree(ends[line_e]).query_ball_point(ends[fill_e], dist) if len(line_e) else [[]] * len(fill_e)
     cand = [(float(np.hypot(*(ends[f] - ends[line_e[j]]))), int(f), int(line_e[j]))
             for f, js in zip(fill_e, pairs, strict=True) for j in js if group[which[f]] == group[which[line_e[j]]]]
-    if not cand:
-        return idx, off
     drop = np.zeros(m, bool)
     if speck > 0.0:
-        d = np.diff(xy[idx], axis=0)
-        step = np.r_[0.0, np.hypot(d[:, 0], d[:, 1])]
-        step[off[:-1]] = 0.0
-        length = np.add.reduceat(step, off[:-1])
-        near = np.zeros(m, bool)
-        near[[which[f] for _, f, _ in cand]] = True
-        drop = (role == 2) & (length < speck) & near
+        drop = (role == 2) & (_group_span(xy, idx, off, role == 2, ends, which, touch) < speck)
     link = np.full(2 * m, -1, np.int64)
     for _, a, b in sorted(cand):
-        if link[a] < 0 and link[b] < 0 and not drop[which[a]]:
+        other = link[(a + m) % (2 * m)]  # the fill's other end: not to the same stroke at both (there and back)
+        if link[a] < 0 and link[b] < 0 and not drop[which[a]] and not (other >= 0 and which[other] == which[b]):
             link[a], link[b] = b, a
     seen = drop.copy()
     out_idx, counts = [], []
