@@ -151,51 +151,44 @@ def face_facing(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, eye: np.
     return facing(V[F].mean(axis=1), face_normals, eye)
 
 
-def silhouette_edges(face_normals: np.ndarray, ef: EdgeFaces, face_g: np.ndarray, select: np.ndarray,
-                     crease_angle: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The welded edges between a face turned toward the viewer and one turned away (`face_g`, `face_facing`)
-    whose two faces pass `select(f1, f2)` (a (n_pairs,) bool over the manifold edges), as occurrences on the face
-    turned toward the viewer, and whether each is sharper than `crease_angle` degrees (all False for None)."""
+def silhouette_edges(face_normals: np.ndarray, ef: EdgeFaces, face_g: np.ndarray,
+                     crease_angle: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The welded edges between a face turned toward the viewer and one turned away (`face_g`, `face_facing`), as
+    occurrences on the face turned toward the viewer, the other face of each, and whether each is sharper than
+    `crease_angle` degrees (all False for None)."""
     two = ef.second >= 0
-    o1, o2 = ef.first[two][select], ef.second[two][select]
-    f1, f2 = o1 // 3, o2 // 3
-    keep = (face_g[f1] > 0.0) != (face_g[f2] > 0.0)
-    o1, o2, f1, f2 = o1[keep], o2[keep], f1[keep], f2[keep]
-    sharp = np.zeros(len(o1), bool)
+    o1, o2 = ef.first[two], ef.second[two]
+    front1 = face_g[o1 // 3] > 0.0
+    keep = front1 != (face_g[o2 // 3] > 0.0)
+    o1, o2, front1 = o1[keep], o2[keep], front1[keep]
+    occ, back = np.where(front1, o1, o2), np.where(front1, o2, o1) // 3
+    sharp = np.zeros(len(occ), bool)
     if crease_angle is not None:
-        sharp = np.einsum("ij,ij->i", face_normals[f1], face_normals[f2]) < np.cos(np.radians(crease_angle))
-    return np.where(face_g[f1] > 0.0, o1, o2), sharp
-
-
-def _pair_faces(ef: EdgeFaces) -> tuple[np.ndarray, np.ndarray]:
-    two = ef.second >= 0
-    return ef.first[two] // 3, ef.second[two] // 3
+        sharp = np.einsum("ij,ij->i", face_normals[occ // 3], face_normals[back]) < np.cos(np.radians(crease_angle))
+    return occ, back, sharp
 
 
 def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
-                   face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
+                   face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None,
+                   outline: bool = False) -> Segs | tuple[Segs, Segs]:
     """Occluding contours of planar regions: the welded edges between a face turned toward the viewer and one
-    turned away (`face_g`, `face_facing`), both in planar regions (`flat`; next to a curved face, that face's
-    interpolated contour runs along the edge), on the face turned toward the viewer; edges whose faces' normals
-    differ by more than `crease_angle` degrees are left to the creases (None: none are)."""
-    if not flat.any():
+    turned away (`face_g`, `face_facing`, `silhouette_edges`), both in planar regions (`flat`; next to a curved
+    face, that face's interpolated contour runs along the edge), on the face turned toward the viewer; edges whose
+    faces' normals differ by more than `crease_angle` degrees are left to the creases (None: none are). With
+    `outline`, also the others (the polygonal silhouette outside planar regions, the same crease rule), from the
+    same pass: (planar, outline); `reconcile_outline` draws the outline ones where the interpolated contours miss
+    the mesh's outline."""
+    if not flat.any() and not outline:
         return Segs.empty()
-    f1, f2 = _pair_faces(ef)
-    occ, sharp = silhouette_edges(face_normals, ef, face_g, flat[f1] & flat[f2], crease_angle)
-    occ = occ[~sharp]
-    return _edge_segs(V, F, wid, occ, KIND["contour"], np.ones(len(occ), bool))
+    occ, back, sharp = silhouette_edges(face_normals, ef, face_g, crease_angle)
+    planar = flat[occ // 3] & flat[back]
 
+    def segs(keep: np.ndarray) -> Segs:
+        return _edge_segs(V, F, wid, occ[keep], KIND["contour"], np.ones(int(keep.sum()), bool))
 
-def outline_edges(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
-                  face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None) -> Segs:
-    """The polygonal silhouette outside planar regions: the welded edges between a face turned toward the viewer
-    and one turned away, not both in planar regions (`facet_contours` draws those), on the face turned toward
-    the viewer, as contour segments; those sharper than `crease_angle` degrees are left to the creases (None: none
-    are). `reconcile_outline` draws them where the interpolated contours miss the mesh's outline."""
-    f1, f2 = _pair_faces(ef)
-    occ, sharp = silhouette_edges(face_normals, ef, face_g, ~(flat[f1] & flat[f2]), crease_angle)
-    occ = occ[~sharp]
-    return _edge_segs(V, F, wid, occ, KIND["contour"], np.ones(len(occ), bool))
+    if not outline:
+        return segs(planar & ~sharp)
+    return segs(planar & ~sharp), segs(~planar & ~sharp)
 
 
 def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,
@@ -504,8 +497,9 @@ def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray
 
 
 def outline_candidates(edges: Segs, view: View, far: np.ndarray) -> Segs:
-    """The silhouette edges (`outline_edges`) with an end or their middle on the image's outline (`at_outline`):
-    the others cannot draw any of it (`reconcile_outline` drops their samples), so they are not chained."""
+    """The silhouette edges (`facet_contours`' outline ones) with an end or their middle on the image's outline
+    (`at_outline`): the others cannot draw any of it (`reconcile_outline` drops their samples), so they are not
+    chained."""
     if not len(edges):
         return edges
     keep = np.zeros(len(edges), bool)
@@ -531,15 +525,15 @@ def edge_points(segs: Segs, view: View, step: float) -> np.ndarray:
 def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, outline: Samples,
                       outline_state: np.ndarray, sharp: np.ndarray, radius: float, far: np.ndarray,
                       silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One outline from a mesh's interpolated contours and its polygonal silhouette (`outline_edges`), which agree
-    within a pixel on a finely tessellated smooth mesh and part on a coarse one (a low-poly rock: the interpolated
-    zero set cuts across faces turned toward the viewer, inside the outline the render draws, or lies hidden
-    behind them). `sm`, `state`: the other lines' samples and visibility, `interpolated` marking the interpolated
-    contour samples and `sharp` the crease samples; `outline`, `outline_state` the silhouette's. Returns the two
-    states with dropped samples at -1 (as off the canvas: never kept):
+    """One outline from a mesh's interpolated contours and its polygonal silhouette (`facet_contours`' outline
+    ones), which agree within a pixel on a finely tessellated smooth mesh and part on a coarse one (a low-poly
+    rock: the interpolated zero set cuts across faces turned toward the viewer, inside the outline the render
+    draws, or lies hidden behind them). `sm`, `state`: the other lines' samples and visibility, `interpolated`
+    marking the interpolated contour samples and `sharp` the crease samples; `outline`, `outline_state` the
+    silhouette's. Returns the two states with dropped samples at -1 (as off the canvas: never kept):
 
     * a visible interpolated contour sample farther than `radius` px from every point of the silhouette
-      (`silhouette`: `edge_points` of every `outline_edges` segment, visible or not) and every visible crease
+      (`silhouette`: `edge_points` of every outline segment, visible or not) and every visible crease
       sample (a stray: nothing of the mesh turns away there) is dropped where it is off the image's outline
       (a line across faces turned toward the viewer) or where a visible silhouette sample on the outline lies
       within 2 `radius` + 1 px (the silhouette takes over there). A stray on the outline with no silhouette to
