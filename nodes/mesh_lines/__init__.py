@@ -53,7 +53,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "9"
+    version = "10"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -297,7 +297,8 @@ def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_
     `filled` (from `reconciled`: the silhouette's samples and states, and which line samples are interpolated
     contours) the silhouette where it fills the outline: its samples within 2 `radius` + 1 px of the interpolated
     contours' drawn strokes are dropped (`extract.suppress_filled`), the rest cut into strokes and joined to the
-    interpolated contours whose ends lie within `radius` + 3 `spacing` px of their ends (`extract.join_ends`), so
+    interpolated contours whose ends lie within 2 `radius` + 1 + 3 `spacing` px of their ends (`extract.join_ends`:
+    the gap the suppression leaves, and a sample's spacing either side), so
     that an outline runs on as one stroke where the fill takes over (one pen stroke, one overshoot); a group of
     filled pieces spanning under max(2 `min_length`, 4 `radius`) px (a cusp's folds) is dropped, and so is an
     interpolated contour stroke that short left between strays `reconcile_outline` dropped
@@ -318,7 +319,7 @@ def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_
     idx, off = np.r_[idx, idx_o + n], np.r_[off, off_o[1:] + off[-1]]
     first = idx[off[:-1]]
     role = np.where(first >= n, 2, np.where(sm.kind[first] == extract.KIND["contour"], 1, 0))
-    idx, off = extract.join_ends(sm.xy, idx, off, role, state[first], radius + 3.0 * spacing, speck,
+    idx, off = extract.join_ends(sm.xy, idx, off, role, state[first], 2.0 * radius + 1.0 + 3.0 * spacing, speck,
                                  1.5 * spacing)
     return sm, state, idx, off
 
