@@ -266,8 +266,8 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
                far: np.ndarray | None = None) -> tuple[Any, ...]:
     """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`. With `outline`
     (`object_lines`) the polygonal silhouette draws the outline where the interpolated contours stray from it
-    by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`), in pieces of
-    at least twice `min_length`."""
+    by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`), cut, cleaned
+    and joined to them as `split_lines` says."""
     far = extract.outline_far(zbuf) if far is None else far
     sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
     filled = None
@@ -298,8 +298,8 @@ def split_lines(sm: extract.Samples, state: np.ndarray, split_angle: float, min_
     contours) the silhouette where it fills the outline: its samples within 2 `radius` + 1 px of the interpolated
     contours' drawn strokes are dropped (`extract.suppress_filled`), the rest cut into strokes and joined to the
     interpolated contours whose ends lie within 2 `radius` + 1 + 3 `spacing` px of their ends (`extract.join_ends`:
-    the gap the suppression leaves, and a sample's spacing either side), so
-    that an outline runs on as one stroke where the fill takes over (one pen stroke, one overshoot); a group of
+    the gap the suppression leaves, and a sample's spacing either side), so that an outline runs on as one stroke
+    where the fill takes over (one pen stroke, one overshoot); a group of
     filled pieces spanning under max(2 `min_length`, 4 `radius`) px (a cusp's folds) is dropped, and so is an
     interpolated contour stroke that short left between strays `reconcile_outline` dropped
     (`extract.drop_fragments`)."""
