@@ -612,10 +612,10 @@ def drop_fragments(sm: Samples, state: np.ndarray, idx: np.ndarray, off: np.ndar
 
 
 def _group_span(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, member: np.ndarray, ends: np.ndarray,
-               which: np.ndarray, touch: float) -> np.ndarray:
+               which: np.ndarray, touch: float) -> tuple[np.ndarray, np.ndarray]:
     """Per stroke: the diagonal of the bounding box of its group, the `member` strokes whose ends lie within
     `touch` px of each other, transitively (one polyline cut where it turned or its visibility changed); inf for
-    the others."""
+    the others; and the group label of every stroke."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -624,7 +624,7 @@ def _group_span(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, member: np.nda
     out = np.full(m, np.inf)
     e = np.flatnonzero(member[which])
     if not len(e):
-        return out
+        return out, np.arange(m)
     pairs = cKDTree(ends[e]).query_pairs(touch, output_type="ndarray")
     pairs = pairs.reshape(-1, 2)
     a, b = which[e[pairs[:, 0]]], which[e[pairs[:, 1]]]
@@ -641,7 +641,7 @@ def _group_span(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, member: np.nda
     np.maximum.at(hi, lab, p)
     span = np.hypot(*(hi - lo).T)
     out[member] = span[label[member]]
-    return out
+    return out, label
 
 
 def join_ends(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, role: np.ndarray, group: np.ndarray,
@@ -651,9 +651,10 @@ def join_ends(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, role: np.ndarray
     whose ends lie within `dist` px of its ends, nearest pairs first, each end once; role 0 strokes are left as
     they are. Joined strokes run through both in turn (one reversed where needed); a chain that closes on itself
     stays one stroke. Role 2 strokes whose ends touch (within `touch` px, transitively: one polyline cut where it
-    turned or its visibility changed) form a group; a group whose bounding box spans under `speck` px is dropped:
-    the polygonal silhouette folds back and forth in a few pixels by a cusp, where an interpolated contour ends.
-    Returns the new (idx, off)."""
+    turned or its visibility changed) form a group; a group whose bounding box spans under `speck` px is dropped
+    unless its ends come within `dist` of two different role 1 ends (a short gap bridged): the polygonal
+    silhouette folds back and forth in a few pixels by a cusp, where an interpolated contour ends. Returns the new
+    (idx, off)."""
     from scipy.spatial import cKDTree
 
     m = len(off) - 1
@@ -669,7 +670,11 @@ def join_ends(xy: np.ndarray, idx: np.ndarray, off: np.ndarray, role: np.ndarray
             for f, js in zip(fill_e, pairs, strict=True) for j in js if group[which[f]] == group[which[line_e[j]]]]
     drop = np.zeros(m, bool)
     if speck > 0.0:
-        drop = (role == 2) & (_group_span(xy, idx, off, role == 2, ends, which, touch) < speck)
+        span, label = _group_span(xy, idx, off, role == 2, ends, which, touch)
+        # a group whose ends come near two different contour ends bridges a gap between them: kept, however short
+        near = {(int(label[which[f]]), int(b)) for _, f, b in cand}
+        ends_per_group = np.bincount(np.array([g for g, _ in near], np.int64), minlength=m) if near else np.zeros(m)
+        drop = (role == 2) & (span < speck) & (ends_per_group[label] < 2)
     link = np.full(2 * m, -1, np.int64)
     for _, a, b in sorted(cand):
         other = link[(a + m) % (2 * m)]  # the fill's other end: not to the same stroke at both (there and back)
