@@ -226,8 +226,8 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
                  boundaries: bool = True, crease_angle: float = 60.0,
                  outline: bool = False) -> tuple[extract.Segs, tuple[extract.Segs, np.ndarray] | None]:
     """`object_segments`, and with `outline` (and `contours`) the mesh's polygonal silhouette outside planar
-    regions (`extract.facet_contours` with `outline`; edges sharper than `crease_angle` left to the creases where
-    they are drawn) with its faces in planar regions, for `strokes_of`."""
+    regions (`extract.outline_edges`; edges sharper than `crease_angle` left to the creases where they are
+    drawn) with its faces in planar regions, for `strokes_of`."""
     weld, nw, ef = topology(mesh)
     V, F = mesh.vertices, mesh.faces
     parts = []
@@ -238,12 +238,10 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
         flat = planes.planar(mesh, weld)
         crease = crease_angle if creases else None
         parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
+        silhouette = extract.silhouette_edges(fn, ef, face_g, crease)
+        parts.append(extract.facet_contours(V, F, weld, flat, silhouette))
         if outline:
-            planar, around = extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease, outline=True)
-            parts.append(planar)
-            edges = (around, flat)
-        else:
-            parts.append(extract.facet_contours(V, F, fn, weld, ef, face_g, flat, crease))
+            edges = (extract.outline_edges(V, F, weld, flat, silhouette), flat)
     if creases or boundaries:
         parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries))
     return extract.Segs.concat(parts), edges

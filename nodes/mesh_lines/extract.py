@@ -168,27 +168,24 @@ def silhouette_edges(face_normals: np.ndarray, ef: EdgeFaces, face_g: np.ndarray
     return occ, back, sharp
 
 
-def facet_contours(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray, ef: EdgeFaces,
-                   face_g: np.ndarray, flat: np.ndarray, crease_angle: float | None = None,
-                   outline: bool = False) -> Segs | tuple[Segs, Segs]:
-    """Occluding contours of planar regions: the welded edges between a face turned toward the viewer and one
-    turned away (`face_g`, `face_facing`, `silhouette_edges`), both in planar regions (`flat`; next to a curved
-    face, that face's interpolated contour runs along the edge), on the face turned toward the viewer; edges whose
-    faces' normals differ by more than `crease_angle` degrees are left to the creases (None: none are). With
-    `outline`, also the others (the polygonal silhouette outside planar regions, the same crease rule), from the
-    same pass: (planar, outline); `reconcile_outline` draws the outline ones where the interpolated contours miss
-    the mesh's outline."""
-    if not flat.any() and not outline:
-        return Segs.empty()
-    occ, back, sharp = silhouette_edges(face_normals, ef, face_g, crease_angle)
-    planar = flat[occ // 3] & flat[back]
+def facet_contours(V: np.ndarray, F: np.ndarray, wid: np.ndarray, flat: np.ndarray,
+                   silhouette: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Segs:
+    """Occluding contours of planar regions: the silhouette edges (`silhouette`: `silhouette_edges`) whose two
+    faces are both in planar regions (`flat`; next to a curved face, that face's interpolated contour runs along
+    the edge), on the face turned toward the viewer; those sharper than the crease angle are left to the creases."""
+    occ, back, sharp = silhouette
+    keep = flat[occ // 3] & flat[back] & ~sharp
+    return _edge_segs(V, F, wid, occ[keep], KIND["contour"], np.ones(int(keep.sum()), bool))
 
-    def segs(keep: np.ndarray) -> Segs:
-        return _edge_segs(V, F, wid, occ[keep], KIND["contour"], np.ones(int(keep.sum()), bool))
 
-    if not outline:
-        return segs(planar & ~sharp)
-    return segs(planar & ~sharp), segs(~planar & ~sharp)
+def outline_edges(V: np.ndarray, F: np.ndarray, wid: np.ndarray, flat: np.ndarray,
+                  silhouette: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Segs:
+    """The polygonal silhouette outside planar regions: the silhouette edges (`silhouette_edges`) not both of whose
+    faces are planar (`facet_contours` draws those) and not sharper than the crease angle, on the face turned toward
+    the viewer. `reconcile_outline` draws them where the interpolated contours miss the mesh's outline."""
+    occ, back, sharp = silhouette
+    keep = ~(flat[occ // 3] & flat[back]) & ~sharp
+    return _edge_segs(V, F, wid, occ[keep], KIND["contour"], np.ones(int(keep.sum()), bool))
 
 
 def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,
@@ -478,8 +475,8 @@ background or farther than its depth by more than this fraction of it."""
 
 
 def outline_far(zbuf: np.ndarray) -> np.ndarray:
-    """The linear depth buffer with the background at inf, padded by two pixels of background all round, for
-    `at_outline`."""
+    """The linear depth buffer with the background at inf, padded by two pixels of background all round: made once
+    a frame, read by `depth_visibility` and `at_outline`."""
     return np.pad(np.where(zbuf > 0.0, zbuf, np.inf), 2, constant_values=np.inf)
 
 
@@ -497,7 +494,7 @@ def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray
 
 
 def outline_candidates(edges: Segs, view: View, far: np.ndarray) -> Segs:
-    """The silhouette edges (`facet_contours`' outline ones) with an end or their middle on the image's outline
+    """The silhouette edges (`outline_edges`) with an end or their middle on the image's outline
     (`at_outline`): the others cannot draw any of it (`reconcile_outline` drops their samples), so they are not
     chained."""
     if not len(edges):
@@ -525,8 +522,8 @@ def edge_points(segs: Segs, view: View, step: float) -> np.ndarray:
 def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, outline: Samples,
                       outline_state: np.ndarray, sharp: np.ndarray, radius: float, far: np.ndarray,
                       silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One outline from a mesh's interpolated contours and its polygonal silhouette (`facet_contours`' outline
-    ones), which agree within a pixel on a finely tessellated smooth mesh and part on a coarse one (a low-poly
+    """One outline from a mesh's interpolated contours and its polygonal silhouette (`outline_edges`), which
+    agree within a pixel on a finely tessellated smooth mesh and part on a coarse one (a low-poly
     rock: the interpolated zero set cuts across faces turned toward the viewer, inside the outline the render
     draws, or lies hidden behind them). `sm`, `state`: the other lines' samples and visibility, `interpolated`
     marking the interpolated contour samples and `sharp` the crease samples; `outline`, `outline_state` the
