@@ -31,6 +31,10 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
      other two axes: the other convention's (Z for a Y-up format, Y for STL) unless it cannot rest on
      either end of it (`resting_support`), and of its two ends the one with the more stable resting poses
      and the flatter base below (the sign is the weakest part of the guess, and the line says `--up`).
+     No axis mid-plane is the mirror plane when a principal plane of the surface off the axes
+     (`off_axis_mirror`) mirrors it MIRROR_RATIO times more closely still: the mesh is turned off the axes
+     (a model set at 20-65 degrees about its up in its file), and which axis mid-plane mirrors it least badly
+     says nothing. OFF_AXIS_DEG was set on the orientation bench's turned presentations.
   2. *A flat base.* Else, when the mesh cannot rest on the convention's bottom at all (no stable resting
      pose with that up), an axis whose lowest BASE_BAND of the extent holds down-facing faces covering at
      least BASE_SHARE of the bounding box's footprint, BASE_RATIO times the convention's own, on which the
@@ -115,6 +119,7 @@ BASE_RATIO = 2.0  # ... and at least this many times the convention's own base
 MIRROR_MAX = 0.05  # a clean mirror plane: at most this share of the surface has no mirror image across it ...
 MIRROR_GAP = 0.12  # ... and each other axis plane at least this much more
 MIRROR_RATIO = 1.3  # a mirror plane differs from its image this many times less than across the other axes
+OFF_AXIS_DEG = 3.0  # a principal axis this far from every coordinate axis is off the axes (sampling moves it less)
 FEATURE_DEG = 30.0  # an edge is a feature line when its two faces meet at more than this (Blender's auto-smooth)
 DETAIL_MARGIN = 1.3  # the far end of the front axis is the front when it shows this many times the feature lines
 DETAIL_FLOOR = 0.25  # ... each side counted with this share of the picture's width of line added
@@ -304,11 +309,13 @@ def mirror_distance(points: np.ndarray, axis: int, scale: float) -> float:
     return float(d.mean()) / scale
 
 
-def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1, 2)) -> int | None:
+def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1, 2),
+                 principal: bool = True) -> int | None:
     """Of `axes`, the one whose mid-plane is the surface's (`points`) mirror plane: its `mirror_distance` at most
     1 / MIRROR_RATIO of every other's, of the axes along which the surface is not thin (under THIN of the largest
-    extent along `axes`: a flat or slender subject mirrors itself across its thickness whatever it shows); None
-    when none is, or fewer than two axes are not thin."""
+    extent along `axes`: a flat or slender subject mirrors itself across its thickness whatever it shows), and
+    (`principal`) of the principal planes' (`off_axis_mirror`); None when none is, or fewer than two axes are not
+    thin."""
     ext = np.ptp(points, axis=0)
     top = max(float(ext[k]) for k in axes)
     kept = [k for k in axes if ext[k] >= THIN * top]
@@ -316,15 +323,55 @@ def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1
         return None
     d = {k: mirror_distance(points, k, scale) for k in kept}
     best = min(kept, key=d.__getitem__)
-    if all(MIRROR_RATIO * d[best] <= d[k] for k in kept if k != best):
+    if all(MIRROR_RATIO * d[best] <= d[k] for k in kept if k != best) \
+            and not (principal and MIRROR_RATIO * off_axis_mirror(points, scale) <= d[best]):
         return best
     return None
 
 
+def plane_distance(points: np.ndarray, normal: np.ndarray, scale: float) -> float:
+    """`mirror_distance` across the plane through the points' mean with unit normal `normal` (any direction)."""
+    from scipy.spatial import cKDTree
+
+    n = np.asarray(normal, dtype=np.float64)
+    side = (points - points.mean(axis=0)) @ n
+    d, _ = cKDTree(points).query(points - 2.0 * side[:, None] * n, k=1)
+    return float(d.mean()) / scale
+
+
+def off_axis_mirror(points: np.ndarray, scale: float) -> float:
+    """The smallest `plane_distance` across the planes whose normals are the principal axes of `points` (a mirror
+    plane's normal is one: reflection leaves the covariance unchanged) that lie more than OFF_AXIS_DEG from every
+    coordinate axis; inf when none does. An axis-aligned mesh's principal axes are its axes, whose mid-planes
+    `mirror_plane` weighs itself (or leaves out, the surface being thin along them); a mesh turned about its up by
+    other than a quarter turn, or tilted a few degrees, has its mirror plane, or the broad plane of a flat
+    cut-out, among these, and then an axis mid-plane that mirrors the surface less badly than the others is not
+    its mirror plane (a box robot turned 30 degrees, whose top and bottom halves mirror each other roughly; a rock
+    tilted 7 degrees from its nearest plane of symmetry)."""
+    c = points - points.mean(axis=0)
+    _, vecs = np.linalg.eigh(c.T @ c)
+    best = math.inf
+    for k in range(3):
+        if float(np.abs(vecs[:, k]).max()) < math.cos(math.radians(OFF_AXIS_DEG)):
+            best = min(best, plane_distance(points, vecs[:, k], scale))
+    return best
+
+
+def clean_mirror(points: np.ndarray, scale: float, asym: Any) -> int | None:
+    """`mirror_axis` of the `asymmetry` values, unless a principal plane (`off_axis_mirror`) mirrors the surface
+    MIRROR_RATIO times more closely than that axis's mid-plane."""
+    k = mirror_axis(asym)
+    if k is None or MIRROR_RATIO * off_axis_mirror(points, scale) <= mirror_distance(points, k, scale):
+        return None
+    return k
+
+
 def upright_mirror(points: np.ndarray, scale: float) -> int | None:
     """The mirror plane of a stood-up (Y-up) surface, left to right: `mirror_plane` of its horizontal axes, 0 (X)
-    or 2 (Z), or None."""
-    return mirror_plane(points, scale, (0, 2))
+    or 2 (Z), or None. The principal planes are not weighed here: of a mesh turned about its up off the axes, or
+    of one that is no mirror image of itself (a grand piano), the horizontal axis that mirrors it more closely
+    still says along which axis it is seen best."""
+    return mirror_plane(points, scale, (0, 2), principal=False)
 
 
 def mirror_axis(asym: Any) -> int | None:
@@ -779,7 +826,7 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
     asym = [asymmetry(p, k, scale) for k in range(3)]
     mirror = mirror_plane(p, scale)
     if mirror is None:
-        mirror = mirror_axis(asym)
+        mirror = clean_mirror(p, scale, asym)
     evidence["asymmetry"] = [round(a, 3) for a in asym]
     evidence["mirror"] = None if mirror is None else "xyz"[mirror]
     chosen = up

@@ -246,6 +246,41 @@ def test_a_figure_lying_with_its_left_right_axis_up_is_stood_up() -> None:
     assert np.allclose(framing.up_rotation(o.up)[:3, :3].T @ o.front, turn @ [0.0, 0.0, 1.0])  # its front: +X
 
 
+def _yawed(v: np.ndarray, degrees: float) -> np.ndarray:
+    a = np.radians(degrees)
+    return v @ np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]]).T
+
+
+def test_a_mesh_turned_about_its_up_off_the_axes_keeps_its_up() -> None:
+    """A Y-up van, sedan or box robot (the orientation bench's) turned 20-65 degrees about Y has no axis mid-plane
+    for a mirror plane; its top and bottom halves mirror each other less badly than its turned sides do across the
+    X and Z mid-planes, which stood it up along Z ("mirror-symmetric across y") before the principal planes were
+    weighed. Its mirror plane is a principal plane (`off_axis_mirror`), so Y stays up and nothing is said."""
+    for make in (orientation.van, orientation.sedan, orientation.robot):
+        mesh = make()
+        for degrees in (20.0, 40.0, 65.0):
+            v = _yawed(mesh.vertices, degrees)
+            p = framing.surface_samples(v, mesh.faces)
+            scale = float(np.linalg.norm(np.ptp(p, axis=0)))
+            along = [framing.mirror_distance(p, k, scale) for k in range(3)]
+            assert framing.MIRROR_RATIO * framing.off_axis_mirror(p, scale) <= min(along)
+            assert framing.mirror_plane(p, scale) is None
+            o = framing.orient(v, mesh.faces, ".obj")
+            assert o.up == "y" and not any(n.startswith("stood up") for n in o.notes), (mesh.name, degrees, o.notes)
+
+
+def test_the_principal_plane_of_an_axis_mirror_is_that_plane() -> None:
+    """Where an axis mid-plane is the mirror plane, the principal planes find nothing closer: the boxes figure keeps
+    its upright mirror plane across X, and turned 90 degrees about Y, across Z."""
+    fig = figure()
+    for degrees, axis in ((0.0, 0), (90.0, 2)):
+        v = _yawed(fig.vertices, degrees)
+        p = framing.surface_samples(v, fig.faces)
+        scale = float(np.linalg.norm(np.ptp(p, axis=0)))
+        assert framing.off_axis_mirror(p, scale) >= framing.mirror_distance(p, axis, scale) / framing.MIRROR_RATIO
+        assert framing.upright_mirror(p, scale) == axis
+
+
 def test_a_flat_cut_out_has_no_upright_mirror() -> None:
     """A thin plate is its own mirror image across its thin axis, whichever way it faces: no front from that."""
     for size in ((1.0, 1.5, 0.02), (0.02, 1.5, 1.0)):

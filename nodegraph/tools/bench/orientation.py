@@ -36,11 +36,13 @@ The meshes are kept in four sets, and the figures are given for each apart:
   stood; the upright mirror plane (`framing.upright_mirror`) came after, its ratio set below the tune set's
   smallest, the report and wild values printed beside them.
 
-Presentations fall in three cases: *convention* (the file's convention is right: up +Y and front +Z as an
-OBJ, or Z-up with the front -Y as an STL), *front turned* (up +Y, the front any other way) and *up turned*
-(the 20 rotations where +Y is not up). For each: the share whose up is found, the share (of those) whose
-front is found (meshes with a known front), and how often the framing said it overrode the convention
-(`notes`): a right override on a turned presentation, a false one on a convention presentation.
+Presentations fall in four cases: *convention* (the file's convention is right: up +Y and front +Z as an
+OBJ, or Z-up with the front -Y as an STL), *front turned* (up +Y, the front any other way), *up turned* (the 20
+rotations where +Y is not up) and *turned off the axes* (up +Y, turned OFF_AXIS_YAWS about it: a model set at an
+angle in its file, whose up is right as the file has it; only the up is judged). For each: the share whose up is
+found, the share (of those) whose front is found (meshes with a known front), and how often the framing said it
+overrode the convention (`notes`): a right override on a turned presentation, a false one on a convention
+presentation.
 
 The *front sign* table gives the up (Y) and judges the front alone, on every mesh with a known front turned so
 that it faces +Z (the convention right: any override is false), -Z (the file faces away: the convention is
@@ -861,6 +863,19 @@ def judge(case: Case, rot: np.ndarray, suffix: str = ".obj") -> dict[str, Any]:
             "overrode": bool(o.notes), "up": o.up, "true_up": framing.axis_name(true_up)}
 
 
+OFF_AXIS_YAWS = (20, 40, 65)  # degrees about +Y: a mesh turned so that no axis mid-plane is its mirror plane
+
+
+def judge_yawed(case: Case, degrees: float) -> dict[str, Any]:
+    """`case.mesh` turned `degrees` about +Y (a model set at an angle in its file) as a Y-up OBJ: its up is still
+    +Y, and any override of the up axis is false."""
+    a = np.radians(degrees)
+    rot = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+    o = framing.orient(case.mesh.vertices @ rot.T, case.mesh.faces, ".obj", front=False)
+    return {"mesh": case.name, "group": case.group, "yaw": degrees, "up_ok": o.up == "y", "up": o.up,
+            "rule": o.rule}
+
+
 NOISE = 0.005  # the noisy copies: vertices moved by this share of the diagonal (root mean square)
 VARIANTS = ("plain", "noisy", "scaled", "mirrored")
 YAWS = {"+z": 0, "+x": 90, "-z": 180, "-x": 270}  # where the true front points, by the turn about +Y
@@ -954,6 +969,7 @@ def _run(meshes_dir: Path | None, only: tuple[str, ...], n_rotations: int, varia
     distributed = [dict(judge(c, c.as_distributed(), c.suffix), file=c.name + c.suffix) for c in wild]
     all_cases += wild
     front_rows, front_summary = run_front(all_cases, variants)
+    yawed = [judge_yawed(c, a) for c in all_cases for a in OFF_AXIS_YAWS]
     for case in all_cases:
         for rot in rotations()[:n_rotations]:
             rows.append(judge(case, rot))
@@ -972,6 +988,11 @@ def _run(meshes_dir: Path | None, only: tuple[str, ...], n_rotations: int, varia
                 ("false overrides" if kind == "convention" else "overrides said"):
                     round(sum(r["overrode"] for r in sel) / len(sel), 3),
             }
+    for group in GROUPS:
+        sel = [r for r in yawed if r["group"] == group]
+        if sel:
+            summary[f"{group}: turned off the axes"] = {
+                "presentations": len(sel), "up found": round(sum(r["up_ok"] for r in sel) / len(sel), 3)}
     if distributed:
         fronts = [r["front_ok"] for r in distributed if r["front_ok"] is not None]
         summary["wild: as distributed"] = {
@@ -981,6 +1002,7 @@ def _run(meshes_dir: Path | None, only: tuple[str, ...], n_rotations: int, varia
     meshes = {g: sorted({r["mesh"] for r in rows if r["group"] == g}) for g in GROUPS}
     return {"benchmark": "orientation", "meshes": {g: m for g, m in meshes.items() if m}, "summary": summary,
             "front": front_summary, "rows": rows, "front_rows": front_rows, "as_distributed": distributed,
+            "turned_off_axes": yawed,
             "seconds": round(time.perf_counter() - t0, 2)}
 
 
@@ -1026,6 +1048,10 @@ def command(meshes_dir: Path | None, only: tuple[str, ...], wild_dir: Path | Non
     for r in result["rows"]:
         per_mesh.setdefault(r["mesh"], []).append(r["up_ok"])
     click.echo("up found per mesh (25 presentations): " + ", ".join(f"{m} {sum(v)}" for m, v in per_mesh.items()))
+    wrong = [f"{r['mesh']} {r['yaw']}\N{DEGREE SIGN} ({r['up']}, {r['rule']})" for r in result["turned_off_axes"]
+             if not r["up_ok"]]
+    click.echo(f"turned off the axes about +Y ({', '.join(map(str, OFF_AXIS_YAWS))} degrees), up not found: "
+               + (", ".join(wrong) or "none"))
     click.echo(f"{result['seconds']} s")
     text = json.dumps(result, indent=1)
     if json_path:
