@@ -45,6 +45,14 @@ done
 $py docs/side_by_side.py $i/strokes_outline.png "plotter_lines, 80-face rock" out/strokes/rock80.png \
     "lines.outline: 0" out/strokes/rock80_off.png "320-face rock" out/strokes/rock320.png \
     "lines.outline: 0" out/strokes/rock320_off.png
+# intersection lines (mesh_lines `intersections`, docs/strokes.md): the teapot's spout and suzanne's eyes
+for n in teapot suzanne; do
+    $sg run plotter_lines --scene $m/$n.obj --size 400x400 -o out/strokes/x_$n.png
+    $sg run plotter_lines --scene $m/$n.obj --size 400x400 --set lines.intersections=false -o out/strokes/x_${n}_off.png
+done
+$py docs/side_by_side.py $i/strokes_intersections.png "plotter_lines, teapot" out/strokes/x_teapot.png \
+    "lines.intersections: false" out/strokes/x_teapot_off.png "suzanne" out/strokes/x_suzanne.png \
+    "lines.intersections: false" out/strokes/x_suzanne_off.png
 # the short film (README, docs/animation.md)
 $py examples/film/make_shot.py out/shot
 $sg run pencil --scene out/shot/shot.yaml --fps 12 --size 288x288 \

@@ -92,7 +92,8 @@ class TexArray:
 
 # Line kinds a stroke vertex can carry (`Strokes.kind` holds the index into this tuple). "stroke" is a plain
 # drawn stroke with no surface meaning (particle_sketch's); the others are lines found on a mesh (mesh_lines).
-LINE_KINDS = ("stroke", "contour", "crease", "boundary", "border", "suggestive", "ridge", "valley", "hatching")
+LINE_KINDS = ("stroke", "contour", "crease", "boundary", "border", "suggestive", "ridge", "valley", "hatching",
+              "intersection")
 
 # The per-vertex attributes of `Strokes`: name -> (dtype, trailing shape, fill value when not given).
 STROKE_ATTRS: dict[str, tuple[type, tuple[int, ...], float]] = {

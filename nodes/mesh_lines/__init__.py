@@ -14,11 +14,12 @@ from nodegraph.scene import origin
 from nodegraph.types import ARRAYS, SCENE, STROKES, Texture
 
 from .._shared import planes
-from . import extract
+from . import extract, intersect
 
 _FEATURES = ("suggestive", "ridges", "valleys")
 _TOPOLOGY: dict[str, tuple[np.ndarray, int, extract.EdgeFaces]] = {}  # mesh topology hash -> (weld, n, edges)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
+_SELF_CROSSINGS: dict[str, extract.Segs] = {}  # posed mesh hash -> its intersection segments with itself
 
 
 class _FeatureDefaults:
@@ -43,7 +44,8 @@ class MeshLines(Node):
     mesh, where the interpolated contours stray from the polygonal silhouette by more than `outline` pixels, that
     silhouette, on the image's outline: `extract.reconcile_outline`), creases (welded
     edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
-    (boundaries another object shares: object and material borders) and, where a curvature node is connected,
+    (boundaries another object shares: object and material borders), intersections (where faces of one object or
+    of two pass through each other: `intersect.py`) and, where a curvature node is connected,
     feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
     chained across faces (through points two segments of one kind share; where three or more meet, along the
     straightest pair turning by less than `junction_turn`, as Freestyle chooses at a junction), sampled every
@@ -53,7 +55,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "11"
+    version = "12"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -91,6 +93,9 @@ class MeshLines(Node):
                                "the image: a smaller difference does not show) from the mesh's polygonal silhouette "
                                "(a coarse mesh), the silhouette draws the outline and the strays are dropped "
                                "(extract.reconcile_outline); 0: interpolated contours only.")
+        intersections: bool = Field(True, description="Intersection lines: where faces of one object, or of two, "
+                                    "pass through each other (parts pushed into each other; nodes/mesh_lines/"
+                                    "intersect.py).")
         hidden: bool = Field(False, description="Keep hidden strokes (visible = False: their own layers).")
         width: float = Field(1.0, gt=0, le=64, description="Stroke width in pixels at the reference size (times "
                              "px_scale).")
@@ -121,12 +126,14 @@ class MeshLines(Node):
             model = np.asarray(obj.transform, dtype=np.float64)
             eye_obj = np.linalg.inv(model) @ eye
             s, outline = object_lines(obj.mesh, eye_obj, p.contours, p.creases, p.boundaries, p.crease_angle,
-                                      p.outline > 0)
+                                      p.outline > 0, p.intersections)
             if features:
                 s = extract.Segs.concat([s, self.feature_segments(curv, index, obj.mesh, eye_obj, features)])
             objs.append((index, model, outline))
             segs.append(s)
             transforms.append(model)
+        if p.intersections and len(segs) > 1:
+            segs = crossings_between(scene, objs, segs)
         if p.boundaries and len(segs) > 1:
             lo, hi = scene.bounds()
             segs = extract.mark_borders(segs, transforms, 1e-6 * max(float(np.linalg.norm(hi - lo)), 1e-12))
@@ -182,24 +189,12 @@ class MeshLines(Node):
                 continue
             face = ops.face_index[seg.face].astype(np.int64)
             tri = mesh.vertices[mesh.faces[face]]  # (s, 3, 3)
-            bary = np.stack([barycentric(tri, seg.points[:, k]) for k in range(2)], axis=1)
+            bary = np.stack([extract.barycentric(tri, seg.points[:, k]) for k in range(2)], axis=1)
             e = seg.edge
             key = extract.edge_key(weld[e[..., 0]], weld[e[..., 1]], nw)
             parts.append(extract.Segs(seg.points, bary, face, key, np.full(len(seg), extract.KIND[label], np.uint8),
                                       np.ones(len(seg), bool)))
         return extract.Segs.concat(parts)
-
-
-def barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (k, 3) of points p (k, 3) in triangles tri (k, 3, 3) (projected onto the plane)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
-    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
-    den = np.where(np.abs(d00 * d11 - d01 * d01) > 1e-300, d00 * d11 - d01 * d01, 1e-300)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
@@ -223,11 +218,12 @@ def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creas
 
 
 def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
-                 boundaries: bool = True, crease_angle: float = 60.0,
-                 outline: bool = False) -> tuple[extract.Segs, tuple[extract.Segs, np.ndarray] | None]:
-    """`object_segments`, and with `outline` (and `contours`) the mesh's polygonal silhouette outside planar
-    regions (`extract.outline_edges`; edges sharper than `crease_angle` left to the creases where they are
-    drawn) with its faces in planar regions, for `strokes_of`."""
+                 boundaries: bool = True, crease_angle: float = 60.0, outline: bool = False,
+                 intersections: bool = False) -> tuple[extract.Segs, tuple[extract.Segs, np.ndarray] | None]:
+    """`object_segments` (with `intersections`, the mesh's intersections with itself: `self_crossings`), and with
+    `outline` (and `contours`) the mesh's polygonal silhouette outside planar regions (`extract.outline_edges`;
+    edges sharper than `crease_angle` left to the creases where they are drawn) with its faces in planar regions,
+    for `strokes_of`."""
     weld, nw, ef = topology(mesh)
     V, F = mesh.vertices, mesh.faces
     parts = []
@@ -244,7 +240,48 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
             edges = (extract.outline_edges(V, F, weld, flat, silhouette), flat)
     if creases or boundaries:
         parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries))
+    if intersections:
+        parts.append(self_crossings(mesh, weld, nw))
     return extract.Segs.concat(parts), edges
+
+
+def self_crossings(mesh: Any, weld: np.ndarray, nw: int) -> extract.Segs:
+    """The posed mesh's intersection lines with itself (`intersect.intersection_segs`), kept for a few posed
+    meshes: a rigid object's are found once, not each frame. Their keys lie beyond every edge key."""
+    key = mesh.content_hash()
+    got = _SELF_CROSSINGS.get(key)
+    if got is None:
+        if len(_SELF_CROSSINGS) >= 8:
+            _SELF_CROSSINGS.pop(next(iter(_SELF_CROSSINGS)))
+        got = _SELF_CROSSINGS[key] = intersect.intersection_segs(
+            np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw)
+    return got
+
+
+def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs]) -> list[extract.Segs]:
+    """Each object's segments with its intersection lines with the objects after it whose world boxes overlap
+    its own (on its faces, in its space; keys beyond its other keys)."""
+    out = list(segs)
+    boxes = []
+    for index, model, _ in objs:
+        v = np.asarray(scene.objects[index].mesh.vertices, np.float64) @ model[:3, :3].T + model[:3, 3]
+        boxes.append((v.min(axis=0), v.max(axis=0)))
+    for i, (ia, ma, _) in enumerate(objs):
+        for j in range(i + 1, len(objs)):
+            (lo_a, hi_a), (lo_b, hi_b) = boxes[i], boxes[j]
+            if np.any(hi_a < lo_b) or np.any(hi_b < lo_a):
+                continue
+            ib, mb = objs[j][0], objs[j][1]
+            a, b = scene.objects[ia].mesh, scene.objects[ib].mesh
+            to_a = np.linalg.inv(ma) @ mb
+            vb = np.asarray(b.vertices, np.float64) @ to_a[:3, :3].T + to_a[:3, 3]
+            wa, _, _ = topology(a)
+            wb, _, _ = topology(b)
+            base = int(out[i].key.max()) + 1 if len(out[i]) else 0
+            cross = intersect.intersection_segs(np.asarray(a.vertices, np.float64), a.faces, wa, base, vb, b.faces,
+                                                wb)
+            out[i] = extract.Segs.concat([out[i], cross])
+    return out
 
 
 def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float, tolerance: float,

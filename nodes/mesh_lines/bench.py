@@ -148,7 +148,8 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             model = np.asarray(obj.transform, np.float64)
             eye_obj = np.linalg.inv(model) @ eye
             t0 = time.perf_counter()
-            segs, outlined = object_lines(obj.mesh, eye_obj, True, True, True, p.crease_angle, p.outline > 0)
+            segs, outlined = object_lines(obj.mesh, eye_obj, True, True, True, p.crease_angle, p.outline > 0,
+                                          p.intersections)
             mv = view @ model
             v = extract.View(proj @ mv, mv, (size, size))
             far = extract.outline_far(zbuf) if far is None else far

@@ -16,6 +16,7 @@ chaining follows the surface across faces:
 * creases: welded edges between two faces whose normals differ by more than the crease angle;
 * boundaries: welded edges of one face only; `mark_borders` turns those that another object shares (the same
   world position) into borders (object and material borders: glTF primitives are separate objects);
+* intersections (intersect.py): where faces of one mesh, or of two objects, pass through each other;
 * any other segments with surface keys (feature_lines' suggestive contours, ridges and valleys).
 """
 
@@ -63,6 +64,18 @@ class Segs:
             return Segs.empty()
         return Segs(*(np.concatenate([getattr(s, f) for s in parts]) for f in ("p", "bary", "face", "key", "kind",
                                                                                 "front")))
+
+
+def barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates (k, 3) of points p (k, 3) in triangles tri (k, 3, 3) (projected onto the plane)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+    d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+    den = np.where(np.abs(d00 * d11 - d01 * d01) > 1e-300, d00 * d11 - d01 * d01, 1e-300)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def edge_key(wa: np.ndarray, wb: np.ndarray, nw: int) -> np.ndarray:

@@ -1,0 +1,206 @@
+"""Intersection lines (nodes/mesh_lines/intersect.py): the triangle pairs against libigl's own triangle-triangle
+test, the candidate pairs against brute force, two interpenetrating spheres against their analytic circle (one
+mesh, two objects, and through the node with visibility by ray casting), and parts that only touch."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import igl
+import numpy as np
+from nodegraph_nodes.mesh_lines import extract, intersect
+
+from nodegraph.scene import primitives
+from nodegraph.scene.meshes import Mesh, merge_meshes
+from nodegraph.values import LINE_KINDS
+from tests.helpers import run_minimal
+
+R, C = 1.0, 0.6  # two unit spheres centred at x = -C and +C cross on the circle x = 0, radius sqrt(R^2 - C^2)
+
+
+def test_triangle_pairs_agree_with_libigl():
+    rng = np.random.default_rng(3)
+    k = 2000
+    ta = rng.normal(size=(k, 3, 3))
+    tb = rng.normal(size=(k, 3, 3)) * 0.8 + 0.2
+    r = intersect.tri_tri_segments(ta, tb, 1.0)
+    hit_rows = np.flatnonzero(r["hit"])
+    assert 200 < len(hit_rows) < k  # both outcomes are exercised
+    for i in range(k):
+        hit, coplanar, src, dst = igl.tri_tri_intersection_test_3d(*(x[None] for x in (*ta[i], *tb[i])))
+        assert bool(hit and not coplanar) == bool(r["hit"][i]), i
+        if r["hit"][i]:
+            p = r["p"][np.searchsorted(hit_rows, i)]
+            ref = np.r_[src, dst]
+            assert min(np.abs(p - ref).max(), np.abs(p[::-1] - ref).max()) < 1e-9
+
+
+def _brute(lo_a, hi_a, lo_b, hi_b, same):
+    out = set()
+    for i in range(len(lo_a)):
+        for j in range(i + 1 if same else 0, len(lo_b)):
+            if np.all(lo_a[i] <= hi_b[j]) and np.all(lo_b[j] <= hi_a[i]):
+                out.add((i, j))
+    return out
+
+
+def test_candidate_pairs_are_every_overlapping_box_once():
+    """Faces of very different sizes (a few spanning many cells: the coarser levels), within one set and across
+    two: exactly the pairs whose boxes overlap, each once."""
+    rng = np.random.default_rng(5)
+    n = 400
+    centre = rng.random((n, 3))
+    size = rng.random(n) ** 4 * 0.6 + 0.01
+    tri = centre[:, None, :] + rng.normal(size=(n, 3, 3)) * size[:, None, None]
+    lo, hi = intersect.face_boxes(tri)
+    got = intersect.candidate_pairs(lo, hi)
+    assert len(got) == len({tuple(p) for p in got.tolist()})
+    assert {tuple(p) for p in got.tolist()} == _brute(lo, hi, lo, hi, True)
+    a, b = slice(0, 150), slice(150, n)
+    got = intersect.candidate_pairs(lo[a], hi[a], lo[b], hi[b])
+    assert {tuple(p) for p in got.tolist()} == _brute(lo[a], hi[a], lo[b], hi[b], False)
+
+
+def _sphere(x: float, subdiv: int = 4) -> Mesh:
+    s = primitives.sphere(R, subdiv)
+    return Mesh("sphere", s.vertices + (x, 0.0, 0.0), s.faces)
+
+
+def _on_circle(p: np.ndarray, tol: float) -> None:
+    p = p.reshape(-1, 3)
+    rho = np.hypot(p[:, 1], p[:, 2])
+    assert np.abs(p[:, 0]).max() < tol, np.abs(p[:, 0]).max()
+    assert np.abs(rho - np.sqrt(R * R - C * C)).max() < tol, np.abs(rho - 0.8).max()
+
+
+def _one_closed_chain(segs: extract.Segs) -> None:
+    half, off = extract.chain(segs.key, segs.kind, segs.p)
+    assert len(off) == 2 and len(half) == len(segs)  # one chain through every segment
+    first, last = half[0], half[-1]
+    assert segs.key[first >> 1, first & 1] == segs.key[last >> 1, 1 - (last & 1)]  # closed
+
+
+def test_two_spheres_cross_on_their_circle():
+    """As one mesh (its parts pass through each other) and as two: the segments lie on the circle within the
+    polyhedra's sag (edges about 0.08 long: under 0.002) and chain into one closed loop."""
+    a, b = _sphere(-C), _sphere(C)
+    both = merge_meshes([a, b], "two")
+    weld, _ = both.weld()
+    s = intersect.intersection_segs(both.vertices.astype(np.float64), both.faces, weld, 0)
+    assert len(s) > 50 and (s.kind == extract.KIND["intersection"]).all()
+    _on_circle(s.p, 0.01)
+    _one_closed_chain(s)
+    # the segments' barycentric coordinates put them on their faces
+    tri = both.vertices[both.faces[s.face]].astype(np.float64)
+    for k in range(2):
+        assert np.allclose(np.einsum("sc,scd->sd", s.bary[:, k], tri), s.p[:, k], atol=1e-9)
+    wa, _ = a.weld()
+    wb, _ = b.weld()
+    s2 = intersect.intersection_segs(a.vertices.astype(np.float64), a.faces, wa, 0, b.vertices.astype(np.float64),
+                                     b.faces, wb)
+    assert len(s2) == len(s)
+    _on_circle(s2.p, 0.01)
+    _one_closed_chain(s2)
+
+
+def _scene_file(tmp_path: Path) -> Path:
+    path = tmp_path / "spheres.yaml"
+    path.write_text("objects:\n"
+                    f"  - primitive: {{type: sphere, radius: {R}, subdiv: 4}}\n"
+                    f"    transform: {{translate: [{-C}, 0, 0]}}\n"
+                    f"  - primitive: {{type: sphere, radius: {R}, subdiv: 4}}\n"
+                    f"    transform: {{translate: [{C}, 0, 0]}}\n"
+                    "camera: {eye: [1.2, 1.6, 3.2], target: [0, 0, 0]}\n")
+    return path
+
+
+def _hidden(points: np.ndarray, eye: np.ndarray, scene) -> np.ndarray:
+    """Ray casting against the scene's triangles (tests/nodes/mesh_lines/reference.py): a point is hidden where a
+    triangle crosses the ray from it (moved 1e-3 toward the eye, off the two faces it lies on) to the eye."""
+    from tests.nodes.mesh_lines import reference as ref
+
+    world = [o.mesh.vertices.astype(np.float64) @ np.asarray(o.transform)[:3, :3].T + np.asarray(o.transform)[:3, 3]
+             for o in scene.objects]
+    V = np.concatenate(world)
+    F = np.concatenate([o.mesh.faces + sum(len(w) for w in world[:i]) for i, o in enumerate(scene.objects)])
+    d = eye - points
+    start = points + 1e-3 * d / np.linalg.norm(d, axis=1)[:, None]
+    none = [set() for _ in range(len(F))]
+    return ref.occluded(start, np.zeros(len(points), np.int64), V, F, np.r_[eye, 1.0], none)
+
+
+def test_node_draws_the_visible_arc_of_the_circle(tmp_path: Path):
+    size = 200
+    nodes = ("  gbuf:\n    type: rasterize\n  lines:\n    type: mesh_lines\n    in: {linear_depth: gbuf.linear_depth}\n"
+             "    params: {hidden: true, min_length: 0}\n")
+    ex, res = run_minimal(None, nodes, {"s": "lines.strokes"}, size=(size, size), scene=str(_scene_file(tmp_path)))
+    s = res.values[("lines", "strokes")]
+    kind = s["kind"]
+    inter = kind == LINE_KINDS.index("intersection")
+    assert inter.sum() > 100
+    sc = ex.pipeline.scene
+    cam = sc.camera_at(0)
+    eye = np.linalg.inv(cam.view_matrix())[:3, 3]
+    obj = s["obj"][inter]
+    world = np.array([np.asarray(sc.objects[o].transform)[:3, 3] for o in obj]) + s["pos"][inter]
+    _on_circle(world, 0.01)
+    # projected: on the projected circle within a pixel
+    t = np.linspace(0.0, 2.0 * np.pi, 4000)
+    circle = np.stack([np.zeros_like(t), 0.8 * np.cos(t), 0.8 * np.sin(t), np.ones_like(t)], axis=1)
+    h = circle @ (cam.projection_matrix(1.0) @ cam.view_matrix()).T
+    cxy = (h[:, :2] / h[:, 3:4] * 0.5 + 0.5) * size
+    gap = np.min(np.linalg.norm(s.xy[inter][:, None, :] - cxy[None], axis=2), axis=1)
+    assert gap.max() < 1.0, gap.max()
+    # visibility against ray casting
+    vis = s["visible"][inter]
+    ref = ~_hidden(world.astype(np.float64), eye, sc)
+    assert vis.any() and (~vis).any()
+    assert (vis == ref).mean() > 0.95, (vis == ref).mean()
+    # they differ only where the arc passes behind a silhouette at a grazing angle, within the node's depth
+    # tolerance (1 % of the depth) and its one-pixel neighbourhood: near where the ray-cast visibility changes
+    xy = s.xy[inter]
+    stroke = np.repeat(np.arange(len(s)), np.diff(s.starts))[inter]
+    change = np.flatnonzero(ref[1:] != ref[:-1])
+    change = change[stroke[change] == stroke[change + 1]]
+    assert len(change) >= 2
+    far = np.min(np.linalg.norm(xy[vis != ref][:, None, :] - xy[change][None], axis=2), axis=1)
+    assert far.max(initial=0.0) < 12.0, far
+    # and nothing of the kind without intersections
+    nodes_off = nodes.replace("min_length: 0}", "min_length: 0, intersections: false}")
+    _, res_off = run_minimal(None, nodes_off, {"s": "lines.strokes"}, size=(size, size),
+                             scene=str(_scene_file(tmp_path)))
+    off = res_off.values[("lines", "strokes")]
+    assert not (off["kind"] == LINE_KINDS.index("intersection")).any()
+
+
+def test_parts_that_only_touch_draw_no_intersection():
+    """A box resting on another, two quads meeting at an edge at an angle (as two meshes: a glTF file's
+    primitives), a box standing on a floor plane, and a clean torus: no intersection line."""
+    def box(lo, hi):
+        b = primitives.box(1.0)
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        return Mesh("box", (b.vertices + 0.5) * (hi - lo) + lo, b.faces)
+
+    stacked = merge_meshes([box((-0.8, 0.3, -0.45), (0.8, 0.85, -0.25)), box((-0.8, 0.08, -0.45), (0.8, 0.3, 0.43))],
+                           "stacked")
+    w, _ = stacked.weld()
+    assert len(intersect.intersection_segs(stacked.vertices.astype(np.float64), stacked.faces, w, 0)) == 0
+    torus = primitives.torus(1.0, 0.3, 32, 16)
+    w, _ = torus.weld()
+    assert len(intersect.intersection_segs(torus.vertices.astype(np.float64), torus.faces, w, 0)) == 0
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    qa = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]])
+    qb = np.array([[1, 0, 0], [1.6, 0, 0.8], [1.6, 1, 0.8], [1, 1, 0.0]])
+    ids = np.arange(4)
+    assert len(intersect.intersection_segs(qa, faces, ids, 0, qb, faces, ids)) == 0
+    floor = primitives.plane(4.0, 4)
+    cube = box((-0.5, 0.0, -0.5), (0.5, 1.0, 0.5))
+    wf, _ = floor.weld()
+    wc, _ = cube.weld()
+    assert len(intersect.intersection_segs(floor.vertices.astype(np.float64), floor.faces, wf, 0,
+                                           cube.vertices.astype(np.float64), cube.faces, wc)) == 0
+    # the same cube pushed 0.1 into the floor crosses it on a square
+    sunk = cube.vertices.astype(np.float64) - (0.0, 0.1, 0.0)
+    s = intersect.intersection_segs(floor.vertices.astype(np.float64), floor.faces, wf, 0, sunk, cube.faces, wc)
+    p = s.p.reshape(-1, 3)
+    assert len(s) > 0 and np.allclose(p[:, 1], 0.0) and np.allclose(np.abs(p[:, [0, 2]]).max(axis=1), 0.5)
