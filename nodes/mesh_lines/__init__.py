@@ -55,7 +55,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "12"
+    version = "13"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -137,13 +137,18 @@ class MeshLines(Node):
         if p.boundaries and len(segs) > 1:
             lo, hi = scene.bounds()
             segs = extract.mark_borders(segs, transforms, 1e-6 * max(float(np.linalg.norm(hi - lo)), 1e-12))
-        parts = []
+        parts, crossings = [], []
         far = extract.outline_far(zbuf)
+        radius = max(p.outline * ctx.px_scale, 1.0)
+        cut = (p.spacing * ctx.px_scale, p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
+               p.junction_turn)
         for (index, model, outline), s in zip(objs, segs, strict=True):
             mv = view @ model
-            parts.append(strokes_of(index, s, extract.View(proj @ mv, mv, (w, h)), zbuf, p.spacing * ctx.px_scale,
-                                    p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
-                                    p.junction_turn, outline, max(p.outline * ctx.px_scale, 1.0), far))
+            v = extract.View(proj @ mv, mv, (w, h))
+            inter = s.kind == extract.KIND["intersection"]
+            parts.append(strokes_of(index, s.select(~inter), v, zbuf, *cut, outline, radius, far))
+            crossings.append((index, s.select(inter), v))
+        parts += crossing_parts(crossings, parts, zbuf, *cut, radius, far)
         return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
 
     def feature_segments(self, curv: Any, index: int, mesh: Any, eye_obj: np.ndarray, kinds: set[str]) -> Any:
@@ -313,6 +318,38 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
         state, filled = reconciled(sm, state, so, st_o, flat, radius, far,
                                    extract.edge_points(edges, view, 0.5 * radius))
     return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled, radius, spacing))
+
+
+def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], parts: list[tuple[Any, ...]],
+                   zbuf: np.ndarray, spacing: float, tolerance: float, split_angle: float, min_length: float,
+                   hidden: bool, junction_turn: float, radius: float, far: np.ndarray) -> list[tuple[Any, ...]]:
+    """The intersection lines of each object (index, segments, view) as parts for `extract.to_strokes`, sampled,
+    tested and split as `strokes_of` does, less the samples within `radius` + 0.5 px of a line of another kind
+    drawn in `parts` (of any object) with the same visibility: a part sunk a hair into another, or whose junction
+    runs along its own outline, draws that line once. What is left under max(2 `min_length`, 4 `radius`) px is
+    dropped as a speck (the ends of such a cut, and the hook a junction makes where it turns round a corner onto
+    the hidden side)."""
+    from scipy.spatial import cKDTree
+
+    trees = {}
+    for seen in (0, 1):
+        xy = [sm.xy[idx[state[idx] == seen]] for _, sm, state, idx, _ in parts]
+        pts = np.concatenate(xy) if xy else np.zeros((0, 2))
+        trees[seen] = cKDTree(pts) if len(pts) else None
+    out = []
+    for index, segs, view in crossings:
+        if not len(segs):
+            continue
+        sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
+        for seen, tree in trees.items():
+            at = np.flatnonzero(state == seen)
+            if tree is not None and len(at):
+                d, _ = tree.query(sm.xy[at], distance_upper_bound=radius + 0.5)
+                state[at[np.isfinite(d)]] = -1
+        speck = max(2.0 * min_length, 4.0 * radius)
+        _, _, idx, off = split_lines(sm, state, split_angle, speck, hidden)
+        out.append((index, sm, state, idx, off))
+    return out
 
 
 def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,

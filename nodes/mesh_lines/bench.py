@@ -121,7 +121,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg
 
-    from . import MeshLines, extract, object_lines, reconciled, split_lines
+    from . import MeshLines, crossing_parts, extract, object_lines, reconciled, split_lines
 
     text = (f"pipeline: b\nsize: [{size}, {size}]\nreference_size: {size}\nscene: builtin:box\nnodes:\n"
             "  gbuf:\n    type: rasterize\noutputs:\n  z: gbuf.linear_depth\n")
@@ -141,7 +141,7 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
     strokes = None
     for rep in range(repeats + 1):
         t = {k: 0.0 for k in times}
-        parts = []
+        parts, crossings = [], []
         far = None
         t_all = time.perf_counter()
         for index, obj in enumerate(scene.objects):
@@ -152,6 +152,9 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
                                           p.intersections)
             mv = view @ model
             v = extract.View(proj @ mv, mv, (size, size))
+            inter = segs.kind == extract.KIND["intersection"]
+            crossings.append((index, segs.select(inter), v))
+            segs = segs.select(~inter)
             far = extract.outline_far(zbuf) if far is None else far
             if outlined is not None:
                 edges, flat = outlined
@@ -176,6 +179,10 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             t["chain"] += t2 - t1
             t["sample_visibility"] += t3 - t2
             t["split"] += t4 - t3
+        t0 = time.perf_counter()
+        parts += crossing_parts(crossings, parts, zbuf, p.spacing, p.depth_tolerance, p.split_angle, p.min_length,
+                                True, p.junction_turn, max(p.outline, 1.0), far)
+        t["split"] += time.perf_counter() - t0
         strokes = extract.to_strokes(parts, (size, size), p.width, p.color)
         t5 = time.perf_counter()
         visible = strokes.subset(strokes.stroke_attr("visible"))

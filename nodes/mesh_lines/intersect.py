@@ -11,9 +11,12 @@ its edges: Blender's Line Art draws it as its "intersection" line type, and plot
   position within 1e-6 of the scale across two) are left out: neighbours, and parts that meet at an edge,
   meet along an edge or at a corner, which is no intersection line;
 * each pair: the segment where the two triangles cross (both triangles' crossings of the other's plane, on the
-  line where the planes meet, overlapped). Coplanar pairs and pairs that only touch (the overlap shorter than
-  TOUCH of the scale) give nothing; a vertex within PLANE_EPS of the scale of the other's plane counts as on its
-  positive side, so a face resting on another (a box on a floor) gives no line along the contact;
+  line where the planes meet, overlapped). A face crosses the other's plane only with a corner more than
+  PLANE_EPS of the scale on each side of it (a corner nearer counts as on the plane): coplanar pairs, a face
+  resting on another (a box on a floor) and the float32 slivers round a dense UV sphere's pole give nothing, nor
+  does an overlap shorter than TOUCH of the scale;
+* on the screen (mesh_lines), an intersection sample within a pixel or so of a drawn line of another kind is
+  dropped: a part sunk a hair into another draws its crease once, not twice;
 * each segment end is where an edge of one face pierces the other face: its key (edge, pierced face) is shared
   by the segment of the next pair along the curve, so `extract.chain` follows the curve across faces. Where
   the curve passes exactly through an edge of each (parts that mirror each other), the two ends' keys differ;
@@ -155,10 +158,12 @@ def tri_tri_segments(ta: np.ndarray, tb: np.ndarray, scale: float) -> dict[str, 
     eps = PLANE_EPS * scale
     da = np.einsum("kij,kj->ki", ta - tb[:, :1], nb)  # a's corners against b's plane
     db = np.einsum("kij,kj->ki", tb - ta[:, :1], na)
+    # a crossing has a corner beyond eps on each side: faces that only touch, or a fan of slivers whose float32
+    # corners stray from the plane by a rounding error (a dense UV sphere's poles), cross nothing
+    cross_a = (da > eps).any(axis=1) & (da < -eps).any(axis=1)
+    cross_b = (db > eps).any(axis=1) & (db < -eps).any(axis=1)
     da = np.where(np.abs(da) <= eps, 0.0, da)
     db = np.where(np.abs(db) <= eps, 0.0, db)
-    cross_a = ((da >= 0).sum(axis=1) % 3) != 0
-    cross_b = ((db >= 0).sum(axis=1) % 3) != 0
     line = np.cross(na, nb)
     ok &= cross_a & cross_b & (np.linalg.norm(line, axis=1) > 1e-12)
     idx = np.flatnonzero(ok)
