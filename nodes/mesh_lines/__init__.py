@@ -55,7 +55,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "13"
+    version = "14"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "

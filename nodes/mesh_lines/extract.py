@@ -470,16 +470,42 @@ def split(sm: Samples, state: np.ndarray, split_angle: float, min_length: float,
     cv = np.flatnonzero(change)
     starts = np.sort(np.r_[chain_start, tv, cv + 1])
     ends = np.sort(np.r_[chain_end, tv, cv])
-    counts = ends - starts + 1
-    keep = counts >= 2
-    st = state[starts]
-    keep &= st >= (0 if hidden else 1)
     cum = np.r_[0.0, np.cumsum(ln)]
     length = cum[ends] - cum[starts]
+    # a closed chain cut inside: its last stroke runs on into its first where the two have one state and the
+    # closing point is no sharp turn (the chain's start is arbitrary, not a place to cut)
+    lead = np.full(len(starts), -1, np.int64)  # stroke k is preceded by stroke lead[k]'s samples
+    closed = (chain_end > chain_start + 1) & (np.hypot(*(sm.xy[chain_end] - sm.xy[chain_start]).T) < 1e-6)
+    for cs, ce in zip(chain_start[closed].tolist(), chain_end[closed].tolist(), strict=True):
+        first, last = int(np.searchsorted(starts, cs)), int(np.searchsorted(ends, ce))
+        if first == last or state[cs] != state[ce] or turn_at(sm.xy, ce - 1, cs + 1, ce, split_angle):
+            continue
+        lead[first] = last
+    merged = lead >= 0
+    dropped = np.zeros(len(starts), bool)
+    dropped[lead[merged]] = True
+    length = length + np.where(merged, length[np.maximum(lead, 0)], 0.0)
+    keep = (ends - starts + 1 >= 2) & ~dropped
+    keep &= state[starts] >= (0 if hidden else 1)
     keep &= length >= min_length
-    starts, counts = starts[keep], counts[keep]
-    idx = np.repeat(starts - np.r_[0, np.cumsum(counts)[:-1]], counts) + np.arange(int(counts.sum()))
-    return idx, np.r_[0, np.cumsum(counts)].astype(np.int64)
+    parts = []
+    for k in np.flatnonzero(keep).tolist():
+        if merged[k]:
+            j = int(lead[k])
+            parts.append(np.r_[np.arange(starts[j], ends[j] + 1), np.arange(starts[k] + 1, ends[k] + 1)])
+        else:
+            parts.append(np.arange(starts[k], ends[k] + 1))
+    if not parts:
+        return np.zeros(0, np.int64), np.zeros(1, np.int64)
+    counts = np.array([len(x) for x in parts], np.int64)
+    return np.concatenate(parts).astype(np.int64), np.r_[0, np.cumsum(counts)].astype(np.int64)
+
+
+def turn_at(xy: np.ndarray, before: int, after: int, at: int, split_angle: float) -> bool:
+    """Whether the path before -> at -> after turns by more than `split_angle` degrees on the screen."""
+    a, b = xy[at] - xy[before], xy[after] - xy[at]
+    la, lb = float(np.hypot(*a)), float(np.hypot(*b))
+    return la > 1e-9 and lb > 1e-9 and float(a @ b) / (la * lb) < np.cos(np.radians(split_angle))
 
 
 OUTLINE_JUMP = 0.02

@@ -279,3 +279,37 @@ def test_a_faceted_prism_outlines_on_its_edges():
     # with creases off, the rims' outline parts are drawn as contours instead of being lost
     s = object_segments(m, np.array([0.0, 0.3, 1.0, 0.0]), creases=False)
     assert (s.kind == extract.KIND["contour"]).sum() > 2
+
+
+def _loop_samples(n: int = 40, square: bool = False) -> extract.Samples:
+    """One closed chain of n + 1 samples round a circle (or a square, corners at samples 0, n/4, ...) of radius
+    20 px; the last sample repeats the first."""
+    t = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    xy = np.stack([20 * np.cos(t), 20 * np.sin(t)], axis=1) + 50.0
+    if square:
+        xy = np.concatenate([np.linspace(a, b, n // 4, endpoint=False)
+                             for a, b in zip([(70, 50), (50, 70), (30, 50), (50, 30)],
+                                             [(50, 70), (30, 50), (50, 30), (70, 50)], strict=True)] + [[(70, 50)]])
+    k = len(xy)
+    return extract.Samples(np.c_[xy, np.zeros(k)], np.zeros(k, np.int64), np.zeros((k, 3)), np.ones(k, np.uint8),
+                           np.ones(k, bool), xy.astype(np.float64), np.ones(k), np.array([0, k]))
+
+
+def test_a_closed_loop_cut_once_is_one_stroke_through_its_start():
+    """A closed chain hidden over samples 10-15 is one visible stroke from 16 round through the chain's start to 9,
+    not two meeting at the start (which sketchy_strokes would taper, and overshoot, at an arbitrary point); a
+    loop whose closing point is a sharp corner stays cut there, and a loop seen whole is one stroke."""
+    sm = _loop_samples()
+    state = np.ones(41, np.int8)
+    state[10:16] = 0
+    idx, off = extract.split(sm, state, 100.0, 0.0, False)
+    assert len(off) == 2 and idx.tolist() == list(range(16, 41)) + list(range(1, 10))
+    idx, off = extract.split(sm, np.ones(41, np.int8), 100.0, 0.0, False)
+    assert len(off) == 2 and idx.tolist() == list(range(41))
+    sq = _loop_samples(square=True)
+    state = np.ones(len(sq.xy), np.int8)
+    state[15:18] = 0
+    idx, off = extract.split(sq, state, 80.0, 0.0, False)
+    strokes = [idx[a:b].tolist() for a, b in zip(off[:-1], off[1:], strict=True)]
+    assert strokes == [list(range(0, 11)), list(range(10, 15)), list(range(18, 21)), list(range(20, 31)),
+                       list(range(30, 41))]  # cut at every corner, the chain's start among them
