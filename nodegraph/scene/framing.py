@@ -34,7 +34,9 @@ wrong; each override is said in one line (`FramingWarning`) with the option that
      No axis mid-plane is the mirror plane when a principal plane of the surface off the axes
      (`off_axis_mirror`) mirrors it MIRROR_RATIO times more closely still: the mesh is turned off the axes
      (a model set at 20-65 degrees about its up in its file), and which axis mid-plane mirrors it least badly
-     says nothing. OFF_AXIS_DEG was set on the orientation bench's turned presentations.
+     says nothing. OFF_AXIS_DEG was set on the orientation bench's turned presentations. Of such a mesh the
+     axes within TURNED_DEG of its turned mirror plane's normal (`turned_mirror`) are left out of the legs'
+     rule, as the axis across an axis mirror plane is.
   2. *A flat base.* Else, when the mesh cannot rest on the convention's bottom at all (no stable resting
      pose with that up), an axis whose lowest BASE_BAND of the extent holds down-facing faces covering at
      least BASE_SHARE of the bounding box's footprint, BASE_RATIO times the convention's own, on which the
@@ -119,6 +121,7 @@ BASE_RATIO = 2.0  # ... and at least this many times the convention's own base
 MIRROR_MAX = 0.05  # a clean mirror plane: at most this share of the surface has no mirror image across it ...
 MIRROR_GAP = 0.12  # ... and each other axis plane at least this much more
 MIRROR_RATIO = 1.3  # a mirror plane differs from its image this many times less than across the other axes
+TURNED_DEG = 50.0  # of a mesh turned off the axes, an axis this near its mirror plane's normal is not up (legs)
 OFF_AXIS_DEG = 3.0  # a principal axis this far from every coordinate axis is off the axes (sampling moves it less)
 FEATURE_DEG = 30.0  # an edge is a feature line when its two faces meet at more than this (Blender's auto-smooth)
 DETAIL_MARGIN = 1.3  # the far end of the front axis is the front when it shows this many times the feature lines
@@ -348,13 +351,29 @@ def off_axis_mirror(points: np.ndarray, scale: float) -> float:
     cut-out, among these, and then an axis mid-plane that mirrors the surface less badly than the others is not
     its mirror plane (a box robot turned 30 degrees, whose top and bottom halves mirror each other roughly; a rock
     tilted 7 degrees from its nearest plane of symmetry)."""
+    return principal_mirror(points, scale)[0]
+
+
+def principal_mirror(points: np.ndarray, scale: float) -> tuple[float, np.ndarray | None]:
+    """(`off_axis_mirror`, the unit normal of that plane or None)."""
     c = points - points.mean(axis=0)
     _, vecs = np.linalg.eigh(c.T @ c)
-    best = math.inf
+    best, normal = math.inf, None
     for k in range(3):
         if float(np.abs(vecs[:, k]).max()) < math.cos(math.radians(OFF_AXIS_DEG)):
-            best = min(best, plane_distance(points, vecs[:, k], scale))
-    return best
+            d = plane_distance(points, vecs[:, k], scale)
+            if d < best:
+                best, normal = d, vecs[:, k]
+    return best, normal
+
+
+def turned_mirror(points: np.ndarray, scale: float) -> np.ndarray | None:
+    """The unit normal of the mirror plane of a mesh turned off the axes: the principal plane (`principal_mirror`)
+    that mirrors the surface MIRROR_RATIO times more closely than every axis mid-plane; None when there is none."""
+    d, normal = principal_mirror(points, scale)
+    if normal is None or MIRROR_RATIO * d > min(mirror_distance(points, k, scale) for k in range(3)):
+        return None
+    return normal
 
 
 def clean_mirror(points: np.ndarray, scale: float, asym: Any) -> int | None:
@@ -840,7 +859,12 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
         evidence["base"] = {a: round(x, 3) for a, x in flat.items()}
         dense = surface_samples(v, f, LEG_SAMPLES)
         com = surface_centroid(v, f)
-        stances = {a: stance(dense, com, a, scale) for a in SIGNED_AXES if mirror is None or a[-1] != "xyz"[mirror]}
+        across = set() if mirror is None else {"xyz"[mirror]}
+        turned = turned_mirror(p, scale) if mirror is None else None
+        if turned is not None:  # turned off the axes: the axes near its mirror plane's normal run left to right
+            across = {"xyz"[k] for k in range(3) if abs(float(turned[k])) >= math.cos(math.radians(TURNED_DEG))}
+            evidence["turned_mirror"] = [round(float(x), 3) for x in turned]
+        stances = {a: stance(dense, com, a, scale) for a in SIGNED_AXES if a[-1] not in across}
         standing = [a for a, st in stances.items() if st.stands]
         evidence["feet"] = {a: st.feet for a, st in stances.items() if st.stands}
         rivals = [a for a in SIGNED_AXES if a not in standing and flat[a] >= BASE_SHARE and rest[a] > 0.0

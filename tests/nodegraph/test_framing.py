@@ -269,6 +269,19 @@ def test_a_mesh_turned_about_its_up_off_the_axes_keeps_its_up() -> None:
             assert o.up == "y" and not any(n.startswith("stood up") for n in o.notes), (mesh.name, degrees, o.notes)
 
 
+def test_the_legs_of_a_mesh_turned_off_the_axes_do_not_stand_it_across_its_mirror_plane() -> None:
+    """The office chair turned 20 degrees about Y: no axis mid-plane is its mirror plane, so none was left out of
+    the legs' rule, and it stood along X on two "feet" of its side. Its turned mirror plane's normal lies 20
+    degrees from X: X runs left to right and is not tried (`turned_mirror`)."""
+    mesh = orientation.office_chair()
+    v = _yawed(mesh.vertices, 20.0)
+    p = framing.surface_samples(v, mesh.faces)
+    normal = framing.turned_mirror(p, float(np.linalg.norm(np.ptp(p, axis=0))))
+    assert normal is not None and abs(normal[0]) > np.cos(np.radians(25.0))
+    o = framing.orient(v, mesh.faces, ".obj")
+    assert o.up == "y" and not o.notes, o.notes
+
+
 def test_the_principal_plane_of_an_axis_mirror_is_that_plane() -> None:
     """Where an axis mid-plane is the mirror plane, the principal planes find nothing closer: the boxes figure keeps
     its upright mirror plane across X, and turned 90 degrees about Y, across Z."""
