@@ -29,6 +29,7 @@ import numpy as np
 
 from . import extract
 
+PAIR_CHUNK = 2_000_000  # candidate pairs made at a time (`_grid_pairs`)
 MAX_CELLS = 8  # a face's box spans at most this many grid cells per axis (larger faces: coarser cells for it)
 CELL = 1.0  # the grid cell over the median face box's largest side
 PLANE_EPS = 1e-6  # of the scale: a vertex this near the other face's plane lies on its positive side (float32 data)
@@ -65,30 +66,26 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
         span = np.floor((hi - origin) / size).astype(np.int64) - c0 + 1
         fits = (level < 0) & (span.max(axis=1) <= MAX_CELLS)
         if k == 0:
-            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits)))
+            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi))
         else:  # the faces too large for the finer levels against every face placed so far and each other
             placed = (level >= 0) | fits
-            pairs.append(_grid_pairs(c0[placed], span[placed], np.flatnonzero(placed), fits[placed]))
+            pairs.append(_grid_pairs(c0[placed], span[placed], np.flatnonzero(placed), fits[placed], lo, hi))
         level[fits] = k
         k += 1
     p = np.concatenate(pairs)
     if not same:
-        p = p[(p[:, 0] < n_a) != (p[:, 1] < n_a)]
-        p = np.sort(p, axis=1)
+        p = p[(p[:, 0] < n_a) & (p[:, 1] >= n_a)]
         p[:, 1] -= n_a
-    if not len(p):
-        return np.zeros((0, 2), np.int64)
-    a, b = p[:, 0], p[:, 1]
-    la, ha = lo_a[a], hi_a[a]
-    lb, hb = (lo_a[b], hi_a[b]) if same else (lo_b[b], hi_b[b])
-    overlap = np.all((la <= hb) & (lb <= ha), axis=1)
-    return p[overlap]
+    return p
 
 
-def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndarray | None = None) -> np.ndarray:
+def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndarray | None = None,
+                lo: np.ndarray | None = None, hi: np.ndarray | None = None) -> np.ndarray:
     """Distinct pairs (i < j) of `ids` whose cell ranges [c0, c0 + span) share a cell, each given once: by the
     cell at the larger of the two ranges' first cells, axis by axis (the first cell they share). With `lead`,
-    only the pairs with at least one `lead` face (a coarser level's large faces against the rest)."""
+    only the pairs with at least one `lead` face (a coarser level's large faces against the rest). With `lo` and
+    `hi` (boxes by id), only the pairs whose boxes overlap. Made PAIR_CHUNK pairs at a time, so that memory
+    holds the pairs kept rather than every pair that shares a cell."""
     if len(ids) < 2:
         return np.zeros((0, 2), np.int64)
     count = span.prod(axis=1)
@@ -96,6 +93,7 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
     k = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
     sx, sy = span[rep, 0], span[rep, 1]
     cell = np.stack([c0[rep, 0] + k % sx, c0[rep, 1] + (k // sx) % sy, c0[rep, 2] + k // (sx * sy)], axis=1)
+    del k, sx, sy
     dims = (c0 + span).max(axis=0) + 1
     key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
     order = np.argsort(key, kind="stable")
@@ -103,25 +101,39 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
     starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
     sizes = np.diff(np.r_[starts, len(key)])
     pos = np.arange(len(key))
-    if lead is None:
-        after = np.repeat(starts + sizes, sizes) - pos - 1  # each entry pairs with the entries after it in its cell
-        first = np.repeat(pos, after)
-        second = first + 1 + (np.arange(int(after.sum())) - np.repeat(np.cumsum(after) - after, after))
+    if lead is None:  # each entry pairs with the entries after it in its cell
+        src = pos
+        base = pos + 1
+        n = np.repeat(starts + sizes, sizes) - pos - 1
+        skip = None
     else:  # each lead entry pairs with every other entry of its cell
-        at = np.flatnonzero(lead[rep])
-        begin = np.repeat(starts, sizes)[at]
-        others = np.repeat(sizes, sizes)[at] - 1
-        first = np.repeat(at, others)
-        second = np.repeat(begin, others) + (np.arange(int(others.sum())) - np.repeat(np.cumsum(others) - others,
-                                                                                      others))
-        second += second >= first
-        both = lead[rep[second]]
-        keep = ~both | (rep[first] < rep[second])
-        first, second = first[keep], second[keep]
-    a, b = rep[first], rep[second]
-    own = np.all(cell[first] == np.maximum(c0[a], c0[b]), axis=1)
-    a, b = ids[a[own]], ids[b[own]]
-    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+        src = np.flatnonzero(lead[rep])
+        base = np.repeat(starts, sizes)[src]
+        n = np.repeat(sizes, sizes)[src] - 1
+        skip = src
+    out = []
+    total = np.cumsum(n)
+    bounds = np.searchsorted(total, np.arange(PAIR_CHUNK, int(total[-1]) + PAIR_CHUNK, PAIR_CHUNK), side="right") \
+        if len(total) and total[-1] > 0 else np.zeros(0, np.int64)
+    for a0, a1 in zip(np.r_[0, bounds[:-1]], bounds, strict=True):
+        if a1 <= a0:
+            continue
+        cnt = n[a0:a1]
+        first = np.repeat(src[a0:a1], cnt)
+        second = np.repeat(base[a0:a1], cnt) + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+        if skip is not None:
+            second += second >= first
+            both = lead[rep[second]]
+            keep = ~both | (rep[first] < rep[second])
+            first, second = first[keep], second[keep]
+        a, b = rep[first], rep[second]
+        own = np.all(cell[first] == np.maximum(c0[a], c0[b]), axis=1)
+        a, b = ids[a[own]], ids[b[own]]
+        if lo is not None and hi is not None:
+            overlap = np.all((lo[a] <= hi[b]) & (lo[b] <= hi[a]), axis=1)
+            a, b = a[overlap], b[overlap]
+        out.append(np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1))
+    return np.concatenate(out) if out else np.zeros((0, 2), np.int64)
 
 
 def _plane_crossing(tri: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
