@@ -32,7 +32,7 @@ from . import extract
 PAIR_CHUNK = 2_000_000  # candidate pairs made at a time (`_grid_pairs`)
 MAX_CELLS = 8  # a face's box spans at most this many grid cells per axis (larger faces: coarser cells for it)
 CELL = 1.0  # the grid cell over the median face box's largest side
-PLANE_EPS = 1e-6  # of the scale: a vertex this near the other face's plane lies on its positive side (float32 data)
+PLANE_EPS = 1e-6  # of the scale: a corner this near the other face's plane is on it (a crossing needs one beyond)
 TOUCH = 1e-9  # of the scale: an overlap shorter than this is a touch, not a line
 MAX_PAIRS = 4_000_000  # candidate pairs are tested in batches of this many
 
@@ -44,7 +44,9 @@ def face_boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None = None,
                     hi_b: np.ndarray | None = None) -> np.ndarray:
     """Pairs (k, 2) of faces whose boxes overlap: within one set (i < j) when `lo_b` is None, else (a, b) across
-    the two sets."""
+    the two sets. Level 0 is a grid of cells the median box's largest side wide, holding the faces that span at
+    most MAX_CELLS cells an axis; each further level is MAX_CELLS times coarser and pairs the faces it takes with
+    every face placed so far (`_grid_pairs`)."""
     same = lo_b is None
     lo = lo_a if same else np.concatenate([lo_a, lo_b])
     hi = hi_a if same else np.concatenate([hi_a, hi_b])
@@ -60,7 +62,7 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
     level = np.full(len(lo), -1)
     pairs = []
     k = 0
-    while (level < 0).any():
+    while (level < 0).any() and k < 40:  # 8^40 cells hold any finite box
         size = cell * float(MAX_CELLS) ** k
         c0 = np.floor((lo - origin) / size).astype(np.int64)
         span = np.floor((hi - origin) / size).astype(np.int64) - c0 + 1
