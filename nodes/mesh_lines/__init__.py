@@ -331,24 +331,24 @@ def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], part
     the hidden side)."""
     from scipy.spatial import cKDTree
 
+    crossings = [c for c in crossings if len(c[1])]
+    if not crossings:
+        return []
     trees = {}
     for seen in (0, 1):
         xy = [sm.xy[idx[state[idx] == seen]] for _, sm, state, idx, _ in parts]
         pts = np.concatenate(xy) if xy else np.zeros((0, 2))
         trees[seen] = cKDTree(pts) if len(pts) else None
+    speck = max(2.0 * min_length, 4.0 * radius)
     out = []
     for index, segs, view in crossings:
-        if not len(segs):
-            continue
         sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
         for seen, tree in trees.items():
             at = np.flatnonzero(state == seen)
             if tree is not None and len(at):
                 d, _ = tree.query(sm.xy[at], distance_upper_bound=radius + 0.5)
                 state[at[np.isfinite(d)]] = -1
-        speck = max(2.0 * min_length, 4.0 * radius)
-        _, _, idx, off = split_lines(sm, state, split_angle, speck, hidden)
-        out.append((index, sm, state, idx, off))
+        out.append((index, sm, state, *extract.split(sm, state, split_angle, speck, hidden)))
     return out
 
 

@@ -89,28 +89,36 @@ def facing(V: np.ndarray, N: np.ndarray, eye: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", N, eye[None, :3] - eye[3] * V)
 
 
+def zero_crossings(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of triangles whose corner values `d` (k, 3) differ in sign (>= 0 counts as positive): the corner alone on
+    its side (k,), and on its two edges the corner each ends at (k, 2) and the parameter t of the zero along it
+    from the lone corner (k, 2), linearly interpolated."""
+    pos = d >= 0.0
+    cnt = pos.sum(axis=1)
+    lone = np.where(cnt == 1, np.argmax(pos, axis=1), np.argmin(pos, axis=1))
+    rows = np.arange(len(d))
+    others = np.stack([(lone + 1) % 3, (lone + 2) % 3], axis=1)
+    dl = d[rows, lone][:, None]
+    ts = dl / (dl - d[rows[:, None], others])
+    return lone, others, ts
+
+
 def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray,
              flat: np.ndarray | None = None) -> Segs:
     """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring), none inside
     the faces `flat` marks (planar regions: `facet_contours` draws theirs)."""
     g = facing(V, N, eye)
-    pos = g >= 0.0
-    s = pos[F]
-    cnt = s.sum(axis=1)
+    cnt = (g >= 0.0)[F].sum(axis=1)
     crossed = (cnt == 1) | (cnt == 2)
     fi = np.flatnonzero(crossed if flat is None else crossed & ~flat)
     if not len(fi):
         return Segs.empty()
-    sf = s[fi]
-    lone = np.where(cnt[fi] == 1, np.argmax(sf, axis=1), np.argmin(sf, axis=1))
+    lone, others, ts = zero_crossings(g[F[fi]])
     pts, bary, keys = [], [], []
     rows = np.arange(len(fi))
     va = F[fi, lone]
-    for step in (1, 2):
-        other = (lone + step) % 3
+    for other, t in zip(others.T, ts.T, strict=True):
         vx = F[fi, other]
-        ga, gx = g[va], g[vx]
-        t = ga / (ga - gx)
         pts.append(V[va] + t[:, None] * (V[vx] - V[va]))
         b = np.zeros((len(fi), 3))
         b[rows, lone] = 1.0 - t

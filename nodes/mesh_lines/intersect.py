@@ -31,7 +31,6 @@ from . import extract
 
 PAIR_CHUNK = 2_000_000  # candidate pairs made at a time (`_grid_pairs`)
 MAX_CELLS = 8  # a face's box spans at most this many grid cells per axis (larger faces: coarser cells for it)
-CELL = 1.0  # the grid cell over the median face box's largest side
 PLANE_EPS = 1e-6  # of the scale: a corner this near the other face's plane is on it (a crossing needs one beyond)
 TOUCH = 1e-9  # of the scale: an overlap shorter than this is a touch, not a line
 MAX_PAIRS = 4_000_000  # candidate pairs are tested in batches of this many
@@ -54,7 +53,7 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
     if len(lo) < 2 or (not same and (n_a == 0 or len(lo_b) == 0)):
         return np.zeros((0, 2), np.int64)
     ext = hi - lo
-    cell = CELL * float(np.median(ext.max(axis=1)))
+    cell = float(np.median(ext.max(axis=1)))
     scale = float(np.max(hi.max(axis=0) - lo.min(axis=0)))
     if not cell > 0.0:
         cell = scale * 1e-3 or 1.0
@@ -138,25 +137,15 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
     return np.concatenate(out) if out else np.zeros((0, 2), np.int64)
 
 
-def _plane_crossing(tri: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _plane_crossing(tri: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where triangles `tri` (k, 3, 3) cross planes whose signed distances at their corners are `d` (k, 3), for
-    triangles with corners on both sides (>= 0 counts as positive): (points (k, 2, 3), the corner each crossing
-    edge starts from (k, 2), the corner it ends at (k, 2), the parameter along the edge (k, 2))."""
-    pos = d >= 0.0
-    cnt = pos.sum(axis=1)
-    lone = np.where(cnt == 1, np.argmax(pos, axis=1), np.argmin(pos, axis=1))
-    rows = np.arange(len(tri))
-    pts, start, end, ts = [], [], [], []
-    for step in (1, 2):
-        other = (lone + step) % 3
-        da, dx = d[rows, lone], d[rows, other]
-        t = da / (da - dx)
-        pa, px = tri[rows, lone], tri[rows, other]
-        pts.append(pa + t[:, None] * (px - pa))
-        start.append(lone)
-        end.append(other)
-        ts.append(t)
-    return np.stack(pts, axis=1), np.stack(start, axis=1), np.stack(end, axis=1), np.stack(ts, axis=1)
+    triangles with corners on both sides (`extract.zero_crossings`): (points (k, 2, 3), the corner each crossing
+    edge starts from (k, 2), the corner it ends at (k, 2))."""
+    lone, others, ts = extract.zero_crossings(d)
+    rows = np.arange(len(tri))[:, None]
+    start = np.repeat(lone[:, None], 2, axis=1)
+    pa = tri[rows, start]
+    return pa + ts[..., None] * (tri[rows, others] - pa), start, others
 
 
 def tri_tri_segments(ta: np.ndarray, tb: np.ndarray, scale: float) -> dict[str, np.ndarray]:
@@ -185,8 +174,8 @@ def tri_tri_segments(ta: np.ndarray, tb: np.ndarray, scale: float) -> dict[str, 
     if not len(idx):
         out.update(p=np.zeros((0, 2, 3)), side=np.zeros((0, 2), np.int64), edge=np.zeros((0, 2, 2), np.int64))
         return out
-    pa, sa, ea, _ = _plane_crossing(ta[idx], da[idx])
-    pb, sb, eb, _ = _plane_crossing(tb[idx], db[idx])
+    pa, sa, ea = _plane_crossing(ta[idx], da[idx])
+    pb, sb, eb = _plane_crossing(tb[idx], db[idx])
     u = line[idx]
     ta_ = np.einsum("kij,kj->ki", pa, u)
     tb_ = np.einsum("kij,kj->ki", pb, u)
