@@ -313,12 +313,12 @@ def mirror_distance(points: np.ndarray, axis: int, scale: float) -> float:
 
 
 def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1, 2),
-                 principal: bool = True) -> int | None:
+                 principal: bool = True, off: float | None = None) -> int | None:
     """Of `axes`, the one whose mid-plane is the surface's (`points`) mirror plane: its `mirror_distance` at most
     1 / MIRROR_RATIO of every other's, of the axes along which the surface is not thin (under THIN of the largest
     extent along `axes`: a flat or slender subject mirrors itself across its thickness whatever it shows), and
-    (`principal`) of the principal planes' (`off_axis_mirror`); None when none is, or fewer than two axes are not
-    thin."""
+    (`principal`) of the principal planes' (`off_axis_mirror`, or `off` where found already); None when none is,
+    or fewer than two axes are not thin."""
     ext = np.ptp(points, axis=0)
     top = max(float(ext[k]) for k in axes)
     kept = [k for k in axes if ext[k] >= THIN * top]
@@ -326,10 +326,11 @@ def mirror_plane(points: np.ndarray, scale: float, axes: tuple[int, ...] = (0, 1
         return None
     d = {k: mirror_distance(points, k, scale) for k in kept}
     best = min(kept, key=d.__getitem__)
-    if all(MIRROR_RATIO * d[best] <= d[k] for k in kept if k != best) \
-            and not (principal and MIRROR_RATIO * off_axis_mirror(points, scale) <= d[best]):
-        return best
-    return None
+    if not all(MIRROR_RATIO * d[best] <= d[k] for k in kept if k != best):
+        return None
+    if principal and MIRROR_RATIO * (off_axis_mirror(points, scale) if off is None else off) <= d[best]:
+        return None
+    return best
 
 
 def plane_distance(points: np.ndarray, normal: np.ndarray, scale: float) -> float:
@@ -367,20 +368,24 @@ def principal_mirror(points: np.ndarray, scale: float) -> tuple[float, np.ndarra
     return best, normal
 
 
-def turned_mirror(points: np.ndarray, scale: float) -> np.ndarray | None:
-    """The unit normal of the mirror plane of a mesh turned off the axes: the principal plane (`principal_mirror`)
-    that mirrors the surface MIRROR_RATIO times more closely than every axis mid-plane; None when there is none."""
-    d, normal = principal_mirror(points, scale)
+def turned_mirror(points: np.ndarray, scale: float,
+                  found: tuple[float, np.ndarray | None] | None = None) -> np.ndarray | None:
+    """The unit normal of the mirror plane of a mesh turned off the axes: the principal plane (`principal_mirror`,
+    or `found` where found already) that mirrors the surface MIRROR_RATIO times more closely than every axis
+    mid-plane; None when there is none."""
+    d, normal = principal_mirror(points, scale) if found is None else found
     if normal is None or MIRROR_RATIO * d > min(mirror_distance(points, k, scale) for k in range(3)):
         return None
     return normal
 
 
-def clean_mirror(points: np.ndarray, scale: float, asym: Any) -> int | None:
-    """`mirror_axis` of the `asymmetry` values, unless a principal plane (`off_axis_mirror`) mirrors the surface
-    MIRROR_RATIO times more closely than that axis's mid-plane."""
+def clean_mirror(points: np.ndarray, scale: float, asym: Any, off: float | None = None) -> int | None:
+    """`mirror_axis` of the `asymmetry` values, unless a principal plane (`off_axis_mirror`, or `off` where found
+    already) mirrors the surface MIRROR_RATIO times more closely than that axis's mid-plane."""
     k = mirror_axis(asym)
-    if k is None or MIRROR_RATIO * off_axis_mirror(points, scale) <= mirror_distance(points, k, scale):
+    if k is None:
+        return None
+    if MIRROR_RATIO * (off_axis_mirror(points, scale) if off is None else off) <= mirror_distance(points, k, scale):
         return None
     return k
 
@@ -843,9 +848,10 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
     u = used_vertices(v, f)
     scale = float(np.linalg.norm(u.max(axis=0) - u.min(axis=0))) or 1.0
     asym = [asymmetry(p, k, scale) for k in range(3)]
-    mirror = mirror_plane(p, scale)
+    principal = principal_mirror(p, scale)  # found once for the three rules below that weigh it
+    mirror = mirror_plane(p, scale, off=principal[0])
     if mirror is None:
-        mirror = clean_mirror(p, scale, asym)
+        mirror = clean_mirror(p, scale, asym, principal[0])
     evidence["asymmetry"] = [round(a, 3) for a in asym]
     evidence["mirror"] = None if mirror is None else "xyz"[mirror]
     chosen = up
@@ -860,7 +866,7 @@ def orient(vertices: Any, faces: Any, suffix: str = "", up: str | None = None, f
         dense = surface_samples(v, f, LEG_SAMPLES)
         com = surface_centroid(v, f)
         across = set() if mirror is None else {"xyz"[mirror]}
-        turned = turned_mirror(p, scale) if mirror is None else None
+        turned = turned_mirror(p, scale, principal) if mirror is None else None
         if turned is not None:  # turned off the axes: the axes near its mirror plane's normal run left to right
             across = {"xyz"[k] for k in range(3) if abs(float(turned[k])) >= math.cos(math.radians(TURNED_DEG))}
             evidence["turned_mirror"] = [round(float(x), 3) for x in turned]
