@@ -34,6 +34,9 @@ class _FeatureDefaults:
 
 
 FEATURE_DEFAULTS = _FeatureDefaults()
+# the kinds on the rendered surface, whose visibility tolerance is bounded by the depth buffer's slope
+# (extract.depth_visibility; measured against ray casting for these: docs/strokes.md, "Visibility")
+ON_SURFACE = np.array([extract.KIND[k] for k in ("crease", "boundary", "border", "intersection")], np.uint8)
 
 
 class MeshLines(Node):
@@ -51,11 +54,12 @@ class MeshLines(Node):
     straightest pair turning by less than `junction_turn`, as Freestyle chooses at a junction), sampled every
     `spacing` pixels, and each sample is tested against the linear depth buffer: visible where a pixel within one
     pixel of it (the 2 x 2 pixels whose centres surround it) is background or no nearer than its depth x
-    (1 - `depth_tolerance`). Strokes are split where visibility
+    (1 - `depth_tolerance`), for lines on the surface (not contours) also within twice the buffer's slope there
+    (extract.depth_visibility). Strokes are split where visibility
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "14"
+    version = "15"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -87,7 +91,9 @@ class MeshLines(Node):
                                "apart (visibility is tested at each).")
         depth_tolerance: float = Field(0.01, ge=0, le=0.5, description="A sample is hidden where every pixel "
                                        "of the 2 x 2 whose centres surround it is nearer by more than this "
-                                       "fraction of its depth.")
+                                       "fraction of its depth; for creases, boundaries, borders and intersection "
+                                       "lines by more than the smaller of that and twice the depth buffer's slope "
+                                       "there (extract.depth_visibility).")
         outline: float = Field(1.0, ge=0, le=64, description="Where the interpolated contours stray more than "
                                "this many pixels (at the reference size, times px_scale, and at least one pixel of "
                                "the image: a smaller difference does not show) from the mesh's polygonal silhouette "
@@ -295,7 +301,7 @@ def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: f
     `extract.outline_far`, where made already)."""
     half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
     sm = extract.sample(segs, half, offsets, view, spacing)
-    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far)
+    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))
     return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
 
 

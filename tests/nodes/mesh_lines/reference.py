@@ -153,3 +153,16 @@ def silhouette_points(V: np.ndarray, F: np.ndarray, weld: np.ndarray, eye: np.nd
     if not pts:
         return np.zeros((0, 3)), np.zeros(0, np.int64)
     return np.concatenate(pts), np.concatenate(fids)
+
+
+def scene_occluded(points: np.ndarray, eye: np.ndarray, scene, lift: float = 1e-3) -> np.ndarray:
+    """Points (world space) on the scene's surfaces hidden from a perspective `eye` (3,): a triangle of any
+    object crosses the ray from the point, moved `lift` toward the eye (off the faces it lies on), to the eye."""
+    world = [o.mesh.vertices.astype(np.float64) @ np.asarray(o.transform)[:3, :3].T + np.asarray(o.transform)[:3, 3]
+             for o in scene.objects]
+    V = np.concatenate(world)
+    F = np.concatenate([o.mesh.faces + sum(len(w) for w in world[:i]) for i, o in enumerate(scene.objects)])
+    d = eye - points
+    start = points + lift * d / np.linalg.norm(d, axis=1)[:, None]
+    none = [set() for _ in range(len(F))]
+    return occluded(start, np.zeros(len(points), np.int64), V, F, np.r_[eye, 1.0], none)

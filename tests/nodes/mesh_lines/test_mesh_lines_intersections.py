@@ -14,6 +14,7 @@ from nodegraph.scene import primitives
 from nodegraph.scene.meshes import Mesh, merge_meshes
 from nodegraph.values import LINE_KINDS
 from tests.helpers import run_minimal
+from tests.nodes.mesh_lines import reference
 
 R, C = 1.0, 0.6  # two unit spheres centred at x = -C and +C cross on the circle x = 0, radius sqrt(R^2 - C^2)
 
@@ -114,21 +115,6 @@ def _scene_file(tmp_path: Path) -> Path:
     return path
 
 
-def _hidden(points: np.ndarray, eye: np.ndarray, scene) -> np.ndarray:
-    """Ray casting against the scene's triangles (tests/nodes/mesh_lines/reference.py): a point is hidden where a
-    triangle crosses the ray from it (moved 1e-3 toward the eye, off the two faces it lies on) to the eye."""
-    from tests.nodes.mesh_lines import reference as ref
-
-    world = [o.mesh.vertices.astype(np.float64) @ np.asarray(o.transform)[:3, :3].T + np.asarray(o.transform)[:3, 3]
-             for o in scene.objects]
-    V = np.concatenate(world)
-    F = np.concatenate([o.mesh.faces + sum(len(w) for w in world[:i]) for i, o in enumerate(scene.objects)])
-    d = eye - points
-    start = points + 1e-3 * d / np.linalg.norm(d, axis=1)[:, None]
-    none = [set() for _ in range(len(F))]
-    return ref.occluded(start, np.zeros(len(points), np.int64), V, F, np.r_[eye, 1.0], none)
-
-
 def test_node_draws_the_visible_arc_of_the_circle(tmp_path: Path):
     size = 200
     nodes = ("  gbuf:\n    type: rasterize\n  lines:\n    type: mesh_lines\n    in: {linear_depth: gbuf.linear_depth}\n"
@@ -153,14 +139,14 @@ def test_node_draws_the_visible_arc_of_the_circle(tmp_path: Path):
     assert gap.max() < 1.0, gap.max()
     # visibility against ray casting
     vis = s["visible"][inter]
-    ref = ~_hidden(world.astype(np.float64), eye, sc)
+    ref = ~reference.scene_occluded(world.astype(np.float64), eye, sc)
     assert vis.any() and (~vis).any()
     assert (vis == ref).mean() > 0.95, (vis == ref).mean()
     # they differ only where the arc passes behind a silhouette at a grazing angle, within the node's depth
     # tolerance (1 % of the depth) and its one-pixel neighbourhood: near where the ray-cast visibility of the
     # circle itself changes
     ring = circle[::10, :3]
-    seen = ~_hidden(ring, eye, sc)
+    seen = ~reference.scene_occluded(ring, eye, sc)
     turns = np.flatnonzero(seen != np.roll(seen, 1))
     assert len(turns) >= 2
     far = np.min(np.linalg.norm(s.xy[inter][vis != ref][:, None, :] - cxy[::10][turns][None], axis=2), axis=1)
