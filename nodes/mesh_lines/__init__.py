@@ -3,6 +3,7 @@ curvature, suggestive contours, ridges and valleys), chained across faces, visib
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -17,9 +18,34 @@ from .._shared import planes
 from . import extract, intersect
 
 _FEATURES = ("suggestive", "ridges", "valleys")
-_TOPOLOGY: dict[str, tuple[np.ndarray, int, extract.EdgeFaces]] = {}  # mesh topology hash -> (weld, n, edges)
+
+
+class _Kept:
+    """Values kept by key, least recently used dropped first once their meshes' faces pass `budget` (a scene of
+    two hundred small objects keeps all of them; a few million-face meshes, a few)."""
+
+    def __init__(self, budget: int) -> None:
+        self.budget = budget
+        self.items: OrderedDict[str, tuple[Any, int]] = OrderedDict()
+        self.faces = 0
+
+    def get(self, key: str, make: Any, faces: int) -> Any:
+        got = self.items.get(key)
+        if got is not None:
+            self.items.move_to_end(key)
+            return got[0]
+        value = make()
+        self.items[key] = (value, faces)
+        self.faces += faces
+        while self.faces > self.budget and len(self.items) > 1:
+            _, (_, n) = self.items.popitem(last=False)
+            self.faces -= n
+        return value
+
+
+_TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> (weld ids, welded count, welded edges and their faces)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
-_SELF_CROSSINGS: dict[str, extract.Segs] = {}  # posed mesh hash -> its intersection segments with itself
+_SELF_CROSSINGS = _Kept(4_000_000)  # posed mesh hash -> its intersection segments with itself
 
 
 class _FeatureDefaults:
@@ -209,17 +235,15 @@ class MeshLines(Node):
 
 
 def topology(mesh: Any) -> tuple[np.ndarray, int, extract.EdgeFaces]:
-    """(weld ids, welded count, welded edges and their faces) of a mesh's topology, kept for a few meshes: a
-    posed mesh shares its rest pose's."""
+    """(weld ids, welded count, welded edges and their faces) of a mesh's topology, kept (`_Kept`): a posed mesh
+    shares its rest pose's."""
     shape = mesh.topology_mesh()
-    key = shape.content_hash()
-    got = _TOPOLOGY.get(key)
-    if got is None:
-        if len(_TOPOLOGY) >= 8:
-            _TOPOLOGY.pop(next(iter(_TOPOLOGY)))
+
+    def make() -> tuple[np.ndarray, int, extract.EdgeFaces]:
         weld, nw = shape.weld()
-        got = _TOPOLOGY[key] = (weld, nw, extract.edge_faces(weld[shape.faces], nw))
-    return got
+        return weld, nw, extract.edge_faces(weld[shape.faces], nw)
+
+    return _TOPOLOGY.get(shape.content_hash(), make, len(shape.faces))
 
 
 def object_segments(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases: bool = True,
@@ -257,41 +281,44 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
 
 
 def self_crossings(mesh: Any, weld: np.ndarray, nw: int) -> extract.Segs:
-    """The posed mesh's intersection lines with itself (`intersect.intersection_segs`), kept for a few posed
-    meshes: a rigid object's are found once, not each frame. Their keys lie beyond every edge key."""
-    key = mesh.content_hash()
-    got = _SELF_CROSSINGS.get(key)
-    if got is None:
-        if len(_SELF_CROSSINGS) >= 8:
-            _SELF_CROSSINGS.pop(next(iter(_SELF_CROSSINGS)))
-        got = _SELF_CROSSINGS[key] = intersect.intersection_segs(
-            np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw)
-    return got
+    """The posed mesh's intersection lines with itself (`intersect.intersection_segs`), kept (`_Kept`): a rigid
+    object's are found once, not each frame. Their keys lie beyond every edge key."""
+    return _SELF_CROSSINGS.get(mesh.content_hash(), lambda: intersect.intersection_segs(
+        np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw), len(mesh.faces))
 
 
 def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs]) -> list[extract.Segs]:
     """Each object's segments with its intersection lines with the objects after it whose world boxes overlap
-    its own (on its faces, in its space; keys beyond its other keys)."""
+    its own (on its faces, in its space; keys beyond its other keys): those objects merged into one mesh and
+    searched at once (one broad phase for a floor under two hundred boxes, not two hundred)."""
     out = list(segs)
-    boxes = []
+    world, boxes = [], []
     for index, model, _ in objs:
         v = np.asarray(scene.objects[index].mesh.vertices, np.float64) @ model[:3, :3].T + model[:3, 3]
+        world.append(v)
         boxes.append((v.min(axis=0), v.max(axis=0)))
+    lo = np.array([b[0] for b in boxes])
+    hi = np.array([b[1] for b in boxes])
     for i, (ia, ma, _) in enumerate(objs):
-        for j in range(i + 1, len(objs)):
-            (lo_a, hi_a), (lo_b, hi_b) = boxes[i], boxes[j]
-            if np.any(hi_a < lo_b) or np.any(hi_b < lo_a):
-                continue
-            ib, mb = objs[j][0], objs[j][1]
-            a, b = scene.objects[ia].mesh, scene.objects[ib].mesh
-            to_a = np.linalg.inv(ma) @ mb
-            vb = np.asarray(b.vertices, np.float64) @ to_a[:3, :3].T + to_a[:3, 3]
-            wa, _, _ = topology(a)
-            wb, _, _ = topology(b)
-            base = int(out[i].key.max()) + 1 if len(out[i]) else 0
-            cross = intersect.intersection_segs(np.asarray(a.vertices, np.float64), a.faces, wa, base, vb, b.faces,
-                                                wb)
-            out[i] = extract.Segs.concat([out[i], cross])
+        later = np.arange(i + 1, len(objs))
+        later = later[~(np.any(hi[i] < lo[later], axis=1) | np.any(hi[later] < lo[i], axis=1))]
+        if not len(later):
+            continue
+        a = scene.objects[ia].mesh
+        to_a = np.linalg.inv(ma)
+        vb, fb, wb, nv, nw = [], [], [], 0, 0
+        for j in later:
+            w, n, _ = topology(scene.objects[objs[j][0]].mesh)
+            vb.append(world[j] @ to_a[:3, :3].T + to_a[:3, 3])
+            fb.append(scene.objects[objs[j][0]].mesh.faces + nv)
+            wb.append(w + nw)
+            nv += len(world[j])
+            nw += n
+        wa, _, _ = topology(a)
+        base = int(out[i].key.max()) + 1 if len(out[i]) else 0
+        cross = intersect.intersection_segs(np.asarray(a.vertices, np.float64), a.faces, wa, base,
+                                            np.concatenate(vb), np.concatenate(fb), np.concatenate(wb))
+        out[i] = extract.Segs.concat([out[i], cross])
     return out
 
 
