@@ -88,6 +88,9 @@ def layered_svg(strokes: Strokes, page: Page | None = None, digits: int = 2) -> 
     colour = _hex(strokes.color)
     base_w = strokes.width * scale
     lens = np.diff(strokes.starts)
+    mean_w, mean_tone = per_stroke_mean(widths, strokes.starts), per_stroke_mean(tones, strokes.starts)
+    xs = off_x + scale * strokes.xy[:, 0].astype(np.float64)
+    ys = off_y + scale * (h - strokes.xy[:, 1].astype(np.float64))
     layer_no = 0
     for visible in (True, False):
         for k in range(len(LINE_KINDS)):
@@ -104,17 +107,14 @@ def layered_svg(strokes: Strokes, page: Page | None = None, digits: int = 2) -> 
                 g.set("stroke-dasharray", f"{4 * base_w:.3g} {3 * base_w:.3g}")
             for i in idx:
                 a, b = strokes.starts[i], strokes.starts[i + 1]
-                p = strokes.xy[a:b].astype(np.float64)
-                x = off_x + scale * p[:, 0]
-                y = off_y + scale * (h - p[:, 1])
-                d = path_data(x, y, digits)
+                d = path_data(xs[a:b], ys[a:b], digits)
                 if d is None:
                     continue
                 attrs = {"d": d}
-                sw = float(np.mean(widths[a:b])) * scale
+                sw = float(mean_w[i]) * scale
                 if abs(sw - base_w) > 1e-6 * max(base_w, 1e-9):
                     attrs["stroke-width"] = f"{sw:.{digits + 2}g}"
-                tone = float(np.mean(tones[a:b]))
+                tone = float(mean_tone[i])
                 if tone < 1.0:
                     attrs["stroke-opacity"] = f"{max(tone, 0.0):.3g}"
                 ET.SubElement(g, f"{{{SVG_NS}}}path", attrs)
@@ -122,11 +122,26 @@ def layered_svg(strokes: Strokes, page: Page | None = None, digits: int = 2) -> 
     return ET.tostring(root, encoding="unicode", xml_declaration=False) + "\n"
 
 
+def per_stroke_mean(values: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """The mean of per-vertex `values` over each stroke (float64; NaN for an empty stroke), in one pass."""
+    lens = np.diff(starts)
+    out = np.full(len(lens), np.nan)
+    some = np.flatnonzero(lens > 0)
+    if len(some):
+        out[some] = np.add.reduceat(values.astype(np.float64), starts[some]) / lens[some]
+    return out
+
+
 def path_data(x: np.ndarray, y: np.ndarray, digits: int) -> str | None:
     """An SVG path's `d` for one polyline, points rounded to `digits` decimals and a point equal to the one
     before it once rounded left out; None when fewer than two distinct points remain."""
-    pts = [f"{u:.{digits}f},{v:.{digits}f}" for u, v in zip(x, y, strict=True)]
-    kept = [q for k, q in enumerate(pts) if k == 0 or q != pts[k - 1]]
+    n = len(x)
+    if n < 2:
+        return None
+    flat = np.empty(2 * n)
+    flat[0::2], flat[1::2] = x, y
+    pts = ((f"%.{digits}f,%.{digits}f\n" * n) % tuple(flat.tolist()))[:-1].split("\n")  # one format call
+    kept = [q for q, before in zip(pts, [None, *pts[:-1]], strict=True) if q != before]
     return "M" + " L".join(kept) if len(kept) >= 2 else None
 
 

@@ -141,7 +141,7 @@ class MeshLines(Node):
         scene = ctx.input_scene(inputs)
         zb = inputs["linear_depth"]
         w, h = zb.size
-        zbuf = zb.read()[:, :, 0].astype(np.float64)
+        zbuf = zb.read()[:, :, 0]  # float32 as rendered; outline_far pads it into float64
         features = {k for k in _FEATURES if getattr(p, k)}
         curv = inputs.get("curvature")
         if features and curv is None:
@@ -263,7 +263,7 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
     V, F = mesh.vertices, mesh.faces
     parts = []
     fn = mesh.face_normals()
-    face_g = extract.face_facing(V, F, fn, eye_obj)
+    face_g = extract.face_facing(V, F, fn, eye_obj, mesh.face_centroids())
     edges = None
     if contours:
         flat = planes.planar(mesh, weld)

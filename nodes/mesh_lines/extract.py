@@ -167,9 +167,11 @@ def _edge_segs(V: np.ndarray, F: np.ndarray, wid: np.ndarray, occ: np.ndarray, k
                 np.stack([wid[va], wid[vb]], axis=1).astype(np.int64), np.full(len(occ), kind, np.uint8), front)
 
 
-def face_facing(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, eye: np.ndarray) -> np.ndarray:
-    """g per face, at its centroid (one sign over the face's plane): > 0 where it faces the viewer."""
-    return facing(V[F].mean(axis=1), face_normals, eye)
+def face_facing(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, eye: np.ndarray,
+                centroids: np.ndarray | None = None) -> np.ndarray:
+    """g per face, at its centroid (one sign over the face's plane; `centroids`: V[F].mean(axis=1) where known):
+    > 0 where it faces the viewer."""
+    return facing(V[F].mean(axis=1) if centroids is None else centroids, face_normals, eye)
 
 
 def silhouette_edges(face_normals: np.ndarray, ef: EdgeFaces, face_g: np.ndarray,
@@ -554,7 +556,9 @@ background or farther than its depth by more than this fraction of it."""
 def outline_far(zbuf: np.ndarray) -> np.ndarray:
     """The linear depth buffer with the background at inf, padded by two pixels of background all round: made once
     a frame, read by `depth_visibility` and `at_outline`."""
-    return np.pad(np.where(zbuf > 0.0, zbuf, np.inf), 2, constant_values=np.inf)
+    far = np.full((zbuf.shape[0] + 4, zbuf.shape[1] + 4), np.inf)
+    np.copyto(far[2:-2, 2:-2], zbuf, where=zbuf > 0.0)
+    return far
 
 
 def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray:

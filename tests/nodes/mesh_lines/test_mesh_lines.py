@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from nodegraph_nodes.mesh_lines import extract
 
 from nodegraph.cache import Cache
-from nodegraph.output.svg import layered_svg, parse_page, read_layers
+from nodegraph.output.svg import layered_svg, parse_page, per_stroke_mean, read_layers
 from nodegraph.values import LINE_KINDS, STROKE_ATTRS, Strokes
 from tests.helpers import run_minimal
 
@@ -168,6 +168,20 @@ def test_layered_svg_layers_and_page():
 
 
 @pytest.mark.slow
+def test_per_stroke_mean_matches_numpy_with_empty_strokes():
+    rng = np.random.default_rng(3)
+    lens = rng.integers(0, 5, 200)
+    lens[[0, 17, -1]] = 0
+    starts = np.r_[0, np.cumsum(lens)]
+    values = rng.random(starts[-1]).astype(np.float32)
+    got = per_stroke_mean(values, starts)
+    for i, (a, b) in enumerate(zip(starts[:-1], starts[1:], strict=True)):
+        if b > a:
+            assert got[i] == pytest.approx(float(np.mean(values[a:b].astype(np.float64))), rel=1e-12)
+        else:
+            assert np.isnan(got[i])
+
+
 def test_run_writes_one_svg_a_frame(tmp_path: Path):
     from nodegraph.cli import main
 
