@@ -141,7 +141,7 @@ class MeshLines(Node):
         scene = ctx.input_scene(inputs)
         zb = inputs["linear_depth"]
         w, h = zb.size
-        zbuf = zb.read()[:, :, 0]  # float32 as rendered; outline_far pads it into float64
+        zbuf = zb.read()[:, :, 0]
         features = {k for k in _FEATURES if getattr(p, k)}
         curv = inputs.get("curvature")
         if features and curv is None:

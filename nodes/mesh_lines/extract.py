@@ -422,7 +422,7 @@ def depth_slope(far: np.ndarray, y: np.ndarray, x: np.ndarray) -> np.ndarray:
     inside its padding): per axis the smaller of the two one-sided differences (the side on the same surface at a
     depth edge), their length. inf where a pixel is background or both sides of an axis are (a sliver one pixel
     wide: no slope to read)."""
-    c = far[y, x]
+    c = far[y, x].astype(np.float64)
     with np.errstate(invalid="ignore"):
         gx = np.fmin(np.abs(far[y, x + 1] - c), np.abs(c - far[y, x - 1]))
         gy = np.fmin(np.abs(far[y + 1, x] - c), np.abs(c - far[y - 1, x]))
@@ -554,10 +554,10 @@ background or farther than its depth by more than this fraction of it."""
 
 
 def outline_far(zbuf: np.ndarray) -> np.ndarray:
-    """The linear depth buffer with the background at inf, padded by two pixels of background all round: made once
-    a frame, read by `depth_visibility` and `at_outline`."""
-    far = np.full((zbuf.shape[0] + 4, zbuf.shape[1] + 4), np.inf)
-    np.copyto(far[2:-2, 2:-2], zbuf, where=zbuf > 0.0)
+    """The linear depth buffer with the background at inf, padded by two pixels of background all round (float32, as
+    rendered): made once a frame, read by `depth_visibility` and `at_outline`."""
+    far = np.full((zbuf.shape[0] + 4, zbuf.shape[1] + 4), np.inf, np.float32)  # the buffer's own precision
+    np.copyto(far[2:-2, 2:-2], zbuf, where=zbuf > 0.0, casting="same_kind")
     return far
 
 
