@@ -15,7 +15,7 @@ from nodegraph.scene import origin
 from nodegraph.types import ARRAYS, SCENE, STROKES, Texture
 
 from .._shared import planes
-from . import extract, intersect
+from . import extract, intersect, solids
 
 _FEATURES = ("suggestive", "ridges", "valleys")
 
@@ -46,6 +46,8 @@ class _Kept:
 _TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> (weld ids, welded count, welded edges and their faces)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
 _SELF_CROSSINGS = _Kept(4_000_000)  # posed mesh hash -> its intersection segments with itself
+_PARTS = _Kept(4_000_000)  # posed mesh hash -> its parts (solids.Parts)
+JUNCTION_REACH = 8.0  # px at the reference size: lines this near a junction are tested for lying inside a part
 
 
 class _FeatureDefaults:
@@ -74,7 +76,8 @@ class MeshLines(Node):
     silhouette, on the image's outline: `extract.reconcile_outline`), creases (welded
     edges whose faces' normals differ by more than `crease_angle`), boundaries (edges of one face), borders
     (boundaries another object shares: object and material borders), intersections (where faces of one object or
-    of two pass through each other: `intersect.py`) and, where a curvature node is connected,
+    of two pass through each other: `intersect.py`; the other lines stop where they enter a closed part:
+    `solids.py`) and, where a curvature node is connected,
     feature_lines' suggestive contours, ridges and valleys (its CPU code, its default thresholds). Segments are
     chained across faces (through points two segments of one kind share; where three or more meet, along the
     straightest pair turning by less than `junction_turn`, as Freestyle chooses at a junction), sampled every
@@ -85,7 +88,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "15"
+    version = "16"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -174,11 +177,12 @@ class MeshLines(Node):
         radius = max(p.outline * ctx.px_scale, 1.0)
         cut = (p.spacing * ctx.px_scale, p.depth_tolerance, p.split_angle, p.min_length * ctx.px_scale, p.hidden,
                p.junction_turn)
-        for (index, model, outline), s in zip(objs, segs, strict=True):
-            mv = view @ model
-            v = extract.View(proj @ mv, mv, (w, h))
+        views = [extract.View(proj @ view @ model, view @ model, (w, h)) for _, model, _ in objs]
+        junctions = solid_tests(scene, objs, segs, views, JUNCTION_REACH * ctx.px_scale) if p.intersections \
+            else [None] * len(objs)
+        for (index, _, outline), s, v, solid in zip(objs, segs, views, junctions, strict=True):
             inter = s.kind == extract.KIND["intersection"]
-            parts.append(strokes_of(index, s.select(~inter), v, zbuf, *cut, outline, radius, far))
+            parts.append(strokes_of(index, s.select(~inter), v, zbuf, *cut, outline, radius, far, solid))
             crossings.append((index, s.select(inter), v))
         parts += crossing_parts(crossings, parts, zbuf, *cut, radius, far)
         return {"strokes": extract.to_strokes(parts, (w, h), p.width * ctx.px_scale, p.color)}
@@ -287,18 +291,19 @@ def self_crossings(mesh: Any, weld: np.ndarray, nw: int) -> extract.Segs:
         np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw), len(mesh.faces))
 
 
+def world_boxes(scene: Any, objs: list[tuple[Any, ...]]) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """Each object's vertices in world space, and the corners of their boxes (k, 3) each."""
+    world = [np.asarray(scene.objects[index].mesh.vertices, np.float64) @ model[:3, :3].T + model[:3, 3]
+             for index, model, _ in objs]
+    return world, np.array([v.min(axis=0) for v in world]), np.array([v.max(axis=0) for v in world])
+
+
 def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs]) -> list[extract.Segs]:
     """Each object's segments with its intersection lines with the objects after it whose world boxes overlap
     its own (on its faces, in its space; keys beyond its other keys): those objects merged into one mesh and
     searched at once (one broad phase for a floor under two hundred boxes, not two hundred)."""
     out = list(segs)
-    world, boxes = [], []
-    for index, model, _ in objs:
-        v = np.asarray(scene.objects[index].mesh.vertices, np.float64) @ model[:3, :3].T + model[:3, 3]
-        world.append(v)
-        boxes.append((v.min(axis=0), v.max(axis=0)))
-    lo = np.array([b[0] for b in boxes])
-    hi = np.array([b[1] for b in boxes])
+    world, lo, hi = world_boxes(scene, objs)
     for i, (ia, ma, _) in enumerate(objs):
         later = np.arange(i + 1, len(objs))
         later = later[~(np.any(hi[i] < lo[later], axis=1) | np.any(hi[later] < lo[i], axis=1))]
@@ -322,32 +327,83 @@ def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extrac
     return out
 
 
+def mesh_parts(mesh: Any) -> solids.Parts:
+    """`solids.parts` of a posed mesh, kept (`_Kept`)."""
+    weld, nw, _ = topology(mesh)
+    return _PARTS.get(mesh.content_hash(), lambda: solids.parts(np.asarray(mesh.vertices, np.float64), mesh.faces,
+                                                                 weld, nw), len(mesh.faces))
+
+
+def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs], views: list[extract.View],
+                reach: float) -> list[solids.Junctions | None]:
+    """Per object (`objs`, `segs` as `compute` makes them), where any intersection lines were found: its samples
+    within `reach` px of one on the screen are tested for lying inside a closed part of its own mesh other than
+    the sample's, or of another object whose world box overlaps its own (`solids`). None for an object with
+    neither."""
+    inter = [s.select(s.kind == extract.KIND["intersection"]) for s in segs]
+    if not any(len(x) for x in inter):
+        return [None] * len(objs)
+    near = extract.distance_tree(np.concatenate([extract.edge_points(x, v, 1.0) for x, v in
+                                                 zip(inter, views, strict=True)]))
+    _, lo, hi = world_boxes(scene, objs)
+    out: list[solids.Junctions | None] = []
+    for i in range(len(objs)):
+        mesh = scene.objects[objs[i][0]].mesh
+        others = [j for j in range(len(objs)) if j != i and not (np.any(hi[i] < lo[j]) or np.any(hi[j] < lo[i]))]
+        if not others and not mesh_parts(mesh).closed.any():
+            out.append(None)
+            continue
+
+        def test(points: np.ndarray, face: np.ndarray, i: int = i, others: list[int] = others) -> np.ndarray:
+            mesh = scene.objects[objs[i][0]].mesh
+            own = mesh_parts(mesh)
+            hit = solids.inside(points, own.label[face], mesh.vertices, mesh.faces, own)
+            for j in others:
+                rest = np.flatnonzero(~hit)
+                if not len(rest):
+                    break
+                other = scene.objects[objs[j][0]].mesh
+                to_j = np.linalg.inv(objs[j][1]) @ objs[i][1]
+                q = points[rest] @ to_j[:3, :3].T + to_j[:3, 3]
+                hit[rest] = solids.inside(q, np.full(len(rest), -1), other.vertices, other.faces, mesh_parts(other))
+            return hit
+
+        out.append(solids.Junctions(near, test, reach))
+    return out
+
+
 def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float, tolerance: float,
-            junction_turn: float, far: np.ndarray | None = None) -> tuple[extract.Samples, np.ndarray]:
+            junction_turn: float, far: np.ndarray | None = None,
+            solid: solids.Junctions | None = None) -> tuple[extract.Samples, np.ndarray]:
     """Segments chained, sampled along the screen and tested against the depth buffer (`far`: its
-    `extract.outline_far`, where made already)."""
+    `extract.outline_far`, where made already). `solid` (`solids.Junctions`): for an object whose parts pass
+    through others, the visible samples near its junctions that lie inside another closed part are hidden."""
     half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
     sm = extract.sample(segs, half, offsets, view, spacing)
+    far = extract.outline_far(zbuf) if far is None else far
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))
-    return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
+    state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
+    if solid is not None:
+        state = solid.hide(sm.p, sm.face, sm.xy, state, sm.kind, extract.KIND["intersection"])
+    return sm, state
 
 
 def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: float,
                tolerance: float, split_angle: float, min_length: float, hidden: bool,
                junction_turn: float = extract.JUNCTION_TURN,
                outline: tuple[extract.Segs, np.ndarray] | None = None, radius: float = 1.0,
-               far: np.ndarray | None = None) -> tuple[Any, ...]:
+               far: np.ndarray | None = None, solid: solids.Junctions | None = None) -> tuple[Any, ...]:
     """One object's segments chained, sampled, tested and split: a part for `extract.to_strokes`. With `outline`
     (`object_lines`) the polygonal silhouette draws the outline where the interpolated contours stray from it
     by more than `radius` px (`extract.reconcile_outline`; `far`: `extract.outline_far` of `zbuf`), cut, cleaned
-    and joined to them as `split_lines` says."""
+    and joined to them as `split_lines` says. `solid`: as `sampled` takes it."""
     far = extract.outline_far(zbuf) if far is None else far
-    sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far)
+    sm, state = sampled(segs, view, zbuf, spacing, tolerance, junction_turn, far, solid)
     filled = None
     if outline is not None:
         edges, flat = outline
         so, st_o = sampled(extract.outline_candidates(edges, view, far), view, zbuf, spacing, tolerance,
-                           junction_turn, far)
+                           junction_turn, far, solid)
         state, filled = reconciled(sm, state, so, st_o, flat, radius, far,
                                    extract.edge_points(edges, view, 0.5 * radius))
     return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled, radius, spacing))

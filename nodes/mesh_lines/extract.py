@@ -402,9 +402,7 @@ def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolera
     iy = np.floor(xy[:, 1]).astype(np.int64)
     on = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h) & (depth > 0.0)
     state = np.full(len(xy), -1, np.int8)
-    x0 = np.floor(xy[on, 0] - 0.5).astype(np.int64) + 2  # the 2 x 2 pixels whose centres surround the sample
-    y0 = np.floor(xy[on, 1] - 0.5).astype(np.int64) + 2
-    near_max = np.maximum(np.maximum(far[y0, x0], far[y0, x0 + 1]), np.maximum(far[y0 + 1, x0], far[y0 + 1, x0 + 1]))
+    x0, y0, near_max = farthest_around(xy[on], far)
     d = depth[on]
     allow = d * tolerance
     if on_surface is not None and np.any(on_surface[on]):
@@ -415,6 +413,15 @@ def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolera
         allow[surf] = np.minimum(allow[surf], SLOPE_PX * slope + DEPTH_EPS * d[surf])
     state[on] = (near_max >= d - allow).astype(np.int8)
     return state
+
+
+def farthest_around(xy: np.ndarray, far: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of points on the canvas (pixels, y up): the corner (x0, y0) in `far` (`outline_far`, padded by 2) of the
+    2 x 2 pixels whose centres surround each, and the farthest depth among them."""
+    x0 = np.floor(xy[:, 0] - 0.5).astype(np.int64) + 2
+    y0 = np.floor(xy[:, 1] - 0.5).astype(np.int64) + 2
+    most = np.maximum(np.maximum(far[y0, x0], far[y0, x0 + 1]), np.maximum(far[y0 + 1, x0], far[y0 + 1, x0 + 1]))
+    return x0, y0, most
 
 
 SLOPE_PX = 2.0  # pixels of the depth buffer's slope a sample on the surface may lie behind it (depth_visibility)
