@@ -88,7 +88,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "16"
+    version = "17"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -334,6 +334,11 @@ def mesh_parts(mesh: Any) -> solids.Parts:
                                                                  weld, nw), len(mesh.faces))
 
 
+def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The eight corners (8, 3) of the box from `lo` to `hi`."""
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
 def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs], views: list[extract.View],
                 reach: float) -> list[solids.Junctions | None]:
     """Per object (`objs`, `segs` as `compute` makes them), where any intersection lines were found: its samples
@@ -345,7 +350,9 @@ def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs
         return [None] * len(objs)
     near = extract.distance_tree(np.concatenate([extract.edge_points(x, v, 1.0) for x, v in
                                                  zip(inter, views, strict=True)]))
-    _, lo, hi = world_boxes(scene, objs)
+    corners = [box_corners(*scene.objects[index].mesh.bounds()) @ model[:3, :3].T + model[:3, 3]
+               for index, model, _ in objs]  # each mesh's box turned into the world, and a box round that
+    lo, hi = np.array([c.min(axis=0) for c in corners]), np.array([c.max(axis=0) for c in corners])
     out: list[solids.Junctions | None] = []
     for i in range(len(objs)):
         mesh = scene.objects[objs[i][0]].mesh
@@ -384,7 +391,7 @@ def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: f
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))
     state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
     if solid is not None:
-        state = solid.hide(sm.p, sm.face, sm.xy, state, sm.kind, extract.KIND["intersection"])
+        state = solid.hide(sm.p, sm.face, sm.xy, sm.depth, state, sm.kind, extract.KIND["intersection"], far)
     return sm, state
 
 

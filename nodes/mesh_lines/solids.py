@@ -2,8 +2,8 @@
 body, an eye in its socket), a contour or crease of one part runs on inside the other. Near the junction the two
 surfaces are at nearly one depth, and on the outline one of the pixels around a sample is background, so the depth
 test (`extract.depth_visibility`) keeps such a line visible for a few pixels past the junction. A point inside a
-closed surface is hidden from every eye outside it, so a visible sample within a few pixels of its object's
-intersection lines on the screen that lies inside a closed part other than its own is hidden (`Junctions`).
+closed surface is hidden from every eye outside it, so a visible sample within a few pixels of an intersection line
+on the screen that lies inside a closed part other than its own is hidden (`Junctions`).
 
 A part is a set of faces joined through welded corners; it is closed where every welded edge of it has exactly
 two faces. A point is inside a closed part where a ray from it crosses the part's surface an odd number of times
@@ -103,12 +103,20 @@ class Junctions:
     test: Callable[[np.ndarray, np.ndarray], np.ndarray]
     reach: float
 
-    def hide(self, p: np.ndarray, face: np.ndarray, xy: np.ndarray, state: np.ndarray, kind: np.ndarray,
-             skip: int) -> np.ndarray:
-        """`state` with the visible samples (object points `p` on faces `face`, at `xy` on the screen) within
-        `reach` of a junction and inside another closed part hidden (0); samples of kind `skip` (the
-        intersection lines, on both surfaces) left as they are."""
+    def hide(self, p: np.ndarray, face: np.ndarray, xy: np.ndarray, depth: np.ndarray, state: np.ndarray,
+             kind: np.ndarray, skip: int, far: np.ndarray) -> np.ndarray:
+        """`state` with the visible samples (object points `p` on faces `face`, at `xy` on the screen, `depth`)
+        within `reach` of a junction and inside another closed part hidden (0). Only the samples the depth test
+        keeps for its tolerance or for a background pixel beside them are tested (`far`: `extract.outline_far`):
+        one with a pixel of its 2 x 2 no nearer than itself and not background sees a surface at or behind it,
+        within a pixel of the junction at most if it is inside. Samples of kind `skip` (the intersection lines,
+        on both surfaces) are left as they are."""
+        from .extract import farthest_around
+
         cand = np.flatnonzero((state > 0) & (kind != skip))
+        if len(cand):
+            most = farthest_around(xy[cand], far)[2]
+            cand = cand[(most < depth[cand]) | np.isinf(most)]
         if not len(cand):
             return state
         cand = cand[self.near.query(xy[cand], distance_upper_bound=self.reach)[0] <= self.reach]

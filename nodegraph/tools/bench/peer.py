@@ -35,7 +35,9 @@ mesh and the loaded pipeline stay, as Blender's loaded scene does).
 
 Measured interleaved: each round renders, for every (pipeline, setup) pair, the sketchgraph pipeline and the
 Blender setup back to back, the order within a pair and of the pairs turned round every other round, so drift in
-the machine's speed hits both sides alike. One round before the counted ones is not counted (first renders:
+the machine's speed hits both sides alike, each render after a pause of SETTLE_S (0.25 s): on two cores the render
+just before it leaves work behind (the other process's threads winding down), which cost whichever side ran
+second 10-20 ms on spot. One round before the counted ones is not counted (first renders:
 shader compilation, kernel loading). Reported per mesh: the median seconds of every way, `ratio` = Blender's
 median / sketchgraph's median per (setup, pipeline) (above 1: sketchgraph is faster), the median of the pairs'
 own ratios beside it, and the cold start apart: Blender's process start and `import bpy`, the OBJ import and the
@@ -73,6 +75,7 @@ WORKER = Path(__file__).with_name("peer_blender.py")
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has none: --meshes-dir
 DEFAULT_MESHES = ("spot.obj", "ogre.obj")
 DEFAULT_PIPELINES = ("nienhaus_sketchy",)
+SETTLE_S = 0.25  # seconds of pause before each timed render (module docstring)
 SETUPS = ("cycles", "workbench", "freestyle_svg")
 DEFAULT_SETUPS = ("cycles", "workbench")
 SENSOR_MM = 36.0  # Blender's sensor size along the fitted side; only lens / sensor matters
@@ -488,6 +491,7 @@ def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str,
                         took: dict[str, float] = {}
                         for way in order_of(pair, r):
                             kind, what = way.split(":", 1)
+                            time.sleep(SETTLE_S)
                             took[way] = (sg.render(name, what) if kind == "sketchgraph"
                                          else bl.ask(op="render", name=name, setup=what)["render_s"])
                             seconds[name][way].append(took[way])
