@@ -47,6 +47,7 @@ _TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> (weld ids, welded count, w
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
 _SELF_CROSSINGS = _Kept(4_000_000)  # posed mesh hash -> its intersection segments with itself
 _PARTS = _Kept(4_000_000)  # posed mesh hash -> its parts (solids.Parts)
+_SHARP = _Kept(4_000_000)  # posed mesh hash and crease angle -> its sharp edges (extract.sharp_edges)
 JUNCTION_REACH = 8.0  # px at the reference size: lines this near a junction are tested for lying inside a part
 
 
@@ -278,7 +279,10 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
         if outline:
             edges = (extract.outline_edges(V, F, weld, flat, silhouette), flat)
     if creases or boundaries:
-        parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries))
+        sharp = _SHARP.get(f"{mesh.content_hash()}:{crease_angle!r}", lambda: extract.sharp_edges(fn, ef, crease_angle),
+                           len(F)) if creases else None
+        parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries,
+                                                    sharp))
     if intersections:
         parts.append(self_crossings(mesh, weld, nw))
     return extract.Segs.concat(parts), edges

@@ -215,19 +215,26 @@ def outline_edges(V: np.ndarray, F: np.ndarray, wid: np.ndarray, flat: np.ndarra
     return _edge_segs(V, F, wid, occ[keep], KIND["contour"], np.ones(int(keep.sum()), bool))
 
 
+def sharp_edges(face_normals: np.ndarray, ef: EdgeFaces, crease_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """The welded edges of two faces whose normals differ by more than `crease_angle` degrees: both occurrences
+    of each (the same for every view of a posed mesh)."""
+    two = ef.second >= 0
+    o1, o2 = ef.first[two], ef.second[two]
+    cos = np.einsum("ij,ij->i", face_normals[o1 // 3], face_normals[o2 // 3])
+    sharp = cos < np.cos(np.radians(crease_angle))
+    return o1[sharp], o2[sharp]
+
+
 def creases_and_boundaries(V: np.ndarray, F: np.ndarray, face_normals: np.ndarray, wid: np.ndarray,
                            ef: EdgeFaces, face_g: np.ndarray, crease_angle: float, creases: bool = True,
-                           boundaries: bool = True) -> Segs:
+                           boundaries: bool = True,
+                           sharp: tuple[np.ndarray, np.ndarray] | None = None) -> Segs:
     """Creases (dihedral angle above `crease_angle` degrees, on the face of the pair nearer facing the viewer;
-    `front` False where both faces turn away: `face_g`, `face_facing`) and boundaries (edges of one face)."""
+    `front` False where both faces turn away: `face_g`, `face_facing`) and boundaries (edges of one face).
+    `sharp`: `sharp_edges` where known."""
     parts = []
     if creases:
-        two = ef.second >= 0
-        o1, o2 = ef.first[two], ef.second[two]
-        n1, n2 = face_normals[o1 // 3], face_normals[o2 // 3]
-        cos = np.einsum("ij,ij->i", n1, n2)
-        sharp = cos < np.cos(np.radians(crease_angle))
-        o1, o2 = o1[sharp], o2[sharp]
+        o1, o2 = sharp_edges(face_normals, ef, crease_angle) if sharp is None else sharp
         g1, g2 = face_g[o1 // 3], face_g[o2 // 3]
         occ = np.where(g1 >= g2, o1, o2)
         parts.append(_edge_segs(V, F, wid, occ, KIND["crease"], np.maximum(g1, g2) > 0.0))
