@@ -35,9 +35,12 @@ mesh and the loaded pipeline stay, as Blender's loaded scene does).
 
 Measured interleaved: each round renders, for every (pipeline, setup) pair, the sketchgraph pipeline and the
 Blender setup back to back, the order within a pair and of the pairs turned round every other round, so drift in
-the machine's speed hits both sides alike, each render after a pause of SETTLE_S (0.25 s): on two cores the render
-just before it leaves work behind (the other process's threads winding down), which cost whichever side ran
-second 10-20 ms on spot. One round before the counted ones is not counted (first renders:
+the machine's speed hits both sides alike. Each way renders BACK_TO_BACK + 1 times in a row and the last is timed:
+the frames of a film follow each other so, and a single render after other work pays for cold caches and memory
+(sketchgraph's spot lines: 25 ms a frame back to back, 34 ms after a 0.25 s pause). Before each way's renders
+there is a pause of SETTLE_S (0.25 s): on two cores the render just before leaves work behind (the other process's
+threads winding down), which cost whichever side ran second 10-20 ms on spot, and 30-50 ms in a
+round's first render. One round before the counted ones is not counted (first renders:
 shader compilation, kernel loading). Reported per mesh: the median seconds of every way, `ratio` = Blender's
 median / sketchgraph's median per (setup, pipeline) (above 1: sketchgraph is faster), the median of the pairs'
 own ratios beside it, and the cold start apart: Blender's process start and `import bpy`, the OBJ import and the
@@ -75,7 +78,8 @@ WORKER = Path(__file__).with_name("peer_blender.py")
 # the shared test meshes sit beside a checkout (../shared/meshes); an installed package has none: --meshes-dir
 DEFAULT_MESHES = ("spot.obj", "ogre.obj")
 DEFAULT_PIPELINES = ("nienhaus_sketchy",)
-SETTLE_S = 0.25  # seconds of pause before each timed render (module docstring)
+SETTLE_S = 0.25  # seconds of pause before each way's renders in a round (module docstring)
+BACK_TO_BACK = 1  # untimed renders of a way just before its timed one, as a film's frames follow each other
 SETUPS = ("cycles", "workbench", "freestyle_svg")
 DEFAULT_SETUPS = ("cycles", "workbench")
 SENSOR_MM = 36.0  # Blender's sensor size along the fitted side; only lens / sensor matters
@@ -492,8 +496,9 @@ def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str,
                         for way in order_of(pair, r):
                             kind, what = way.split(":", 1)
                             time.sleep(SETTLE_S)
-                            took[way] = (sg.render(name, what) if kind == "sketchgraph"
-                                         else bl.ask(op="render", name=name, setup=what)["render_s"])
+                            for _ in range(1 + BACK_TO_BACK):  # the last of back-to-back renders is timed
+                                took[way] = (sg.render(name, what) if kind == "sketchgraph"
+                                             else bl.ask(op="render", name=name, setup=what)["render_s"])
                             seconds[name][way].append(took[way])
                         key = f"{pair[1]}/{pair[0]}"
                         paired[name].setdefault(key, []).append(took[pair[1]] / took[pair[0]])
