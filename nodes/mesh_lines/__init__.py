@@ -390,6 +390,13 @@ def sampled(segs: extract.Segs, view: extract.View, zbuf: np.ndarray, spacing: f
     `extract.outline_far`, where made already). `solid` (`solids.Junctions`): for an object whose parts pass
     through others, the visible samples near its junctions that lie inside another closed part are hidden."""
     half, offsets = extract.chain(segs.key, segs.kind, segs.p, junction_turn)
+    return tested(segs, half, offsets, view, zbuf, spacing, tolerance, far, solid)
+
+
+def tested(segs: extract.Segs, half: np.ndarray, offsets: np.ndarray, view: extract.View, zbuf: np.ndarray,
+           spacing: float, tolerance: float, far: np.ndarray | None = None,
+           solid: solids.Junctions | None = None) -> tuple[extract.Samples, np.ndarray]:
+    """`sampled` after its chaining (`half`, `offsets`: `extract.chain`)."""
     sm = extract.sample(segs, half, offsets, view, spacing)
     far = extract.outline_far(zbuf) if far is None else far
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))

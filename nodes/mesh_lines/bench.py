@@ -87,17 +87,6 @@ def picture(svg_text: str, png: Path, title: str = "") -> None:
     plt.close(fig)
 
 
-def _visible(segs: Any, half: np.ndarray, off: np.ndarray, view: Any, zbuf: np.ndarray, p: Any,
-             far: np.ndarray) -> tuple[Any, np.ndarray]:
-    """Chained segments sampled and tested against the depth buffer (mesh_lines.sampled after its chaining,
-    which the caller times apart)."""
-    from . import extract
-
-    sm = extract.sample(segs, half, off, view, p.spacing)
-    state = extract.depth_visibility(sm.xy, sm.depth, zbuf, p.depth_tolerance, far)
-    return sm, np.where(~sm.front & (state > 0), 0, state).astype(np.int8)
-
-
 def outline_coverage(strokes: Any, zbuf: np.ndarray) -> float:
     """The share of the image's outline (the pixels at the rim of the depth buffer's covered region) that has a
     visible stroke sample within 1.5 px: how much of the silhouette the lines draw."""
@@ -121,7 +110,17 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
     from nodegraph.executor import Executor
     from nodegraph.output.svg import layered_svg
 
-    from . import MeshLines, crossing_parts, extract, object_lines, reconciled, split_lines
+    from . import (
+        JUNCTION_REACH,
+        MeshLines,
+        crossing_parts,
+        extract,
+        object_lines,
+        reconciled,
+        solid_tests,
+        split_lines,
+        tested,
+    )
 
     text = (f"pipeline: b\nsize: [{size}, {size}]\nreference_size: {size}\nscene: builtin:box\nnodes:\n"
             "  gbuf:\n    type: rasterize\noutputs:\n  z: gbuf.linear_depth\n")
@@ -154,8 +153,9 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             v = extract.View(proj @ mv, mv, (size, size))
             inter = segs.kind == extract.KIND["intersection"]
             crossings.append((index, segs.select(inter), v))
-            segs = segs.select(~inter)
             far = extract.outline_far(zbuf) if far is None else far
+            solid = solid_tests(scene, [(index, model, None)], [segs], [v], JUNCTION_REACH)[0]  # each object alone
+            segs = segs.select(~inter)
             if outlined is not None:
                 edges, flat = outlined
                 silhouette = extract.edge_points(edges, v, 0.5 * p.outline)
@@ -165,10 +165,10 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             if outlined is not None:
                 half_o, off_o = extract.chain(edges.key, edges.kind, edges.p, p.junction_turn)
             t2 = time.perf_counter()
-            sm, state = _visible(segs, half, off, v, zbuf, p, far)
+            sm, state = tested(segs, half, off, v, zbuf, p.spacing, p.depth_tolerance, far, solid)
             filled = None
             if outlined is not None:
-                so, st_o = _visible(edges, half_o, off_o, v, zbuf, p, far)
+                so, st_o = tested(edges, half_o, off_o, v, zbuf, p.spacing, p.depth_tolerance, far, solid)
                 state, filled = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
             t3 = time.perf_counter()
             sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, filled, p.outline,
