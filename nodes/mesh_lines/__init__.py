@@ -46,7 +46,8 @@ class _Kept:
 _TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> (weld ids, welded count, welded edges and their faces)
 _FEATURE_OPS: dict[tuple[Any, ...], dict[Any, Any]] = {}
 _SELF_CROSSINGS = _Kept(4_000_000)  # posed mesh hash -> its intersection segments with itself
-_PARTS = _Kept(4_000_000)  # posed mesh hash -> its parts (solids.Parts)
+_PART_TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> its parts' faces (solids.PartTopology)
+_PARTS = _Kept(4_000_000)  # posed mesh hash -> its parts' boxes and trees (solids.Parts)
 _SHARP = _Kept(4_000_000)  # posed mesh hash and crease angle -> its sharp edges (extract.sharp_edges)
 JUNCTION_REACH = 8.0  # px at the reference size: lines this near a junction are tested for lying inside a part
 
@@ -332,10 +333,13 @@ def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extrac
 
 
 def mesh_parts(mesh: Any) -> solids.Parts:
-    """`solids.parts` of a posed mesh, kept (`_Kept`)."""
+    """`solids.parts` of a posed mesh, kept (`_Kept`): which faces make which part and which parts are closed are
+    kept per topology (a skinned mesh's every pose shares them), the boxes and trees per pose."""
     weld, nw, _ = topology(mesh)
-    return _PARTS.get(mesh.content_hash(), lambda: solids.parts(np.asarray(mesh.vertices, np.float64), mesh.faces,
-                                                                 weld, nw), len(mesh.faces))
+    shape = mesh.topology_mesh()
+    topo = _PART_TOPOLOGY.get(shape.content_hash(), lambda: solids.part_topology(shape.faces, weld, nw),
+                              len(shape.faces))
+    return _PARTS.get(mesh.content_hash(), lambda: solids.parts(mesh.vertices, mesh.faces, topo), len(mesh.faces))
 
 
 def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -44,8 +44,20 @@ class Parts:
         return got
 
 
-def parts(V: np.ndarray, F: np.ndarray, weld: np.ndarray, nw: int) -> Parts:
-    """The parts of a mesh (`weld`: welded vertex ids, `nw` of them)."""
+@dataclass(frozen=True)
+class PartTopology:
+    """Per face its part (`label`); per part whether it is closed; the vertices of the faces in part order
+    (`order`: a vertex is in one part, through its welded corner) and where each part starts in it (`starts`).
+    The same for every pose of a mesh."""
+
+    label: np.ndarray
+    closed: np.ndarray
+    order: np.ndarray
+    starts: np.ndarray
+
+
+def part_topology(F: np.ndarray, weld: np.ndarray, nw: int) -> PartTopology:
+    """The parts of a mesh's faces (`weld`: welded vertex ids, `nw` of them)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -54,8 +66,7 @@ def parts(V: np.ndarray, F: np.ndarray, weld: np.ndarray, nw: int) -> Parts:
     rows = np.repeat(np.arange(m), 3)
     graph = coo_matrix((np.ones(3 * m, np.int8), (rows, m + wF.ravel())), shape=(m + nw, m + nw))
     _, lab = connected_components(graph, directed=False)
-    label = lab[:m]
-    _, label = np.unique(label, return_inverse=True)
+    _, label = np.unique(lab[:m], return_inverse=True)
     label = label.reshape(-1)
     n = int(label.max()) + 1 if m else 0
     a, b = wF, np.roll(wF, -1, axis=1)
@@ -64,12 +75,21 @@ def parts(V: np.ndarray, F: np.ndarray, weld: np.ndarray, nw: int) -> Parts:
     open_edge = count[inv.reshape(-1)] != 2
     closed = np.ones(n, bool)
     closed[np.unique(np.repeat(label, 3)[open_edge])] = False
-    corners = V[F].reshape(-1, 3)
-    lo = np.full((n, 3), np.inf)
-    hi = np.full((n, 3), -np.inf)
-    np.minimum.at(lo, np.repeat(label, 3), corners)
-    np.maximum.at(hi, np.repeat(label, 3), corners)
-    return Parts(label, closed, lo, hi)
+    vlabel = np.full(int(F.max()) + 1 if m else 0, -1, np.int64)
+    vlabel[F.ravel()] = np.repeat(label, 3)
+    used = np.flatnonzero(vlabel >= 0)
+    order = used[np.argsort(vlabel[used], kind="stable")]
+    starts = np.searchsorted(vlabel[order], np.arange(n))
+    return PartTopology(label, closed, order, starts)
+
+
+def parts(V: np.ndarray, F: np.ndarray, weld: np.ndarray | PartTopology, nw: int = 0) -> Parts:
+    """The parts of a posed mesh, from its `PartTopology` (or its welded vertex ids `weld`, `nw` of them)."""
+    topo = weld if isinstance(weld, PartTopology) else part_topology(F, weld, nw)
+    if not len(F):
+        return Parts(topo.label, topo.closed, np.zeros((0, 3)), np.zeros((0, 3)))
+    v = np.asarray(V, np.float64)[topo.order]  # the faces' vertices in part order
+    return Parts(topo.label, topo.closed, np.minimum.reduceat(v, topo.starts), np.maximum.reduceat(v, topo.starts))
 
 
 def inside(points: np.ndarray, own: np.ndarray, V: np.ndarray, F: np.ndarray, p: Parts) -> np.ndarray:
