@@ -116,8 +116,9 @@ RAY = np.array([0.5377, 0.8411, 0.0579]) * 1e6  # a direction along no axis and 
 
 @dataclass(frozen=True)
 class Junctions:
-    """One object's junctions: `near` a k-d tree of its intersection lines' points on the screen, `test` the
-    inside test of points on it (object space, with their faces), `reach` pixels."""
+    """The junction test of one object: `near` a k-d tree of the points of every intersection line in the frame
+    on the screen (an object's junctions with a later object are found on that object's faces), `test` the inside
+    test of points on this object (object space, with their faces), `reach` pixels."""
 
     near: Any
     test: Callable[[np.ndarray, np.ndarray], np.ndarray]
