@@ -117,7 +117,7 @@ RAY = np.array([0.5377, 0.8411, 0.0579]) * 1e6  # a direction along no axis and 
 @dataclass(frozen=True)
 class Junctions:
     """The junction test of one object: `near` a k-d tree of the points of every intersection line in the frame
-    on the screen (an object's junctions with a later object are found on that object's faces), `test` the inside
+    on the screen (two objects' junction lies on the earlier one's faces: `crossings_between`), `test` the inside
     test of points on this object (object space, with their faces), `reach` pixels."""
 
     near: Any
