@@ -65,7 +65,7 @@ class _FeatureDefaults:
 
 FEATURE_DEFAULTS = _FeatureDefaults()
 # the kinds on the rendered surface, whose visibility tolerance is bounded by the depth buffer's slope
-# (extract.depth_visibility; measured against ray casting for these: docs/strokes.md, "Visibility")
+# (extract.depth_visibility; measured against ray casting for these: docs/strokes.md, Accuracy, "Edges")
 ON_SURFACE = np.array([extract.KIND[k] for k in ("crease", "boundary", "border", "intersection")], np.uint8)
 
 
@@ -322,11 +322,17 @@ def stored_segs_fit(got: dict[str, np.ndarray], n_faces: int) -> bool:
             and bool(np.isfinite(got["p"]).all()))
 
 
-def world_boxes(scene: Any, objs: list[tuple[Any, ...]]) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-    """Each object's vertices in world space, and the corners of their boxes (k, 3) each."""
-    world = [np.asarray(scene.objects[index].mesh.vertices, np.float64) @ model[:3, :3].T + model[:3, 3]
-             for index, model, _ in objs]
-    return world, np.array([v.min(axis=0) for v in world]), np.array([v.max(axis=0) for v in world])
+def object_boxes(scene: Any, objs: list[tuple[Any, ...]]) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes (k, 3 corners each) round the objects in the world: each mesh's own box (its cached bounds) turned by
+    its transform, and the box round that (at least as large as the box of its turned vertices)."""
+    corners = [box_corners(*scene.objects[index].mesh.bounds()) @ model[:3, :3].T + model[:3, 3]
+               for index, model, _ in objs]
+    return np.array([c.min(axis=0) for c in corners]), np.array([c.max(axis=0) for c in corners])
+
+
+def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The eight corners (8, 3) of the box from `lo` to `hi`."""
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
 
 
 def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs]) -> list[extract.Segs]:
@@ -334,7 +340,7 @@ def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extrac
     its own (on its faces, in its space; keys beyond its other keys): those objects merged into one mesh and
     searched at once (one broad phase for a floor under two hundred boxes, not two hundred)."""
     out = list(segs)
-    world, lo, hi = world_boxes(scene, objs)
+    lo, hi = object_boxes(scene, objs)
     for i, (ia, ma, _) in enumerate(objs):
         later = np.arange(i + 1, len(objs))
         later = later[~(np.any(hi[i] < lo[later], axis=1) | np.any(hi[later] < lo[i], axis=1))]
@@ -344,11 +350,13 @@ def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extrac
         to_a = np.linalg.inv(ma)
         vb, fb, wb, nv, nw = [], [], [], 0, 0
         for j in later:
-            w, n, _ = topology(scene.objects[objs[j][0]].mesh)
-            vb.append(world[j] @ to_a[:3, :3].T + to_a[:3, 3])
-            fb.append(scene.objects[objs[j][0]].mesh.faces + nv)
+            b = scene.objects[objs[j][0]].mesh
+            w, n, _ = topology(b)
+            to_b = to_a @ objs[j][1]
+            vb.append(np.asarray(b.vertices, np.float64) @ to_b[:3, :3].T + to_b[:3, 3])
+            fb.append(b.faces + nv)
             wb.append(w + nw)
-            nv += len(world[j])
+            nv += len(b.vertices)
             nw += n
         wa, _, _ = topology(a)
         base = int(out[i].key.max()) + 1 if len(out[i]) else 0
@@ -368,11 +376,6 @@ def mesh_parts(mesh: Any) -> solids.Parts:
     return _PARTS.get(mesh.content_hash(), lambda: solids.parts(mesh.vertices, mesh.faces, topo), len(mesh.faces))
 
 
-def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The eight corners (8, 3) of the box from `lo` to `hi`."""
-    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-
-
 def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs], views: list[extract.View],
                 reach: float) -> list[solids.Junctions | None]:
     """Per object (`objs`, `segs` as `compute` makes them), where any intersection lines were found: its samples
@@ -384,9 +387,7 @@ def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs
         return [None] * len(objs)
     near = extract.distance_tree(np.concatenate([extract.edge_points(x, v, 1.0) for x, v in
                                                  zip(inter, views, strict=True)]))
-    corners = [box_corners(*scene.objects[index].mesh.bounds()) @ model[:3, :3].T + model[:3, 3]
-               for index, model, _ in objs]  # each mesh's box turned into the world, and a box round that
-    lo, hi = np.array([c.min(axis=0) for c in corners]), np.array([c.max(axis=0) for c in corners])
+    lo, hi = object_boxes(scene, objs)
     out: list[solids.Junctions | None] = []
     for i in range(len(objs)):
         mesh = scene.objects[objs[i][0]].mesh

@@ -402,7 +402,7 @@ def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolera
     ray cast hides it, and the bunny's precision against the ray-cast reference was 0.973-0.976 from two of four
     views; with 2 x 2 it is 0.987-0.998.) The slope bound matters at a distance, where a fraction of the depth is
     many pixels' worth of a surface: a box's bottom edge sunk 0.05 under a floor seen from 20 units lay within 1 %
-    and was drawn 2-3 px beside the junction; against ray casting it is docs/strokes.md's "Visibility"."""
+    and was drawn 2-3 px beside the junction; against ray casting: docs/strokes.md, Accuracy, "Edges"."""
     h, w = zbuf.shape
     far = outline_far(zbuf) if far is None else far  # padded by 2
     ix = np.floor(xy[:, 0]).astype(np.int64)
@@ -648,7 +648,6 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
 
     `suppress_filled` then drops the silhouette samples near the interpolated contours that are drawn, so the
     silhouette draws the outline only where no interpolated contour does."""
-
     state, outline_state = state.copy(), outline_state.copy()
     outline_state[outline_state == 0] = -1
     vis = outline_state > 0
@@ -676,7 +675,6 @@ def suppress_filled(drawn: np.ndarray, outline: Samples, outline_state: np.ndarr
     (-1): that contour draws the outline there (`split_lines` passes 2 x its tolerance + 1 px: a contour kept
     within the tolerance of a fold of the silhouette can run that far from the fold's outer edge, which drew a
     second line beside it)."""
-
     out = outline_state.copy()
     vis = out > 0
     if len(drawn) and vis.any():
