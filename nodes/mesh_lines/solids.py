@@ -31,13 +31,14 @@ class Parts:
     trees: dict[int, Any] = field(default_factory=dict)
 
     def tree(self, c: int, V: np.ndarray, F: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray]:
-        """(AABB tree, vertices, faces) of closed part `c` of the mesh (V, F)."""
+        """(AABB tree, vertices, faces) of closed part `c` of the mesh (V, F): its own vertices alone."""
         got = self.trees.get(c)
         if got is None:
             import igl
 
-            verts = np.ascontiguousarray(V, np.float64)
-            faces = np.ascontiguousarray(F[self.label == c], np.int64)
+            used, local = np.unique(F[self.label == c], return_inverse=True)
+            verts = np.ascontiguousarray(V[used], np.float64)
+            faces = np.ascontiguousarray(local.reshape(-1, 3), np.int64)
             tree = igl.AABB()
             tree.init(verts, faces)
             got = self.trees[c] = (tree, verts, faces)
