@@ -40,7 +40,8 @@ the frames of a film follow each other so, and a single render after other work 
 (sketchgraph's spot lines: 25 ms a frame back to back, 34 ms after a 0.25 s pause). Before each way's renders
 there is a pause of SETTLE_S (0.25 s): on two cores the render just before leaves work behind (the other process's
 threads winding down), which cost whichever side ran second 10-20 ms on spot, and 30-50 ms in a
-round's first render. One round before the counted ones is not counted (first renders:
+round's first render. `--lone` times the single render after the pause instead (a still's cost; the JSON's
+`back_to_back` says which). One round before the counted ones is not counted (first renders:
 shader compilation, kernel loading). Reported per mesh: the median seconds of every way, `ratio` = Blender's
 median / sketchgraph's median per (setup, pipeline) (above 1: sketchgraph is faster), the median of the pairs'
 own ratios beside it, and the cold start apart: Blender's process start and `import bpy`, the OBJ import and the
@@ -439,7 +440,7 @@ SETUP_TEXT = {
 def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str, ...] = DEFAULT_PIPELINES,
                setups: tuple[str, ...] = DEFAULT_SETUPS, rounds: int = 5, size: tuple[int, int] = (800, 800),
                cycles_samples: int = 16, view: str | None = None, up: str | None = None,
-               images: Path | None = None, cold: bool = True) -> dict[str, Any]:
+               images: Path | None = None, cold: bool = True, back_to_back: int = BACK_TO_BACK) -> dict[str, Any]:
     if rounds < 1:
         raise SketchgraphError("bench peer: --rounds must be at least 1")
     unknown = [s for s in setups if s not in SETUPS]
@@ -450,6 +451,7 @@ def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str,
         "benchmark": "peer", "size": list(size), "rounds": rounds, "pipelines": list(pipelines),
         "setups": {s: SETUP_TEXT[s].format(samples=cycles_samples) for s in setups},
         "cycles_samples": cycles_samples, "blender_python": blender_python, "meshes": {},
+        "back_to_back": back_to_back, "settle_s": SETTLE_S,
     }
     cold_sg: dict[str, dict[str, Any]] = {}
     if cold:  # before the worker starts: nothing else runs beside these processes
@@ -496,7 +498,7 @@ def bench_peer(blender_python: str, meshes: list[Path], *, pipelines: tuple[str,
                         for way in order_of(pair, r):
                             kind, what = way.split(":", 1)
                             time.sleep(SETTLE_S)
-                            for _ in range(1 + BACK_TO_BACK):  # the last of back-to-back renders is timed
+                            for _ in range(1 + back_to_back):  # the last of back-to-back renders is timed
                                 took[way] = (sg.render(name, what) if kind == "sketchgraph"
                                              else bl.ask(op="render", name=name, setup=what)["render_s"])
                             seconds[name][way].append(took[way])
@@ -548,11 +550,19 @@ def format_table(result: dict[str, Any]) -> str:
                      for row in rows)
 
 
+def timed_render(back_to_back: int) -> str:
+    """Which render of a way the figures time, in words."""
+    if back_to_back == 0:
+        return f"each way's lone render after a {SETTLE_S:g} s pause"
+    return f"each way's last of {back_to_back + 1} renders in a row after a {SETTLE_S:g} s pause"
+
+
 def print_peer(result: dict[str, Any]) -> None:
     b = result["blender"]
     click.echo(f"Blender {b['version']} (GPU backend {b.get('gpu_backend')}, {b.get('gpu_renderer', '-')}); "
                f"sketchgraph on {result['sketchgraph']['renderer']}; {result['size'][0]}x{result['size'][1]}, "
-               f"{result['rounds']} interleaved rounds, medians of warm renders; ratio = Blender / sketchgraph")
+               f"{result['rounds']} interleaved rounds, medians of warm renders "
+               f"({timed_render(result.get('back_to_back', BACK_TO_BACK))}); ratio = Blender / sketchgraph")
     for s, text in result["setups"].items():
         click.echo(f"  {s}: {text}")
     click.echo(format_table(result))
@@ -583,13 +593,16 @@ def print_peer(result: dict[str, Any]) -> None:
 @click.option("--view", default=None, help="The named view a mesh is seen from (as `run --view`).")
 @click.option("--up", default=None, help="A mesh's up axis: x, y, z or auto (as `run --up`).")
 @click.option("--no-cold", is_flag=True, help="Skip the fresh sketchgraph processes of the cold-start figures.")
+@click.option("--lone", is_flag=True, help="Time each way's single render after the pause (a still), not the second "
+              "of two in a row (a film's frame).")
 @click.option("--blender-python", default=None, help="A Python (or virtual environment) that imports bpy "
               f"(default: this one where it can, else ${VENV_ENV}).")
 @click.option("--images", "images_dir", type=click.Path(path_type=Path), help="Write one PNG of every way here.")
 @click.option("--json", "json_path", type=click.Path(path_type=Path), help="Write the figures as JSON.")
 def command(mesh_names: tuple[str, ...], meshes_dir: Path | None, pipelines: tuple[str, ...],
             setups: tuple[str, ...], rounds: int, size: str, cycles_samples: int, view: str | None, up: str | None,
-            no_cold: bool, blender_python: str | None, images_dir: Path | None, json_path: Path | None) -> None:
+            no_cold: bool, lone: bool, blender_python: str | None, images_dir: Path | None,
+            json_path: Path | None) -> None:
     python = find_blender_python(blender_python)
     if python is None:
         click.echo(SKIP_LINE)
@@ -609,7 +622,7 @@ def command(mesh_names: tuple[str, ...], meshes_dir: Path | None, pipelines: tup
         return
     result = bench_peer(python, meshes, pipelines=pipelines or DEFAULT_PIPELINES, setups=setups or DEFAULT_SETUPS,
                         rounds=rounds, size=parse_size(size), cycles_samples=cycles_samples, view=view, up=up,
-                        images=images_dir, cold=not no_cold)
+                        images=images_dir, cold=not no_cold, back_to_back=0 if lone else BACK_TO_BACK)
     print_peer(result)
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)

@@ -192,6 +192,30 @@ def test_the_interleaved_run_records_every_render_and_its_ratios(gl, tmp_path: P
     assert "tall" in res.output and "cycles" in res.output
 
 
+@pytest.mark.slow  # a worker process and renders
+@pytest.mark.parametrize("lone", [False, True])
+def test_lone_times_a_single_render_after_the_pause(gl, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lone: bool):
+    stub = tmp_path / "stub_worker.py"
+    stub.write_text(STUB_WORKER)
+    monkeypatch.setattr(peer, "WORKER", stub)
+    monkeypatch.setattr(peer, "find_blender_python", lambda explicit=None: sys.executable)
+    monkeypatch.setattr(peer, "SETTLE_S", 0.0)
+    renders = []
+    real = peer.SketchgraphSide.render
+    monkeypatch.setattr(peer.SketchgraphSide, "render", lambda self, *a: renders.append(a) or real(self, *a))
+    out = tmp_path / "peer.json"
+    res = CliRunner().invoke(main, ["bench", "peer", "--mesh", str(_box_obj(tmp_path / "tall.obj")), "--rounds", "2",
+                                    "--size", "32x24", "--no-cold", "--json", str(out), *(["--lone"] if lone else [])])
+    assert res.exit_code == 0, res.output
+    b = json.loads(out.read_text())
+    timed = len(b["meshes"]["tall"]["seconds"]["sketchgraph:nienhaus_sketchy"])
+    assert timed == 4  # 2 rounds x 2 setups
+    # the first (uncounted) render, then each timed render alone or after one more in a row
+    assert len(renders) == 1 + timed * (1 if lone else 2)
+    assert b["back_to_back"] == (0 if lone else peer.BACK_TO_BACK)
+    assert ("lone render" in res.output) == lone
+
+
 def test_a_pipeline_output_of_strokes_is_timed_with_its_svg(gl, tmp_path: Path):
     assert peer.split_pipeline("plotter_lines:lines") == ("plotter_lines", "lines")
     assert peer.split_pipeline("nienhaus_sketchy") == ("nienhaus_sketchy", None)
