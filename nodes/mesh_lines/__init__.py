@@ -49,6 +49,7 @@ _SELF_CROSSINGS = _Kept(4_000_000)  # posed mesh hash -> its intersection segmen
 _PART_TOPOLOGY = _Kept(4_000_000)  # mesh topology hash -> its parts' faces (solids.PartTopology)
 _PARTS = _Kept(4_000_000)  # posed mesh hash -> its parts' boxes and trees (solids.Parts)
 _SHARP = _Kept(4_000_000)  # posed mesh hash and crease angle -> its sharp edges (extract.sharp_edges)
+_CORNERS = _Kept(4_000_000)  # posed mesh hash and crease angle -> its contours' corner normals (corner_normals)
 JUNCTION_REACH = 8.0  # px at the reference size: lines this near a junction are tested for lying inside a part
 
 
@@ -72,7 +73,8 @@ ON_SURFACE = np.array([extract.KIND[k] for k in ("crease", "boundary", "border",
 class MeshLines(Node):
     """Lines found on every object's posed mesh in object space, each frame, as `Strokes` (nodegraph/values.py;
     docs/strokes.md): occluding contours (interpolated zero crossings of n . v inside faces, n the smooth vertex
-    normal, v towards the eye, or the constant view direction of an orthographic camera; in planar regions, where
+    normal, parted where an edge sharper than `crease_angle` meets the vertex (`extract.corner_normals`), v towards
+    the eye, or the constant view direction of an orthographic camera; in planar regions, where
     those normals lean over the creases around them, the edges between faces turned toward and away; on a coarse
     mesh, where the interpolated contours stray from the polygonal silhouette by more than `outline` pixels, that
     silhouette, on the image's outline: `extract.reconcile_outline`), creases (welded
@@ -90,7 +92,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "17"
+    version = "18"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -109,7 +111,8 @@ class MeshLines(Node):
         ridges: bool = Field(False, description="Ridges (needs the curvature input).")
         valleys: bool = Field(False, description="Valleys (needs the curvature input).")
         crease_angle: float = Field(60.0, gt=0, lt=180, description="Dihedral angle in degrees (between the two "
-                                    "faces' normals) above which an edge is a crease.")
+                                    "faces' normals) above which an edge is a crease, and parts the normals "
+                                    "the contours interpolate.")
         split_angle: float = Field(100.0, gt=0, le=180, description="A stroke is split where it turns by more "
                                    "than this many degrees on the screen (180: never).")
         junction_turn: float = Field(extract.JUNCTION_TURN, ge=0, le=90, description="Where three or more "
@@ -271,17 +274,24 @@ def object_lines(mesh: Any, eye_obj: np.ndarray, contours: bool = True, creases:
     fn = mesh.face_normals()
     face_g = extract.face_facing(V, F, fn, eye_obj, mesh.face_centroids())
     edges = None
+    sharp = None
+    if contours or creases:
+        sharp = _SHARP.get(f"{mesh.content_hash()}:{crease_angle!r}", lambda: extract.sharp_edges(fn, ef, crease_angle),
+                           len(F))
     if contours:
         flat = planes.planar(mesh, weld)
         crease = crease_angle if creases else None
-        parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat))
+        corners = None
+        if sharp is not None and len(sharp[0]):  # normals parted at sharp edges (extract.corner_normals)
+            corners = _CORNERS.get(f"{mesh.content_hash()}:{crease_angle!r}",
+                                   lambda: extract.corner_normals(mesh, crease_angle), len(F))
+        parts.append(extract.contours(V, F, mesh.vertex_normals().astype(np.float64), weld, nw, eye_obj, flat,
+                                      corners))
         silhouette = extract.silhouette_edges(fn, ef, face_g, crease)
         parts.append(extract.facet_contours(V, F, weld, flat, silhouette))
         if outline:
             edges = (extract.outline_edges(V, F, weld, flat, silhouette), flat)
     if creases or boundaries:
-        sharp = _SHARP.get(f"{mesh.content_hash()}:{crease_angle!r}", lambda: extract.sharp_edges(fn, ef, crease_angle),
-                           len(F)) if creases else None
         parts.append(extract.creases_and_boundaries(V, F, fn, weld, ef, face_g, crease_angle, creases, boundaries,
                                                     sharp))
     if intersections:

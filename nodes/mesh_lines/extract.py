@@ -5,14 +5,15 @@ Segments (`Segs`) lie inside one face each; each endpoint carries a key shared b
 that end at the same surface point (a welded vertex id, or a welded mesh edge for a point inside an edge), so
 chaining follows the surface across faces:
 
-* occluding contours: the zero set of g = n . (e - e_w p), n the (welded, angle-weighted) vertex normal and
-  e the eye in homogeneous object coordinates (a direction for an orthographic camera), linearly interpolated
-  inside each face: one segment between the zero crossings on the two edges whose ends differ in sign. Not
-  inside a planar region (`feature_lines.planar_faces`: the faces of a box, a CAD part's flat sides), where the
-  averaged normals of its corners, which lean over the creases around it, put zero crossings across flat faces
-  (boxes touching, as a sofa's back on its seat, drew lines along their sides' diagonals); there the contour is
-  the welded edges between a face turned toward the viewer and one turned away (`facet_contours`), as the render
-  draws the region flat;
+* occluding contours: the zero set of g = n . (e - e_w p), n the (welded, angle-weighted) vertex normal, or
+  where an edge sharper than the crease angle meets the vertex the normal of the corner's smoothing group
+  (`corner_normals`), and e the eye in homogeneous object coordinates (a direction for an orthographic camera),
+  linearly interpolated inside each face: one segment between the zero crossings on the two edges whose ends
+  differ in sign. Not inside a planar region (`feature_lines.planar_faces`: the faces of a box, a CAD part's
+  flat sides), where the averaged normals of its corners, which lean over the creases around it, put zero
+  crossings across flat faces (boxes touching, as a sofa's back on its seat, drew lines along their sides'
+  diagonals); there the contour is the welded edges between a face turned toward the viewer and one turned away
+  (`facet_contours`), as the render draws the region flat;
 * creases: welded edges between two faces whose normals differ by more than the crease angle;
 * boundaries: welded edges of one face only; `mark_borders` turns those that another object shares (the same
   world position) into borders (object and material borders: glTF primitives are separate objects);
@@ -23,7 +24,7 @@ chaining follows the surface across faces:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -107,17 +108,39 @@ def zero_crossings(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lone, others, ts
 
 
+def corner_normals(mesh: Any, crease_angle: float) -> np.ndarray:
+    """(m, 3, 3) float64 unit normal at each face corner for the contours: the welded vertex normal
+    (`Mesh.vertex_normals`), except at a vertex whose faces a sharp edge (dihedral angle above `crease_angle`
+    degrees) parts into smoothing groups, where it is the normal of the corner's group (`Mesh.render_arrays`: the
+    faces joined across edges of two faces no sharper than the angle, angle-weighted as the vertex normal)."""
+    ra = mesh.render_arrays(crease_angle)
+    group = ra.indices.astype(np.int64)
+    wf = mesh.welded_faces()
+    whole = np.bincount(group.ravel())[group] == np.bincount(wf.ravel())[wf]  # the group is the vertex's every corner
+    vn = np.asarray(mesh.vertex_normals(), np.float64)[mesh.faces]
+    return np.where(whole[..., None], vn, np.asarray(ra.normals, np.float64)[group])
+
+
 def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray,
-             flat: np.ndarray | None = None) -> Segs:
+             flat: np.ndarray | None = None, corners: np.ndarray | None = None) -> Segs:
     """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring), none inside
-    the faces `flat` marks (planar regions: `facet_contours` draws theirs)."""
-    g = facing(V, N, eye)
-    cnt = (g >= 0.0)[F].sum(axis=1)
+    the faces `flat` marks (planar regions: `facet_contours` draws theirs). With `corners` ((m, 3, 3),
+    `corner_normals`) n is the corner's normal, not the vertex's `N`: beside a sharp edge the surface's own normal,
+    not one leaning over the edge (which put a second contour along creases: the cloister's arches, a capped
+    tube's rim). The two faces of a sharp edge then find their zero crossings on it at different points; both
+    keep the edge's key, so a contour chains from one to the other along the edge, which between them is a
+    silhouette edge (one face turned toward the viewer, the other away)."""
+    if corners is None:
+        g = facing(V, N, eye)[F]
+    else:
+        p = V[F]
+        g = np.einsum("mkd,mkd->mk", corners, eye[None, None, :3] - eye[3] * p)
+    cnt = (g >= 0.0).sum(axis=1)
     crossed = (cnt == 1) | (cnt == 2)
     fi = np.flatnonzero(crossed if flat is None else crossed & ~flat)
     if not len(fi):
         return Segs.empty()
-    lone, others, ts = zero_crossings(g[F[fi]])
+    lone, others, ts = zero_crossings(g[fi])
     pts, bary, keys = [], [], []
     rows = np.arange(len(fi))
     va = F[fi, lone]

@@ -275,6 +275,50 @@ def test_no_interpolated_contours_across_flat_faces():
         assert (s.kind == extract.KIND["crease"]).sum() > 0
 
 
+def test_a_capped_cylinders_contours_are_its_generators():
+    """A 48-sided capped cylinder, its rims shared by sides and caps at 90 degrees (sharp). Vertex normals averaged
+    over a rim lean toward the cap, so n . v interpolated over the sides crossed zero along a slanted path (38
+    segments spiralling over the side seen from (3, 3.5, 4)), beside the rim's crease near the top. With normals
+    parted at sharp edges (`extract.corner_normals`) the contours are the two generators where the radial normal
+    is perpendicular to the view: at angles phi +- acos(R / rho) about the axis (analytic), 4 segments."""
+    from nodegraph_nodes.mesh_lines import object_segments
+
+    m = _prism(48)
+    for eye in (np.array([3.0, 3.5, 4.0, 1.0]), np.array([0.5, 2.5, -3.0, 1.0]), np.array([-2.0, -1.0, 0.5, 1.0])):
+        s = object_segments(m, eye)
+        c = s.select(s.kind == extract.KIND["contour"])
+        p = c.p.reshape(-1, 3)
+        theta = np.degrees(np.arctan2(p[:, 2], p[:, 0]))
+        phi, rho = np.degrees(np.arctan2(eye[2], eye[0])), np.hypot(eye[0], eye[2])
+        truth = phi + np.array([-1.0, 1.0]) * np.degrees(np.arccos(1.0 / rho))
+        off = np.abs((theta[:, None] - truth[None, :] + 180.0) % 360.0 - 180.0).min(axis=1)
+        assert len(c) == 4 and off.max() < 0.5, (len(c), off.max())  # the facets' interpolation: under 0.1 deg here
+        nearest = np.abs((theta[:, None] - truth[None, :] + 180.0) % 360.0 - 180.0).argmin(axis=1)
+        for k in (0, 1):  # each generator runs from rim to rim
+            y = p[nearest == k, 1]
+            assert np.isclose(y.min(), 0.0) and np.isclose(y.max(), 2.0), (k, y)
+
+
+def test_corner_normals_match_a_flood_fill():
+    """extract.corner_normals (Mesh.render_arrays' smoothing groups) against the reference's flood fill in plain
+    Python, on the capped cylinder, the two boxes and a coarse rock; where no sharp edge parts a vertex they are
+    its welded vertex normal."""
+    from nodegraph.scene.meshes import Mesh
+    from tests.nodes.mesh_lines import reference as ref
+    from tests.nodes.mesh_lines.test_mesh_lines_outline import icosphere
+
+    rng = np.random.default_rng(5)
+    v, f = icosphere(1)
+    rock = Mesh("rock", v * (1 + 0.25 * rng.standard_normal(len(v)))[:, None], f)
+    for m in (_prism(48), _two_boxes(), rock):
+        got = extract.corner_normals(m, 60.0)
+        want = ref.corner_normals(m.vertices, m.faces, m.weld()[0], 60.0)
+        assert np.abs(got - want).max() < 1e-5, m.name
+    m = _prism(48)
+    got = extract.corner_normals(m, 100.0)  # nothing sharp: the vertex normals
+    assert np.array_equal(got, m.vertex_normals().astype(np.float64)[m.faces])
+
+
 def test_a_faceted_prism_outlines_on_its_edges():
     """An octagonal prism seen across its axis: its sides meet at 45 degrees, under the 60 degree crease angle,
     so its outline is no crease. Its faces are planar (the sides meet at more than the 40 degree render split),

@@ -36,7 +36,7 @@ def measure(scene: str, size: int, k: int = 32, view: str | None = None, outline
         model = np.asarray(obj.transform, float)
         eye_obj = np.linalg.inv(model) @ eye
         V, F = mesh.vertices, mesh.faces
-        N = mesh.vertex_normals().astype(np.float64)
+        N = ref.corner_normals(V, F, mesh.weld()[0])  # split at sharp edges, as mesh_lines' contours
         pts, faces = ref.contour_points(V, F, N, eye_obj, k)
         mvp = proj @ view @ model
         rings = ref.vertex_rings(F, mesh.weld()[0])
