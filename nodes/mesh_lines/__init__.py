@@ -92,7 +92,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "18"
+    version = "19"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -442,6 +442,7 @@ def tested(segs: extract.Segs, half: np.ndarray, offsets: np.ndarray, view: extr
     far = extract.outline_far(zbuf) if far is None else far
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))
     state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
+    state = extract.close_flicker(state, sm.offsets, sm.kind == extract.KIND["contour"])
     if solid is not None:
         state = solid.hide(sm.p, sm.face, sm.xy, sm.depth, state, sm.kind, extract.KIND["intersection"], far)
     return sm, state

@@ -412,6 +412,35 @@ class View:
         return xy, depth
 
 
+FLICKER = 2  # samples: a contour's hidden run this short between visible samples of its chain is drawn
+
+
+def close_flicker(state: np.ndarray, offsets: np.ndarray, among: np.ndarray, most: int = FLICKER) -> np.ndarray:
+    """`state` with each run of at most `most` hidden samples (0) of one chain (`offsets`) whose neighbours on both
+    sides in the chain are visible (1) made visible, where the run's samples are all `among` (the interpolated
+    contours). A contour on a coarse mesh's outline lies within a pixel of it, on the face turned away; where no
+    pixel of its 2 x 2 is background the depth buffer holds the face turned toward the viewer, and a sample or two
+    at a time tests hidden: the line was drawn in dashes, a break at each (a capped cone's side, the cow)."""
+    out = state.copy()
+    n = len(state)
+    if n < 3 or most < 1:
+        return out
+    chain = np.zeros(n, np.int64)
+    starts = offsets[:-1][offsets[1:] > offsets[:-1]]
+    chain[starts[1:]] = 1
+    chain = np.cumsum(chain)
+    hid = (state == 0) & among
+    edge = np.diff(np.r_[0, hid.astype(np.int8), 0])
+    a, b = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)  # runs [a, b)
+    ok = (b - a <= most) & (a > 0) & (b < n)
+    a, b = a[ok], b[ok]
+    ok = (state[a - 1] == 1) & (state[b] == 1) & (chain[a - 1] == chain[a]) & (chain[b] == chain[b - 1])
+    a, b = a[ok], b[ok]
+    run = np.repeat(np.arange(len(a)), b - a)
+    out[a[run] + np.arange(len(run)) - np.repeat(np.cumsum(b - a) - (b - a), b - a)] = 1
+    return out
+
+
 def depth_visibility(xy: np.ndarray, depth: np.ndarray, zbuf: np.ndarray, tolerance: float,
                      far: np.ndarray | None = None, on_surface: np.ndarray | None = None) -> np.ndarray:
     """Per sample: 1 visible, 0 hidden, -1 off the canvas. `zbuf` (H, W): linear view depth, row 0 at the
