@@ -92,7 +92,7 @@ class MeshLines(Node):
     changes and at screen turns sharper than `split_angle`; strokes shorter than `min_length` pixels are
     dropped; hidden strokes are kept (their own SVG layers) only with `hidden`."""
 
-    version = "19"
+    version = "20"
     context_keys = frozenset({"size", "frame", "scene", "camera", "px_scale"})
     inputs = {
         "linear_depth": Input(Texture("R32F"), "Linear view depth (rasterize.linear_depth): the occluders, and the "
@@ -442,7 +442,7 @@ def tested(segs: extract.Segs, half: np.ndarray, offsets: np.ndarray, view: extr
     far = extract.outline_far(zbuf) if far is None else far
     state = extract.depth_visibility(sm.xy, sm.depth, zbuf, tolerance, far, np.isin(sm.kind, ON_SURFACE))
     state = np.where(~sm.front & (state > 0), 0, state).astype(np.int8)  # creases between back faces
-    state = extract.close_flicker(state, sm.offsets, sm.kind == extract.KIND["contour"])
+    state = extract.close_flicker(state, sm.offsets, (sm.kind == extract.KIND["contour"]) & (state == 0))
     if solid is not None:
         state = solid.hide(sm.p, sm.face, sm.xy, sm.depth, state, sm.kind, extract.KIND["intersection"], far)
     return sm, state
@@ -465,7 +465,7 @@ def strokes_of(index: int, segs: extract.Segs, view: extract.View, zbuf: np.ndar
         so, st_o = sampled(extract.outline_candidates(edges, view, far), view, zbuf, spacing, tolerance,
                            junction_turn, far, solid)
         state, filled = reconciled(sm, state, so, st_o, flat, radius, far,
-                                   extract.edge_points(edges, view, 0.5 * radius))
+                                   extract.edge_points(edges, view, 0.5 * radius), spacing, tolerance)
     return (index, *split_lines(sm, state, split_angle, min_length, hidden, filled, radius, spacing))
 
 
@@ -500,13 +500,19 @@ def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], part
 
 
 def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,
-               radius: float, far: np.ndarray, silhouette: np.ndarray) -> tuple[np.ndarray, tuple[Any, ...]]:
+               radius: float, far: np.ndarray, silhouette: np.ndarray, spacing: float = 1.0,
+               tolerance: float = 0.01) -> tuple[np.ndarray, tuple[Any, ...]]:
     """`extract.reconcile_outline` for one object's sampled lines (`sm`, `state`) and silhouette (`so`, `st_o`):
-    its interpolated contours are the contour samples outside planar regions (`flat`). Returns the lines' states
-    and the `filled` argument of `split_lines`."""
+    its interpolated contours are the contour samples outside planar regions (`flat`); then
+    `extract.bridge_outline` over gaps up to four times the suppression reach (2 `radius` + 1 px): the reach at
+    either end, where the silhouette is suppressed, and as much again between, where what is left of it is a
+    speck and dropped. Returns the lines' states and the `filled` argument of `split_lines`."""
     interpolated = (sm.kind == extract.KIND["contour"]) & ~flat[sm.face]
     state, st_o = extract.reconcile_outline(sm, state, interpolated, so, st_o, sm.kind == extract.KIND["crease"],
                                             radius, far, silhouette)
+    reach = 2.0 * radius + 1.0
+    state = extract.bridge_outline(sm, state, interpolated, so, st_o, reach, int(np.ceil(4.0 * reach / spacing)),
+                                   far, tolerance)
     return state, (so, st_o, interpolated)
 
 

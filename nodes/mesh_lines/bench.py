@@ -169,7 +169,8 @@ def measure(scene: Any, size: int, repeats: int, pictures: Path | None = None, n
             filled = None
             if outlined is not None:
                 so, st_o = tested(edges, half_o, off_o, v, zbuf, p.spacing, p.depth_tolerance, far, solid)
-                state, filled = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette)
+                state, filled = reconciled(sm, state, so, st_o, flat, p.outline, far, silhouette, p.spacing,
+                                           p.depth_tolerance)
             t3 = time.perf_counter()
             sm, state, idx, soff = split_lines(sm, state, p.split_angle, p.min_length, True, filled, p.outline,
                                               p.spacing)

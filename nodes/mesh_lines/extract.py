@@ -416,9 +416,9 @@ FLICKER = 2  # samples: a contour's hidden run this short between visible sample
 
 
 def close_flicker(state: np.ndarray, offsets: np.ndarray, among: np.ndarray, most: int = FLICKER) -> np.ndarray:
-    """`state` with each run of at most `most` hidden samples (0) of one chain (`offsets`) whose neighbours on both
-    sides in the chain are visible (1) made visible, where the run's samples are all `among` (the interpolated
-    contours). A contour on a coarse mesh's outline lies within a pixel of it, on the face turned away; where no
+    """`state` with each run of at most `most` samples `among` (those a gap may be made of: the contours' hidden
+    samples) not visible, of one chain (`offsets`), whose neighbours on both sides in the chain are visible (1),
+    made visible. A contour on a coarse mesh's outline lies within a pixel of it, on the face turned away; where no
     pixel of its 2 x 2 is background the depth buffer holds the face turned toward the viewer, and a sample or two
     at a time tests hidden: the line was drawn in dashes, a break at each (a capped cone's side, the cow)."""
     out = state.copy()
@@ -429,7 +429,7 @@ def close_flicker(state: np.ndarray, offsets: np.ndarray, among: np.ndarray, mos
     starts = offsets[:-1][offsets[1:] > offsets[:-1]]
     chain[starts[1:]] = 1
     chain = np.cumsum(chain)
-    hid = (state == 0) & among
+    hid = among & (state != 1)
     edge = np.diff(np.r_[0, hid.astype(np.int8), 0])
     a, b = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)  # runs [a, b)
     ok = (b - a <= most) & (a > 0) & (b < n)
@@ -644,6 +644,21 @@ def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray
     return most > depth * (1.0 + OUTLINE_JUMP)
 
 
+def beside_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray, tolerance: float) -> np.ndarray:
+    """Per point (pixels, y up; linear depth): a pixel whose centre is within 2 px of its pixel's is background or no
+    nearer than its depth less `tolerance` of it (`far`: `outline_far`): a line drawn there is at most 2 px from
+    where the surface in front of it ends (the accuracy tests' bound for a visible contour sample)."""
+    h, w = far.shape
+    ix = np.clip(np.floor(xy[:, 0]).astype(np.int64) + 2, 2, w - 3)
+    iy = np.clip(np.floor(xy[:, 1]).astype(np.int64) + 2, 2, h - 3)
+    most = np.full(len(ix), -np.inf)
+    for dy in range(-2, 3):
+        for dx in range(-2, 3):
+            if dx * dx + dy * dy <= 4:
+                most = np.maximum(most, far[iy + dy, ix + dx])
+    return most >= depth * (1.0 - tolerance)
+
+
 def outline_candidates(edges: Segs, view: View, far: np.ndarray) -> Segs:
     """The silhouette edges (`outline_edges`) with an end or their middle on the image's outline
     (`at_outline`): the others cannot draw any of it (`reconcile_outline` drops their samples), so they are not
@@ -718,6 +733,27 @@ def reconcile_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, 
             drop |= distance_tree(outline.xy[fill]).query(sm.xy[cand], distance_upper_bound=reach)[0] <= reach
         state[cand[drop]] = -1
     return state, outline_state
+
+
+def bridge_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, outline: Samples,
+                   outline_state: np.ndarray, reach: float, most: int, far: np.ndarray,
+                   tolerance: float) -> np.ndarray:
+    """`state` with each run of at most `most` interpolated contour samples hidden (0) or dropped (-1) between
+    visible samples of its chain made visible where every sample of the run is within 2 px of where the surface in
+    front of it ends (`beside_outline` with the visibility `tolerance`; not a contour passing behind a fold inside
+    the outline) and within `reach` px of a visible silhouette sample on the outline (`outline_state` > 0 after
+    `reconcile_outline`): the outline is there,
+    and the contour, within a pixel or two of it, tested hidden behind the faces turned toward the viewer for a few
+    pixels, or strayed from the silhouette by more than r there and was dropped for it. The silhouette does not fill
+    such a gap: `suppress_filled` drops its samples within 2 r + 1 px of the contour's drawn ends and what is left
+    is a speck, which left gaps of up to 9 px (the cow's back and ears)."""
+    vis = outline_state > 0
+    cand = np.flatnonzero((state != 1) & interpolated)
+    cand = cand[beside_outline(sm.xy[cand], sm.depth[cand], far, tolerance)]
+    near = np.zeros(len(state), bool)
+    if vis.any() and len(cand):
+        near[cand] = distance_tree(outline.xy[vis]).query(sm.xy[cand], distance_upper_bound=reach)[0] <= reach
+    return close_flicker(state, sm.offsets, near, most)
 
 
 def suppress_filled(drawn: np.ndarray, outline: Samples, outline_state: np.ndarray, radius: float) -> np.ndarray:

@@ -314,6 +314,27 @@ def test_close_flicker_fills_short_hidden_runs_inside_a_chain():
     assert extract.close_flicker(np.array([0, 1, 0], np.int8), np.array([0, 3]), np.ones(3, bool)).tolist() == [0, 1, 0]
 
 
+def test_bridge_outline_fills_short_runs_beside_a_visible_silhouette():
+    """A chain of 12 samples along y = 0.5 on a 20 x 8 buffer covered below y = 1 (so every sample is beside the
+    outline), its samples 4-7 hidden or dropped: drawn where a visible silhouette sample lies within reach of each,
+    not where the silhouette there is hidden or too far, nor over a run longer than `most`."""
+    far = extract.outline_far(np.where(np.arange(8)[:, None] < 1, 5.0, 0.0) * np.ones((8, 20), np.float32))
+    xy = np.c_[np.arange(12) + 2.5, np.full(12, 0.5)]
+    sm = extract.Samples(np.zeros((12, 3)), np.zeros(12, np.int64), np.zeros((12, 3)), np.ones(12, np.uint8),
+                         np.ones(12, bool), xy, np.full(12, 5.0), np.array([0, 12]))
+    state = np.ones(12, np.int8)
+    state[4:8] = [0, -1, 0, 0]
+    sil = extract.Samples(np.zeros((12, 3)), np.zeros(12, np.int64), np.zeros((12, 3)), np.ones(12, np.uint8),
+                          np.ones(12, bool), xy + [0.0, 1.5], np.full(12, 5.0), np.array([0, 12]))
+    interp = np.ones(12, bool)
+    got = extract.bridge_outline(sm, state, interp, sil, np.ones(12, np.int8), 3.0, 12, far, 0.01)
+    assert (got == 1).all()
+    hidden_sil = np.ones(12, np.int8)
+    hidden_sil[2:10] = -1  # no visible silhouette within 3 px of samples 5-6
+    assert (extract.bridge_outline(sm, state, interp, sil, hidden_sil, 3.0, 12, far, 0.01)[4:8] != 1).any()
+    assert (extract.bridge_outline(sm, state, interp, sil, np.ones(12, np.int8), 3.0, 3, far, 0.01)[4:8] != 1).all()
+
+
 def test_a_capped_cones_sides_are_one_stroke_each(tmp_path):
     """A 32-sided capped cone (planar quads on its sides, sharp rims): each side's contour lies within a pixel of
     the outline on the faces turned away, where the depth buffer holds the faces turned toward the viewer, and a
