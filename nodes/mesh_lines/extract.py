@@ -108,33 +108,34 @@ def zero_crossings(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lone, others, ts
 
 
-def corner_normals(mesh: Any, crease_angle: float) -> np.ndarray:
-    """(m, 3, 3) float64 unit normal at each face corner for the contours: the welded vertex normal
-    (`Mesh.vertex_normals`), except at a vertex whose faces a sharp edge (dihedral angle above `crease_angle`
-    degrees) parts into smoothing groups, where it is the normal of the corner's group (`Mesh.render_arrays`: the
-    faces joined across edges of two faces no sharper than the angle, angle-weighted as the vertex normal)."""
+def corner_normals(mesh: Any, crease_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """The face corners whose normal for the contours is not the welded vertex normal (`Mesh.vertex_normals`):
+    those at a vertex whose faces a sharp edge (dihedral angle above `crease_angle` degrees) parts into smoothing
+    groups, each with the normal of its group (`Mesh.render_arrays`: the faces joined across edges of two faces no
+    sharper than the angle, angle-weighted as the vertex normal). Returns (flat corner indices face * 3 + corner
+    (k,), their unit normals (k, 3) float64)."""
     ra = mesh.render_arrays(crease_angle)
-    group = ra.indices.astype(np.int64)
-    wf = mesh.welded_faces()
-    whole = np.bincount(group.ravel())[group] == np.bincount(wf.ravel())[wf]  # the group is the vertex's every corner
-    vn = np.asarray(mesh.vertex_normals(), np.float64)[mesh.faces]
-    return np.where(whole[..., None], vn, np.asarray(ra.normals, np.float64)[group])
+    group = ra.indices.astype(np.int64).ravel()
+    wf = mesh.welded_faces().ravel()
+    parted = np.flatnonzero(np.bincount(group)[group] != np.bincount(wf)[wf])  # the group is not every corner
+    return parted, np.asarray(ra.normals, np.float64)[group[parted]]
 
 
 def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: int, eye: np.ndarray,
-             flat: np.ndarray | None = None, corners: np.ndarray | None = None) -> Segs:
+             flat: np.ndarray | None = None, corners: tuple[np.ndarray, np.ndarray] | None = None) -> Segs:
     """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring), none inside
-    the faces `flat` marks (planar regions: `facet_contours` draws theirs). With `corners` ((m, 3, 3),
-    `corner_normals`) n is the corner's normal, not the vertex's `N`: beside a sharp edge the surface's own normal,
+    the faces `flat` marks (planar regions: `facet_contours` draws theirs). With `corners` (`corner_normals`) n
+    is, at the corners it names, the corner's normal, not the vertex's `N`: beside a sharp edge the surface's own normal,
     not one leaning over the edge (which put a second contour along creases: the cloister's arches, a capped
     tube's rim). The two faces of a sharp edge then find their zero crossings on it at different points; both
     keep the edge's key, so a contour chains from one to the other along the edge, which between them is a
     silhouette edge (one face turned toward the viewer, the other away)."""
-    if corners is None:
-        g = facing(V, N, eye)[F]
-    else:
-        p = V[F]
-        g = np.einsum("mkd,mkd->mk", corners, eye[None, None, :3] - eye[3] * p)
+    g = facing(V, N, eye)[F]
+    if corners is not None and len(corners[0]):
+        at, normal = corners
+        flat_g = g.ravel()
+        flat_g[at] = facing(V[F.ravel()[at]], normal, eye)
+        g = flat_g.reshape(F.shape)
     cnt = (g >= 0.0).sum(axis=1)
     crossed = (cnt == 1) | (cnt == 2)
     fi = np.flatnonzero(crossed if flat is None else crossed & ~flat)
