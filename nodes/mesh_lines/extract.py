@@ -125,10 +125,10 @@ def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: i
              flat: np.ndarray | None = None, corners: tuple[np.ndarray, np.ndarray] | None = None) -> Segs:
     """Occluding contours: interpolated zero crossings of g = n . v inside faces (module docstring), none inside
     the faces `flat` marks (planar regions: `facet_contours` draws theirs). With `corners` (`corner_normals`) n
-    is, at the corners it names, the corner's normal, not the vertex's `N`: beside a sharp edge the surface's own normal,
-    not one leaning over the edge (which put a second contour along creases: the cloister's arches, a capped
-    tube's rim). The two faces of a sharp edge then find their zero crossings on it at different points; both
-    keep the edge's key, so a contour chains from one to the other along the edge, which between them is a
+    is, at the corners it names, the corner's normal, not the vertex's `N`: beside a sharp edge the surface's own
+    normal, not one leaning over the edge (which put a second contour along creases: the cloister's arches, a
+    capped tube's rim). The two faces of a sharp edge then find their zero crossings on it at different points;
+    both keep the edge's key, so a contour chains from one to the other along the edge, which between them is a
     silhouette edge (one face turned toward the viewer, the other away)."""
     g = facing(V, N, eye)[F]
     if corners is not None and len(corners[0]):
