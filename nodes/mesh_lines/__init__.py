@@ -500,10 +500,11 @@ def crossing_parts(crossings: list[tuple[int, extract.Segs, extract.View]], part
 
 
 def reconciled(sm: extract.Samples, state: np.ndarray, so: extract.Samples, st_o: np.ndarray, flat: np.ndarray,
-               radius: float, far: np.ndarray, silhouette: np.ndarray, spacing: float = 1.0,
-               tolerance: float = 0.01) -> tuple[np.ndarray, tuple[Any, ...]]:
+               radius: float, far: np.ndarray, silhouette: np.ndarray, spacing: float,
+               tolerance: float) -> tuple[np.ndarray, tuple[Any, ...]]:
     """`extract.reconcile_outline` for one object's sampled lines (`sm`, `state`) and silhouette (`so`, `st_o`):
-    its interpolated contours are the contour samples outside planar regions (`flat`); then
+    its interpolated contours are the contour samples outside planar regions (`flat`), `spacing` and `tolerance`
+    the sampling's and the visibility's; then
     `extract.bridge_outline` over gaps up to four times the suppression reach (2 `radius` + 1 px): the reach at
     either end, where the silhouette is suppressed, and as much again between, where what is left of it is a
     speck and dropped. Returns the lines' states and the `filled` argument of `split_lines`."""

@@ -133,9 +133,7 @@ def contours(V: np.ndarray, F: np.ndarray, N: np.ndarray, wid: np.ndarray, nw: i
     g = facing(V, N, eye)[F]
     if corners is not None and len(corners[0]):
         at, normal = corners
-        flat_g = g.ravel()
-        flat_g[at] = facing(V[F.ravel()[at]], normal, eye)
-        g = flat_g.reshape(F.shape)
+        g[at // 3, at % 3] = facing(V[F[at // 3, at % 3]], normal, eye)
     cnt = (g >= 0.0).sum(axis=1)
     crossed = (cnt == 1) | (cnt == 2)
     fi = np.flatnonzero(crossed if flat is None else crossed & ~flat)
@@ -635,29 +633,29 @@ def outline_far(zbuf: np.ndarray) -> np.ndarray:
 def at_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray) -> np.ndarray:
     """Per point (pixels, y up; linear depth): on the image's outline, where a pixel of the 3 x 3 around its pixel
     is background or farther than its depth by OUTLINE_JUMP of it (`far`: `outline_far`; off the canvas: True)."""
-    h, w = far.shape
-    ix = np.clip(np.floor(xy[:, 0]).astype(np.int64) + 2, 1, w - 2)
-    iy = np.clip(np.floor(xy[:, 1]).astype(np.int64) + 2, 1, h - 2)
-    most = np.full(len(ix), -np.inf)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            most = np.maximum(most, far[iy + dy, ix + dx])
-    return most > depth * (1.0 + OUTLINE_JUMP)
+    return farthest_within(xy, far, 2) > depth * (1.0 + OUTLINE_JUMP)
 
 
-def beside_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray, tolerance: float) -> np.ndarray:
-    """Per point (pixels, y up; linear depth): a pixel whose centre is within 2 px of its pixel's is background or no
-    nearer than its depth less `tolerance` of it (`far`: `outline_far`): a line drawn there is at most 2 px from
-    where the surface in front of it ends (the accuracy tests' bound for a visible contour sample)."""
+def farthest_within(xy: np.ndarray, far: np.ndarray, r2: int) -> np.ndarray:
+    """Per point (pixels, y up): the farthest depth in `far` (`outline_far`, padded by 2) among the pixels whose
+    offset (dx, dy) from its pixel has dx^2 + dy^2 <= `r2` (at most 4: 2 for the 3 x 3 block, 4 for the disc of
+    radius 2); a point off the canvas reads the padding (inf)."""
     h, w = far.shape
     ix = np.clip(np.floor(xy[:, 0]).astype(np.int64) + 2, 2, w - 3)
     iy = np.clip(np.floor(xy[:, 1]).astype(np.int64) + 2, 2, h - 3)
     most = np.full(len(ix), -np.inf)
     for dy in range(-2, 3):
         for dx in range(-2, 3):
-            if dx * dx + dy * dy <= 4:
+            if dx * dx + dy * dy <= r2:
                 most = np.maximum(most, far[iy + dy, ix + dx])
-    return most >= depth * (1.0 - tolerance)
+    return most
+
+
+def beside_outline(xy: np.ndarray, depth: np.ndarray, far: np.ndarray, tolerance: float) -> np.ndarray:
+    """Per point (pixels, y up; linear depth): a pixel whose centre is within 2 px of its pixel's is background or no
+    nearer than its depth less `tolerance` of it (`far`: `outline_far`): a line drawn there is at most 2 px from
+    where the surface in front of it ends (the accuracy tests' bound for a visible contour sample)."""
+    return farthest_within(xy, far, 4) >= depth * (1.0 - tolerance)
 
 
 def outline_candidates(edges: Segs, view: View, far: np.ndarray) -> Segs:
@@ -743,9 +741,9 @@ def bridge_outline(sm: Samples, state: np.ndarray, interpolated: np.ndarray, out
     visible samples of its chain made visible where every sample of the run is within 2 px of where the surface in
     front of it ends (`beside_outline` with the visibility `tolerance`; not a contour passing behind a fold inside
     the outline) and within `reach` px of a visible silhouette sample on the outline (`outline_state` > 0 after
-    `reconcile_outline`): the outline is there,
-    and the contour, within a pixel or two of it, tested hidden behind the faces turned toward the viewer for a few
-    pixels, or strayed from the silhouette by more than r there and was dropped for it. The silhouette does not fill
+    `reconcile_outline`): the outline is there, and the contour, within a pixel or two of it, tested hidden behind
+    the faces turned toward the viewer for a few pixels, or strayed from the silhouette by more than r there and
+    was dropped for it. The silhouette does not fill
     such a gap: `suppress_filled` drops its samples within 2 r + 1 px of the contour's drawn ends and what is left
     is a speck, which left gaps of up to 9 px (the cow's back and ears)."""
     vis = outline_state > 0
