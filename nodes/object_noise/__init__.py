@@ -28,7 +28,14 @@ class ObjectNoise(Node):
     coverage (beyond the enlarged geometry) the output is `background`. The seed comes from the pipeline
     seed and the node id, and by default never the frame (`hold: 0`); `hold: N` draws a new noise domain
     every N frames (a boil that still sticks to the surface between changes). For a skinned or morphing
-    mesh, rasterize writes rest-pose positions, so the noise follows the deforming surface."""
+    mesh, rasterize writes rest-pose positions, so the noise follows the deforming surface.
+
+    The values are a pair of offsets in the picture's axes. With `spin` connected (our addition; the paper's
+    offsets keep the picture's axes) the pair is turned by the angle the surface under the pixel has turned in the
+    picture since frame 0 (`rasterize.spin`): a part turning in the picture's plane (a bending arm, a wheel, a
+    rolling camera) carries its marks' offsets with it instead of keeping them pointing the same way on the
+    screen while the lines turn under them. At frame 0 and for a still the turn is 0 and the values are the
+    same as without it."""
 
     version = "1"
     shaders = ("object_noise.glsl",)  # includes ../perlin_noise/improved_noise.glsl: hashed with it
@@ -36,6 +43,9 @@ class ObjectNoise(Node):
     inputs = {
         "position": Input(Texture("RGBA32F"), "Object-space position g(s,t), alpha = coverage "
                           "(rasterize.position, usually with `enlarge` > 0)."),
+        "spin": Input(Texture("RG32F"), "Optional: the surface's turn in the picture since frame 0 (rasterize.spin "
+                      "of the same rasterize node): the pair (off_s, off_t) is turned by it, so the offsets turn "
+                      "with the surface (a film setting; docs/animation.md, Making films).", optional=True),
     }
     outputs = {"out": Output(Texture("RG32F"), "Uncertainty values (off_s, off_t) for the sketch node.")}
 
@@ -59,6 +69,15 @@ class ObjectNoise(Node):
         if self.params.hold != 0:
             keys.add("frame")
         return frozenset(keys)
+
+    def key_parts(self, ctx: Any, input_keys: dict[str, str]) -> dict[str, Any]:
+        """With `spin` connected, the turning pass's shader joins the key (without it the key is as it always was)."""
+        parts = super().key_parts(ctx, input_keys)
+        if "spin" in input_keys:
+            from nodegraph.gpu.glsl import source_digest
+
+            parts = {**parts, "glsl": [*parts["glsl"], source_digest(self.source_dir() / SPIN_SHADER)]}
+        return parts
 
     def frequency(self, scene: Any) -> float:
         """Cycles per object-space unit."""
@@ -87,18 +106,38 @@ class ObjectNoise(Node):
                                 "u_seed_frac": tuple(float(f) for f in frac),
                                 "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
                                 "u_background": background})
-        # |value| bound for consumers that shift lookups by it (sketch's footprint): the noise, or the background
-        b = noise.octaves_bound(p.octaves)
+        spin = inputs.get("spin")
+        if spin is not None:  # a second pass turns the pair (its shader is in the key only then: key_parts)
+            if spin.size != size:
+                raise ValueError(f"object_noise: spin is {spin.size[0]}x{spin.size[1]} but position is "
+                                 f"{size[0]}x{size[1]}: connect both from the same rasterize node")
+            turned = ctx.target("out", size)
+            gl.fullscreen(ctx.program(SPIN_SHADER), [turned], textures={"t_noise": out, "t_spin": spin}, rect=rect,
+                          blanks=[background] if rect is not None else None)
+            gl.release(out)
+            out = turned
+        # |value| bound for consumers that shift lookups by it (sketch's footprint): the noise (a turned pair's
+        # components up to sqrt(2) times it), or the background
+        b = noise.octaves_bound(p.octaves) * (np.sqrt(2.0) if spin is not None else 1.0)
         out.absmax = tuple(max(b, abs(float(v))) for v in p.background)
         return {"out": out}
 
-    def reference(self, position: np.ndarray, seed: int, scene: Any = None) -> np.ndarray:
-        """float64 CPU version of `out` for a read-back position texture (H, W, 4)."""
+    def reference(self, position: np.ndarray, seed: int, scene: Any = None, spin: np.ndarray | None = None
+                  ) -> np.ndarray:
+        """float64 CPU version of `out` for a read-back position texture (H, W, 4) and, where connected, spin
+        texture (H, W, 2)."""
         p = self.params
         pos = np.asarray(position, dtype=np.float64)
         k = float(np.float32(self.frequency(scene)))
         vals = noise.noise3_at(pos[..., :3], p.octaves, seed, p.mode, k)
+        if spin is not None:
+            s = np.asarray(spin, dtype=np.float64)[..., :2]
+            n = np.linalg.norm(s, axis=-1, keepdims=True)
+            c, si = np.split(np.divide(s, n, out=np.array([1.0, 0.0]) + 0 * s, where=n > 0), 2, axis=-1)
+            vals = np.concatenate([c * vals[..., :1] - si * vals[..., 1:], si * vals[..., :1] + c * vals[..., 1:]],
+                                  axis=-1)
         return np.where(pos[..., 3:4] > 0, vals, np.asarray(p.background, dtype=np.float64))
 
 
+SPIN_SHADER = "spin_turn.glsl"
 NODE = ObjectNoise

@@ -36,6 +36,8 @@ _OUTPUTS = {
     "object_id": ((0.0, 0.0, 0.0, 0.0), "LOC_OBJECT_ID"),
 }
 
+_CLEAR = {**{p: clear for p, (clear, _) in _OUTPUTS.items()}, "motion": (0.0, 0.0, 0.0, 0.0), "spin": (0.0, 0.0)}
+
 
 class Rasterize(Node):
     """Renders the scene's objects into a G-buffer: unlit colour (the shade map), view-space normals,
@@ -77,6 +79,10 @@ class Rasterize(Node):
                          "convention: origin lower-left, pixel centres at +0.5), z its window depth [0, 1] then "
                          "(2 where it was behind the camera), w = 1 where covered, 0 background. From the camera's "
                          "motion, object animation, skinning and morphs (nodegraph/output/motion.py warps with it)."),
+        "spin": Output(Texture("RG32F"), "How far the surface under each pixel has turned in the picture's plane "
+                       "since frame 0, as (cos, sin) (camera, object animation, skinning; a turn about an axis in "
+                       "the picture's plane counts 0); (0, 0) background. Drawn with the same enlargement as the "
+                       "other outputs, for object_noise's `spin` input (docs/animation.md, Making films)."),
     }
 
     class Params(NodeParams):
@@ -131,7 +137,13 @@ class Rasterize(Node):
             from nodegraph.gpu.glsl import source_digest
 
             # posed meshes: `position` is the rest pose's, drawn by a pass of its own
-            return {"origin": extra, "rest": source_digest(self.source_dir() / REST_SHADER)}
+            extra = {"origin": extra, "rest": source_digest(self.source_dir() / REST_SHADER)}
+        if source is not None or (ctx.frame != 0 and getattr(ctx.scene, "orbit", None) is not None):
+            from nodegraph.gpu.glsl import source_digest
+
+            # `spin` compares the frame with frame 0: its shader is named where they can differ (a still frame 0
+            # has no turn), so the keys of still scenes stay as they were
+            extra = {"turn": extra, "spin": source_digest(self.source_dir() / SPIN_SHADER)}
         return extra
 
     def compute(self, ctx: RunContext, inputs: dict[str, Any], needed: frozenset[str]) -> dict[str, Any]:
@@ -218,6 +230,8 @@ class Rasterize(Node):
             self._rest_pass(ctx, targets["position"], objects, view, world, proj, scene_diag)
         if "motion" in needed:
             targets["motion"] = self._motion_pass(ctx, scene, objects, (view, world, proj), scene_diag)
+        if "spin" in needed:
+            targets["spin"] = self._spin_pass(ctx, scene, objects, (view, world, proj), scene_diag)
         if bands:
             (lo_t, hi_t), factors = TONE_BANDS[bands]
             banded = ctx.target("color")
@@ -238,7 +252,7 @@ class Rasterize(Node):
         if rect is not None:  # outside the objects' boxes every output holds its clear value
             for p, tex in targets.items():
                 if not (bands and p in ("color", "normal")):  # banded: made by a full-screen pass of their own
-                    tex.footprint = Footprint(rect, _OUTPUTS[p][0][:components(tex.fmt)])
+                    tex.footprint = Footprint(rect, _CLEAR[p][:components(tex.fmt)])
         return targets
 
     def _enlarge(self, diag: float, model: np.ndarray, scene_diag: float) -> float:
@@ -316,9 +330,93 @@ class Rasterize(Node):
                 vao.render(gl.ctx.TRIANGLES)
         return target
 
+    def _spin_pass(self, ctx: RunContext, scene: Any, objects: list[Any], now: tuple[np.ndarray, ...],
+                   scene_diag: float) -> Any:
+        """`spin`: the geometry drawn again as the main pass draws it (own depth buffer, the same enlargement and
+        culling), each fragment writing the turn in the picture's plane of its surface point since frame 0
+        (spin.glsl)."""
+        gl = ctx.gl
+        w, h = ctx.size
+        view, world, proj = now
+        first = first_scene(scene)
+        first_view = np.asarray(first.camera_at(0).view_matrix(), dtype=np.float64)
+        target = ctx.target("spin", filter="nearest")
+        fbo = gl.framebuffer([target], gl.depth_buffer((w, h)))
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        fbo.use()
+        gl.ctx.viewport = (0, 0, w, h)
+        enlarging = self.params.enlarge > 0
+        with gl.depth_test() as state:
+            for obj in objects:
+                then = first.objects[obj.index] if obj.index < len(first.objects) else obj
+                then_mesh = then.mesh if then.mesh.n_vertices == obj.mesh.n_vertices else obj.mesh
+                model = np.asarray(obj.transform, dtype=np.float64)
+                then_lin = first_view[:3, :3] @ np.asarray(then.transform, dtype=np.float64)[:3, :3]
+                if abs(np.linalg.det(then_lin)) <= 1e-300:
+                    then_lin = np.eye(3)
+                prog = ctx.program(SPIN_SHADER, {"PER_VERTEX": 1} if _skinned(obj.mesh, then_mesh) else None)
+                vao, diag, local = _spin_geometry(gl, prog, obj.mesh, then_mesh, self.params.crease_angle, enlarging)
+                u_view, u_model = origin.relative_matrices(view, model, world, local)
+                bind(prog, {}, {"u_mvp": proj @ (u_view @ u_model), "u_now": view[:3, :3] @ model[:3, :3],
+                                "u_then": np.linalg.inv(then_lin),
+                                "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0})
+                state.cull(_cull_face(obj, self.params.backfaces))
+                vao.render(gl.ctx.TRIANGLES)
+        return target
+
 
 REST_SHADER = "rest_position.glsl"
 MOTION_SHADER = "motion.glsl"
+SPIN_SHADER = "spin.glsl"
+
+
+def first_scene(scene: Any) -> Any:
+    """The scene at frame 0: the animated scene's pose at 0 where `scene` is a pose (`Scene.at`), else the scene
+    itself (whose camera_at(0) undoes its orbit)."""
+    source = scene.animated_source() if hasattr(scene, "animated_source") else None
+    return scene if source is None else source.at(0)
+
+
+def skin_turn(mesh: Any, first: Any) -> np.ndarray | None:
+    """(n, 3, 3): each vertex's skin linear part now times its inverse at frame 0 (`first` the mesh then), or None
+    where the mesh is not skinned (a rigid or morph-only mesh turns with its object)."""
+    if not _skinned(mesh, first):
+        return None
+    now, then = mesh.skin_linear, np.asarray(first.skin_linear, dtype=np.float64)
+    ok = np.abs(np.linalg.det(then)) > 1e-12
+    inv = np.broadcast_to(np.eye(3), then.shape).copy()
+    inv[ok] = np.linalg.inv(then[ok])
+    return np.asarray(now, dtype=np.float64) @ inv
+
+
+def _skinned(mesh: Any, first: Any) -> bool:
+    now, then = getattr(mesh, "skin_linear", None), getattr(first, "skin_linear", None)
+    return now is not None and then is not None and len(now) == len(then)
+
+
+def _spin_geometry(gl: Any, prog: Any, mesh: Any, first: Any, crease_angle: float, enlarging: bool
+                   ) -> tuple[Any, float, np.ndarray]:
+    """The spin pass's vertex array over a mesh (and, for a skinned mesh, each render vertex's `skin_turn` against
+    `first`, the mesh at frame 0), its diagonal and its positions' origin."""
+    per_vertex = _skinned(mesh, first)
+
+    def build() -> MeshArrays:
+        ra = mesh.render_arrays(crease_angle)
+        local = origin.mesh_origin(mesh)
+        pos = origin.positions(mesh, ra, local)
+        smooth = enlarge_normals(mesh, crease_angle) if enlarging else np.zeros_like(pos)
+        attrs: dict[str, tuple[np.ndarray, str]] = {"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f")}
+        if per_vertex:
+            k = skin_turn(mesh, first)[ra.source_vertex].astype(np.float32)
+            attrs.update({f"in_k{c}": (np.ascontiguousarray(k[:, :, c]), "3f") for c in range(3)})
+        return MeshArrays(attrs, ra.indices, meta={"diag": mesh.diagonal(), "origin": local})
+
+    key = ("rasterize.spin", mesh.content_hash(), first.content_hash() if per_vertex else None,
+           float(crease_angle), enlarging)
+    slot = (("rasterize.spin", mesh.rest.content_hash(), float(crease_angle), enlarging, per_vertex)
+            if mesh.rest is not None else None)
+    entry = gl.mesh_buffers(key, build, slot)
+    return entry.vao(prog), entry.meta["diag"], entry.meta["origin"]
 
 
 def previous_scene(scene: Any, frame: int) -> tuple[Any, int]:
