@@ -354,12 +354,19 @@ class Rasterize(Node):
                 then_lin = first_view[:3, :3] @ np.asarray(then.transform, dtype=np.float64)[:3, :3]
                 if abs(np.linalg.det(then_lin)) <= 1e-300:
                     then_lin = np.eye(3)
-                prog = ctx.program(SPIN_SHADER, {"PER_VERTEX": 1} if _skinned(obj.mesh, then_mesh) else None)
-                vao, diag, local = _spin_geometry(gl, prog, obj.mesh, then_mesh, self.params.crease_angle, enlarging)
+                surface = _surface(obj)
+                if surface is not None and surface.material.alpha_mode != "MASK":
+                    surface = None  # only a cut-out changes what the pass covers
+                defines = {**({"PER_VERTEX": 1} if _skinned(obj.mesh, then_mesh) else {}),
+                           **(_surface_defines(surface) if surface is not None else {})}
+                prog = ctx.program(SPIN_SHADER, defines or None)
+                vao, diag, local = _spin_geometry(gl, prog, obj.mesh, then_mesh, self.params.crease_angle, enlarging,
+                                                  surface is not None)
                 u_view, u_model = origin.relative_matrices(view, model, world, local)
-                bind(prog, {}, {"u_mvp": proj @ (u_view @ u_model), "u_now": view[:3, :3] @ model[:3, :3],
-                                "u_then": np.linalg.inv(then_lin),
-                                "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0})
+                tex, surface_uniforms = _surface_bindings(gl, surface)
+                bind(prog, tex, {**surface_uniforms, "u_mvp": proj @ (u_view @ u_model),
+                                 "u_now": view[:3, :3] @ model[:3, :3], "u_then": np.linalg.inv(then_lin),
+                                 "u_enlarge": self._enlarge(diag, model, scene_diag) if enlarging else 0.0})
                 state.cull(_cull_face(obj, self.params.backfaces))
                 vao.render(gl.ctx.TRIANGLES)
         return target
@@ -394,10 +401,11 @@ def _skinned(mesh: Any, first: Any) -> bool:
     return now is not None and then is not None and len(now) == len(then)
 
 
-def _spin_geometry(gl: Any, prog: Any, mesh: Any, first: Any, crease_angle: float, enlarging: bool
-                   ) -> tuple[Any, float, np.ndarray]:
+def _spin_geometry(gl: Any, prog: Any, mesh: Any, first: Any, crease_angle: float, enlarging: bool,
+                   surface: bool = False) -> tuple[Any, float, np.ndarray]:
     """The spin pass's vertex array over a mesh (and, for a skinned mesh, each render vertex's `skin_turn` against
-    `first`, the mesh at frame 0), its diagonal and its positions' origin."""
+    `first`, the mesh at frame 0), its diagonal and its positions' origin. `surface`: with the glTF surface's
+    texture coordinates and vertex colours, for a cut-out."""
     per_vertex = _skinned(mesh, first)
 
     def build() -> MeshArrays:
@@ -405,16 +413,20 @@ def _spin_geometry(gl: Any, prog: Any, mesh: Any, first: Any, crease_angle: floa
         local = origin.mesh_origin(mesh)
         pos = origin.positions(mesh, ra, local)
         smooth = enlarge_normals(mesh, crease_angle) if enlarging else np.zeros_like(pos)
-        attrs: dict[str, tuple[np.ndarray, str]] = {"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f")}
-        if per_vertex:
-            k = skin_turn(mesh, first)[ra.source_vertex].astype(np.float32)
+        k = skin_turn(mesh, first)[ra.source_vertex].astype(np.float32) if per_vertex else None
+        indices, extra = ra.indices, {}
+        if surface:
+            vertex, indices, extra = _surface_arrays(mesh, ra)
+            pos, smooth, k = pos[vertex], smooth[vertex], (k[vertex] if k is not None else None)
+        attrs: dict[str, tuple[np.ndarray, str]] = {"in_pos": (pos, "3f"), "in_smooth": (smooth, "3f"), **extra}
+        if k is not None:
             attrs.update({f"in_k{c}": (np.ascontiguousarray(k[:, :, c]), "3f") for c in range(3)})
-        return MeshArrays(attrs, ra.indices, meta={"diag": mesh.diagonal(), "origin": local})
+        return MeshArrays(attrs, indices, meta={"diag": mesh.diagonal(), "origin": local})
 
-    key = ("rasterize.spin", mesh.content_hash(), first.content_hash() if per_vertex else None,
-           float(crease_angle), enlarging)
-    slot = (("rasterize.spin", mesh.rest.content_hash(), float(crease_angle), enlarging, per_vertex)
-            if mesh.rest is not None else None)
+    kind = "rasterize.spin.surface" if surface else "rasterize.spin"
+    key = (kind, mesh.content_hash(), first.content_hash() if per_vertex else None, float(crease_angle), enlarging)
+    rest = mesh.rest
+    slot = (kind, rest.content_hash(), float(crease_angle), enlarging, per_vertex) if rest is not None else None
     entry = gl.mesh_buffers(key, build, slot)
     return entry.vao(prog), entry.meta["diag"], entry.meta["origin"]
 

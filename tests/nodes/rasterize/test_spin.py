@@ -179,3 +179,20 @@ def test_a_sketch_turning_in_the_pictures_plane_keeps_its_wobble(gl, tmp_path):
         turned = map_coordinates(first, [-src_y + n / 2 - 0.5, src_x + n / 2 - 0.5], order=1, mode="nearest")
         diffs[name] = float(np.abs(turned - last).mean())
     assert diffs["spin"] < 0.6 * diffs["screen"], diffs
+
+
+def test_alpha_mask_cut_outs_are_cut_in_the_spin_pass(gl, tmp_path):
+    """A glTF quad whose texture's alpha is 1, 0, 0.78, 0.39 by column (cutoff 0.5): spin covers the kept columns
+    only, pixel for pixel as the G-buffer's object ids do."""
+    tex = np.zeros((4, 4, 4), np.uint8)
+    tex[..., :3] = 128
+    tex[..., 3] = np.array([[255, 0, 200, 100]] * 4, np.uint8)
+    path = gf.textured_quad(tmp_path / "mask.gltf", tex, alpha_mode="MASK", cutoff=0.5)
+    probe = tmp_path / "probe.yaml"
+    probe.write_text(PROBE.replace("params: {enlarge: 0.05}", "params: {}"))
+    with ng.Session(cache=False) as session:
+        pipe = session.load(probe, scene=str(path), size=(64, 64))
+        spin, ids = pipe.inspect("gbuf.spin", frame=0), pipe.inspect("gbuf.object_id", frame=0)[..., 0]
+    a, covered = angles(spin)
+    assert covered.sum() > 500 and np.array_equal(covered, ids > 0)
+    np.testing.assert_allclose(a, 0.0, atol=1e-4)
