@@ -93,7 +93,9 @@ FILM: dict[str, dict[str, Any]] = {
     "loose_and_sketchy_shaded": {},
     "nienhaus_sketchy": {},
     "object_space_uncertainty": {"noise.octaves": 1},  # one octave: no fine wobble to change as outlines slide
-    "pencil": {"shade.anchor": "surface"},  # hatching fixed to the (rest-pose) surface: docs/pencil.md
+    # hatching fixed to the (rest-pose) surface, one contour attempt instead of three (each attempt's screen-space
+    # shake swims over a moving surface): docs/pencil.md
+    "pencil": {"shade.anchor": "surface", "distortion.layers": 1},
     "pencil_contours": {},
     "repeated_edges": {},
     "sketchy_composite": {},
