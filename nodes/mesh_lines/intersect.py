@@ -25,9 +25,28 @@ its edges: Blender's Line Art draws it as its "intersection" line type, and plot
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from . import extract
+
+_JIT: Any = None  # intersect_jit, False where Numba is unavailable
+
+
+def _jit() -> Any:
+    """nodes/mesh_lines/intersect_jit.py, or None where Numba cannot be imported (the NumPy code gives the same
+    pairs, slower)."""
+    global _JIT
+    if _JIT is None:
+        try:
+            from . import intersect_jit
+
+            _JIT = intersect_jit
+        except (ImportError, RuntimeError):
+            _JIT = False
+    return _JIT or None
+
 
 PAIR_CHUNK = 2_000_000  # candidate pairs made at a time (`_grid_pairs`)
 MAX_CELLS = 8  # a face's box spans at most this many grid cells per axis (larger faces: coarser cells for it)
@@ -41,7 +60,7 @@ def face_boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None = None,
-                    hi_b: np.ndarray | None = None) -> np.ndarray:
+                    hi_b: np.ndarray | None = None, engine: str = "auto") -> np.ndarray:
     """Pairs (k, 2) of faces whose boxes overlap: within one set (i < j) when `lo_b` is None, else (a, b) across
     the two sets. Level 0 is a grid of cells the median box's largest side wide, holding the faces that span at
     most MAX_CELLS cells an axis; each further level is MAX_CELLS times coarser and pairs the faces it takes with
@@ -67,10 +86,11 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
         span = np.floor((hi - origin) / size).astype(np.int64) - c0 + 1
         fits = (level < 0) & (span.max(axis=1) <= MAX_CELLS)
         if k == 0:
-            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi))
+            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi, engine))
         else:  # the faces too large for the finer levels against every face placed so far and each other
             placed = (level >= 0) | fits
-            pairs.append(_grid_pairs(c0[placed], span[placed], np.flatnonzero(placed), fits[placed], lo, hi))
+            pairs.append(_grid_pairs(c0[placed], span[placed], np.flatnonzero(placed), fits[placed], lo, hi,
+                                     engine))
         level[fits] = k
         k += 1
     p = np.concatenate(pairs)
@@ -81,12 +101,13 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
 
 
 def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndarray | None = None,
-                lo: np.ndarray | None = None, hi: np.ndarray | None = None) -> np.ndarray:
+                lo: np.ndarray | None = None, hi: np.ndarray | None = None, engine: str = "auto") -> np.ndarray:
     """Distinct pairs (i < j) of `ids` whose cell ranges [c0, c0 + span) share a cell, each given once: by the
     cell at the larger of the two ranges' first cells, axis by axis (the first cell they share). With `lead`,
     only the pairs with at least one `lead` face (a coarser level's large faces against the rest). With `lo` and
     `hi` (boxes by id), only the pairs whose boxes overlap. Made PAIR_CHUNK pairs at a time, so that memory
-    holds the pairs kept rather than every pair that shares a cell."""
+    holds the pairs kept rather than every pair that shares a cell. `engine` "auto": the pair loop compiled
+    (intersect_jit.py) where Numba can be imported, the same pairs in the same order; "numpy": this code."""
     if len(ids) < 2:
         return np.zeros((0, 2), np.int64)
     count = span.prod(axis=1)
@@ -101,6 +122,15 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
     key, rep, cell = key[order], rep[order], cell[order]
     starts = np.r_[0, np.flatnonzero(np.diff(key)) + 1]
     sizes = np.diff(np.r_[starts, len(key)])
+    jit = _jit() if engine == "auto" else None
+    if jit is not None:  # the same pairs in the same order, one compiled pass over the cells
+        boxes = lo is not None and hi is not None
+        no_box = np.zeros((0, 3), np.float64)
+        return jit.cell_pairs(starts.astype(np.int64), sizes.astype(np.int64), rep.astype(np.int64),
+                              cell.astype(np.int64), c0.astype(np.int64), ids.astype(np.int64),
+                              lead if lead is not None else np.zeros(0, np.bool_), lead is not None,
+                              np.asarray(lo, np.float64) if boxes else no_box,
+                              np.asarray(hi, np.float64) if boxes else no_box, boxes)
     pos = np.arange(len(key))
     if lead is None:  # each entry pairs with the entries after it in its cell
         src = pos

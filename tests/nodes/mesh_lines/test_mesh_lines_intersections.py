@@ -46,21 +46,45 @@ def _brute(lo_a, hi_a, lo_b, hi_b, same):
     return out
 
 
-def test_candidate_pairs_are_every_overlapping_box_once():
+@pytest.mark.parametrize("engine", ["auto", "numpy"])
+def test_candidate_pairs_are_every_overlapping_box_once(engine):
     """Faces of very different sizes (a few spanning many cells: the coarser levels), within one set and across
-    two: exactly the pairs whose boxes overlap, each once."""
+    two: exactly the pairs whose boxes overlap, each once; the compiled pair loop and the NumPy one alike."""
     rng = np.random.default_rng(5)
     n = 400
     centre = rng.random((n, 3))
     size = rng.random(n) ** 4 * 0.6 + 0.01
     tri = centre[:, None, :] + rng.normal(size=(n, 3, 3)) * size[:, None, None]
     lo, hi = intersect.face_boxes(tri)
-    got = intersect.candidate_pairs(lo, hi)
+    got = intersect.candidate_pairs(lo, hi, engine=engine)
     assert len(got) == len({tuple(p) for p in got.tolist()})
     assert {tuple(p) for p in got.tolist()} == _brute(lo, hi, lo, hi, True)
     a, b = slice(0, 150), slice(150, n)
-    got = intersect.candidate_pairs(lo[a], hi[a], lo[b], hi[b])
+    got = intersect.candidate_pairs(lo[a], hi[a], lo[b], hi[b], engine=engine)
     assert {tuple(p) for p in got.tolist()} == _brute(lo[a], hi[a], lo[b], hi[b], False)
+
+
+def test_the_compiled_pair_loop_gives_the_numpy_pairs_in_their_order():
+    """intersect_jit.cell_pairs against _grid_pairs' NumPy loop: the same array (pairs and order), within one set
+    and across two, for boxes from tiny to spanning the scene (every grid level), and for a dense mesh's faces."""
+    if intersect._jit() is None:
+        pytest.skip("Numba cannot be imported here: only the NumPy pair loop runs")
+    rng = np.random.default_rng(11)
+    for _ in range(12):
+        n = int(rng.integers(2, 2500))
+        lo = rng.random((n, 3)) * 10
+        hi = lo + rng.random((n, 3)) ** 4 * rng.choice([0.1, 1.0, 30.0], size=(n, 1))
+        m = int(rng.integers(1, 400))
+        lo_b = rng.random((m, 3)) * 10
+        hi_b = lo_b + rng.random((m, 3)) ** 3 * 2
+        for args in ((lo, hi), (lo, hi, lo_b, hi_b)):
+            np.testing.assert_array_equal(intersect.candidate_pairs(*args),
+                                          intersect.candidate_pairs(*args, engine="numpy"))
+    s = primitives.sphere(1.0, 5)
+    lo, hi = intersect.face_boxes(s.vertices[s.faces])
+    got = intersect.candidate_pairs(lo, hi)
+    assert len(got) > 5 * len(s.faces)  # every face against its neighbours at least
+    np.testing.assert_array_equal(got, intersect.candidate_pairs(lo, hi, engine="numpy"))
 
 
 def _sphere(x: float, subdiv: int = 4) -> Mesh:
