@@ -60,17 +60,22 @@ def face_boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None = None,
-                    hi_b: np.ndarray | None = None, engine: str = "auto") -> np.ndarray:
+                    hi_b: np.ndarray | None = None, engine: str = "auto", corners_a: np.ndarray | None = None,
+                    corners_b: np.ndarray | None = None) -> np.ndarray:
     """Pairs (k, 2) of faces whose boxes overlap: within one set (i < j) when `lo_b` is None, else (a, b) across
     the two sets. Level 0 is a grid of cells the median box's largest side wide, holding the faces that span at
     most MAX_CELLS cells an axis; each further level is MAX_CELLS times coarser and pairs the faces it takes with
-    every face placed so far (`_grid_pairs`)."""
+    every face placed so far (`_grid_pairs`). With `corners_a` (and `corners_b` across two sets): (faces, 3) ids
+    of each face's corners, and the pairs of faces that share one are left out."""
     same = lo_b is None
     lo = lo_a if same else np.concatenate([lo_a, lo_b])
     hi = hi_a if same else np.concatenate([hi_a, hi_b])
     n_a = len(lo_a)
     if len(lo) < 2 or (not same and (n_a == 0 or len(lo_b) == 0)):
         return np.zeros((0, 2), np.int64)
+    corners = None
+    if corners_a is not None:
+        corners = np.asarray(corners_a if same else np.concatenate([corners_a, corners_b]), np.int64)
     ext = hi - lo
     cell = float(np.median(ext.max(axis=1)))
     scale = float(np.max(hi.max(axis=0) - lo.min(axis=0)))
@@ -86,11 +91,11 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
         span = np.floor((hi - origin) / size).astype(np.int64) - c0 + 1
         fits = (level < 0) & (span.max(axis=1) <= MAX_CELLS)
         if k == 0:
-            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi, engine))
+            pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi, engine, corners))
         else:  # the faces too large for the finer levels against every face placed so far and each other
             placed = (level >= 0) | fits
             pairs.append(_grid_pairs(c0[placed], span[placed], np.flatnonzero(placed), fits[placed], lo, hi,
-                                     engine))
+                                     engine, corners))
         level[fits] = k
         k += 1
     p = np.concatenate(pairs)
@@ -101,13 +106,15 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
 
 
 def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndarray | None = None,
-                lo: np.ndarray | None = None, hi: np.ndarray | None = None, engine: str = "auto") -> np.ndarray:
+                lo: np.ndarray | None = None, hi: np.ndarray | None = None, engine: str = "auto",
+                corners: np.ndarray | None = None) -> np.ndarray:
     """Distinct pairs (i < j) of `ids` whose cell ranges [c0, c0 + span) share a cell, each given once: by the
     cell at the larger of the two ranges' first cells, axis by axis (the first cell they share). With `lead`,
     only the pairs with at least one `lead` face (a coarser level's large faces against the rest). With `lo` and
     `hi` (boxes by id), only the pairs whose boxes overlap. Made PAIR_CHUNK pairs at a time, so that memory
     holds the pairs kept rather than every pair that shares a cell. `engine` "auto": the pair loop compiled
-    (intersect_jit.py) where Numba can be imported, the same pairs in the same order; "numpy": this code."""
+    (intersect_jit.py) where Numba can be imported, the same pairs in the same order; "numpy": this code.
+    `corners` (by id): the pairs of faces sharing a corner id are left out."""
     if len(ids) < 2:
         return np.zeros((0, 2), np.int64)
     count = span.prod(axis=1)
@@ -130,7 +137,8 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
                               cell.astype(np.int64), c0.astype(np.int64), ids.astype(np.int64),
                               lead if lead is not None else np.zeros(0, np.bool_), lead is not None,
                               np.asarray(lo, np.float64) if boxes else no_box,
-                              np.asarray(hi, np.float64) if boxes else no_box, boxes)
+                              np.asarray(hi, np.float64) if boxes else no_box, boxes,
+                              corners if corners is not None else np.zeros((0, 3), np.int64), corners is not None)
     pos = np.arange(len(key))
     if lead is None:  # each entry pairs with the entries after it in its cell
         src = pos
@@ -163,6 +171,9 @@ def _grid_pairs(c0: np.ndarray, span: np.ndarray, ids: np.ndarray, lead: np.ndar
         if lo is not None and hi is not None:
             overlap = np.all((lo[a] <= hi[b]) & (lo[b] <= hi[a]), axis=1)
             a, b = a[overlap], b[overlap]
+        if corners is not None:
+            apart = ~(corners[a][:, :, None] == corners[b][:, None, :]).any(axis=(1, 2))
+            a, b = a[apart], b[apart]
         out.append(np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1))
     return np.concatenate(out) if out else np.zeros((0, 2), np.int64)
 
@@ -241,25 +252,18 @@ def intersection_segs(va: np.ndarray, fa: np.ndarray, wa: np.ndarray, key_base: 
     tri_a = va[fa]
     tri_b = tri_a if same else vb[fb]
     lo_a, hi_a = face_boxes(tri_a)
-    if same:
-        pairs = candidate_pairs(lo_a, hi_a)
-    else:
-        lo_b, hi_b = face_boxes(tri_b)
-        pairs = candidate_pairs(lo_a, hi_a, lo_b, hi_b)
-    if not len(pairs):
-        return extract.Segs.empty()
-    hi = np.maximum(hi_a.max(axis=0), tri_b.max(axis=(0, 1)))
-    lo = np.minimum(lo_a.min(axis=0), tri_b.min(axis=(0, 1)))
+    lo_b, hi_b = (lo_a, hi_a) if same else face_boxes(tri_b)
+    hi = np.maximum(hi_a.max(axis=0), hi_b.max(axis=0))
+    lo = np.minimum(lo_a.min(axis=0), lo_b.min(axis=0))
     scale = float(np.linalg.norm(hi - lo)) or 1.0
     if same:
-        pa_id = pb_id = wa[fa]
+        pairs = candidate_pairs(lo_a, hi_a, corners_a=wa[fa])
     else:  # corners at one position (within 1e-6 of the scale) in both meshes: parts that meet at an edge
         q = np.rint(np.concatenate([va, vb]) / (1e-6 * scale)).astype(np.int64)
         _, pos_id = np.unique(q, axis=0, return_inverse=True)
         pos_id = pos_id.reshape(-1)
-        pa_id, pb_id = pos_id[:len(va)][fa], pos_id[len(va):][fb]
-    share = (pa_id[pairs[:, 0]][:, :, None] == pb_id[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
-    pairs = pairs[~share]
+        pairs = candidate_pairs(lo_a, hi_a, lo_b, hi_b, corners_a=pos_id[:len(va)][fa],
+                                corners_b=pos_id[len(va):][fb])
     if not len(pairs):
         return extract.Segs.empty()
     ps, faces, codes = [], [], []

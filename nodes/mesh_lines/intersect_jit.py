@@ -14,18 +14,24 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def cell_pairs(starts, sizes, rep, cell, c0, ids, lead, use_lead, lo, hi, boxes):  # pragma: no cover - compiled
+def cell_pairs(starts, sizes, rep, cell, c0, ids, lead, use_lead, lo, hi, boxes, corners, apart
+               ):  # pragma: no cover - compiled
     """(k, 2) pairs (min id, max id) of the entries sorted by cell (`starts`, `sizes` of each cell's run; `rep`
-    the entry's face among `ids`, `cell` its cell), as intersect._grid_pairs makes them. What a pair's tests read
-    is first gathered per entry, so that a cell's entries lie side by side in memory."""
+    the entry's face among `ids`, `cell` its cell), as intersect._grid_pairs makes them; with `apart`, less the
+    pairs whose faces share a corner id (`corners`, by face id). What a pair's tests read is first gathered per
+    entry, so that a cell's entries lie side by side in memory."""
     n = len(rep)
     first = np.empty((n, 3), np.int64)  # the entry's face's first cell
     box = np.empty((n, 6), np.float64)  # its box (lo, hi) where boxes are tested
     face = np.empty(n, np.int64)  # its face id
     own_lead = np.zeros(n, np.bool_)
+    corner = np.empty((n if apart else 0, 3), np.int64)  # its corners' ids where shared corners part pairs
     for i in range(n):
         a = rep[i]
         face[i] = ids[a]
+        if apart:
+            for d in range(3):
+                corner[i, d] = corners[ids[a], d]
         for d in range(3):
             first[i, d] = c0[a, d]
             if boxes:
@@ -54,6 +60,14 @@ def cell_pairs(starts, sizes, rep, cell, c0, ids, lead, use_lead, lo, hi, boxes)
                 if boxes and (box[i, 0] > box[j, 3] or box[j, 0] > box[i, 3] or box[i, 1] > box[j, 4]
                               or box[j, 1] > box[i, 4] or box[i, 2] > box[j, 5] or box[j, 2] > box[i, 5]):
                     continue
+                if apart:
+                    shared = False
+                    for u in range(3):
+                        for v in range(3):
+                            if corner[i, u] == corner[j, v]:
+                                shared = True
+                    if shared:
+                        continue
                 if k == cap:
                     cap *= 2
                     grown = np.empty((cap, 2), np.int64)

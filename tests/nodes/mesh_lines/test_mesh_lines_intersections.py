@@ -66,7 +66,8 @@ def test_candidate_pairs_are_every_overlapping_box_once(engine):
 
 def test_the_compiled_pair_loop_gives_the_numpy_pairs_in_their_order():
     """intersect_jit.cell_pairs against _grid_pairs' NumPy loop: the same array (pairs and order), within one set
-    and across two, for boxes from tiny to spanning the scene (every grid level), and for a dense mesh's faces."""
+    and across two, with and without corner ids (pairs sharing one left out: exactly those, order kept), for boxes
+    from tiny to spanning the scene (every grid level), and for a dense mesh's faces."""
     if intersect._jit() is None:
         pytest.skip("Numba cannot be imported here: only the NumPy pair loop runs")
     rng = np.random.default_rng(11)
@@ -77,9 +78,16 @@ def test_the_compiled_pair_loop_gives_the_numpy_pairs_in_their_order():
         m = int(rng.integers(1, 400))
         lo_b = rng.random((m, 3)) * 10
         hi_b = lo_b + rng.random((m, 3)) ** 3 * 2
-        for args in ((lo, hi), (lo, hi, lo_b, hi_b)):
-            np.testing.assert_array_equal(intersect.candidate_pairs(*args),
-                                          intersect.candidate_pairs(*args, engine="numpy"))
+        ca, cb = rng.integers(0, 3 * n, (n, 3)), rng.integers(0, 3 * n, (m, 3))  # corner ids, some shared
+        for args, kw in (((lo, hi), {}), ((lo, hi, lo_b, hi_b), {}), ((lo, hi), {"corners_a": ca}),
+                         ((lo, hi, lo_b, hi_b), {"corners_a": ca, "corners_b": cb})):
+            got = intersect.candidate_pairs(*args, **kw)
+            np.testing.assert_array_equal(got, intersect.candidate_pairs(*args, engine="numpy", **kw))
+            if kw:  # the pairs without a shared corner, in order
+                every = intersect.candidate_pairs(*args, engine="numpy")
+                c_b = kw.get("corners_b", ca)
+                apart = ~(ca[every[:, 0]][:, :, None] == c_b[every[:, 1]][:, None, :]).any(axis=(1, 2))
+                np.testing.assert_array_equal(got, every[apart])
     s = primitives.sphere(1.0, 5)
     lo, hi = intersect.face_boxes(s.vertices[s.faces])
     got = intersect.candidate_pairs(lo, hi)
