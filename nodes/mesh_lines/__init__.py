@@ -4,6 +4,7 @@ curvature, suggestive contours, ridges and valleys), chained across faces, visib
 from __future__ import annotations
 
 from collections import OrderedDict
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -313,8 +314,9 @@ def self_crossings(mesh: Any, weld: np.ndarray, nw: int) -> extract.Segs:
         return {name: getattr(segs, name) for name in SEG_FIELDS}
 
     def make() -> extract.Segs:
-        got = meshstore.memo_arrays(mesh, "self_crossings", find, (intersect.__file__, extract.__file__,
-                                                                    meshes.__file__), SEG_FIELDS)
+        sources = (intersect.__file__, str(Path(intersect.__file__).with_name("intersect_jit.py")), extract.__file__,
+                   meshes.__file__)
+        got = meshstore.memo_arrays(mesh, "self_crossings", find, sources, SEG_FIELDS)
         if not stored_segs_fit(got, mesh.n_faces):  # a store entry that is not what `find` writes: found again
             got = find()
         return extract.Segs(*(np.asarray(got[name]) for name in SEG_FIELDS))
