@@ -56,7 +56,9 @@ MAX_PAIRS = 4_000_000  # candidate pairs are tested in batches of this many
 
 
 def face_boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return tri.min(axis=1), tri.max(axis=1)
+    # corner by corner: the same values as tri.min(axis=1), several times faster over the short middle axis
+    return (np.minimum(np.minimum(tri[:, 0], tri[:, 1]), tri[:, 2]),
+            np.maximum(np.maximum(tri[:, 0], tri[:, 1]), tri[:, 2]))
 
 
 def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None = None,
@@ -77,7 +79,7 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
     if corners_a is not None:
         corners = np.asarray(corners_a if same else np.concatenate([corners_a, corners_b]), np.int64)
     ext = hi - lo
-    cell = float(np.median(ext.max(axis=1)))
+    cell = float(np.median(np.maximum(np.maximum(ext[:, 0], ext[:, 1]), ext[:, 2])))
     scale = float(np.max(hi.max(axis=0) - lo.min(axis=0)))
     if not cell > 0.0:
         cell = scale * 1e-3 or 1.0
@@ -89,7 +91,7 @@ def candidate_pairs(lo_a: np.ndarray, hi_a: np.ndarray, lo_b: np.ndarray | None 
         size = cell * float(MAX_CELLS) ** k
         c0 = np.floor((lo - origin) / size).astype(np.int64)
         span = np.floor((hi - origin) / size).astype(np.int64) - c0 + 1
-        fits = (level < 0) & (span.max(axis=1) <= MAX_CELLS)
+        fits = (level < 0) & (np.maximum(np.maximum(span[:, 0], span[:, 1]), span[:, 2]) <= MAX_CELLS)
         if k == 0:
             pairs.append(_grid_pairs(c0[fits], span[fits], np.flatnonzero(fits), None, lo, hi, engine, corners))
         else:  # the faces too large for the finer levels against every face placed so far and each other
