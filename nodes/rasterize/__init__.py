@@ -389,11 +389,20 @@ def skin_turn(mesh: Any, first: Any) -> np.ndarray | None:
     where the mesh is not skinned (a rigid or morph-only mesh turns with its object)."""
     if not _skinned(mesh, first):
         return None
-    now, then = mesh.skin_linear, np.asarray(first.skin_linear, dtype=np.float64)
-    ok = np.abs(np.linalg.det(then)) > 1e-12
-    inv = np.broadcast_to(np.eye(3), then.shape).copy()
-    inv[ok] = np.linalg.inv(then[ok])
-    return np.asarray(now, dtype=np.float64) @ inv
+    key = first.content_hash()  # a digest of what shaped it: the frame-0 pose is the same for every frame
+    inv = _FIRST_INVERSE.get(key)
+    if inv is None:
+        then = np.asarray(first.skin_linear, dtype=np.float64)
+        ok = np.abs(np.linalg.det(then)) > 1e-12
+        inv = np.broadcast_to(np.eye(3), then.shape).copy()
+        inv[ok] = np.linalg.inv(then[ok])
+        _FIRST_INVERSE[key] = inv
+        while len(_FIRST_INVERSE) > 4:
+            _FIRST_INVERSE.pop(next(iter(_FIRST_INVERSE)))
+    return np.einsum("nij,njk->nik", np.asarray(mesh.skin_linear, dtype=np.float64), inv)
+
+
+_FIRST_INVERSE: dict[str, np.ndarray] = {}  # frame-0 mesh hash -> its vertices' inverse skin linear parts (skin_turn)
 
 
 def _skinned(mesh: Any, first: Any) -> bool:
@@ -618,8 +627,10 @@ def enlarge_normals(mesh: Any, crease_angle: float = 40.0, render_arrays: Any = 
     def make() -> dict[str, np.ndarray]:
         return {"value": _enlarge_normals(mesh, mesh.render_arrays(crease_angle))}
 
-    return meshstore.memo_arrays(mesh, f"enlarge{float(crease_angle)!r}", make, (__file__, meshes.__file__),
-                                 ("value",))["value"]
+    # kept on the mesh too: a posed part's rest pose is asked for its directions every frame (the rest pass), and
+    # without a store they were found again each time (79 ms a frame for a 100k-vertex skin)
+    return mesh._cached(("rasterize.enlarge", float(crease_angle)), lambda: meshstore.memo_arrays(
+        mesh, f"enlarge{float(crease_angle)!r}", make, (__file__, meshes.__file__), ("value",))["value"])
 
 
 def _enlarge_normals(mesh: Any, ra: Any) -> np.ndarray:
