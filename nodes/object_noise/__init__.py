@@ -7,6 +7,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field
 
+from nodegraph.errors import NodeError
 from nodegraph.gpu import footprint
 from nodegraph.node import Input, Node, NodeParams, Output, RunContext
 from nodegraph.types import Texture
@@ -94,6 +95,10 @@ class ObjectNoise(Node):
         prog = ctx.program("object_noise.glsl")
         cell, frac = noise.seed_offset_parts(ctx.seed)
         size = inputs["position"].size
+        spin = inputs.get("spin")
+        if spin is not None and spin.size != size:
+            raise NodeError(f"spin is {spin.size[0]}x{spin.size[1]} but position is {size[0]}x{size[1]}: connect "
+                            "both from the same rasterize node")
         out = ctx.target("out", size)
         # outside the position's footprint nothing was drawn (coverage 0): the background, written by a clear
         fp = footprint.of(inputs["position"])
@@ -106,11 +111,7 @@ class ObjectNoise(Node):
                                 "u_seed_frac": tuple(float(f) for f in frac),
                                 "u_octaves": p.octaves, "u_mode": 0 if p.mode == "turbulence" else 1,
                                 "u_background": background})
-        spin = inputs.get("spin")
         if spin is not None:  # a second pass turns the pair (its shader is in the key only then: key_parts)
-            if spin.size != size:
-                raise ValueError(f"object_noise: spin is {spin.size[0]}x{spin.size[1]} but position is "
-                                 f"{size[0]}x{size[1]}: connect both from the same rasterize node")
             turned = ctx.target("out", size)
             gl.fullscreen(ctx.program(SPIN_SHADER), [turned], textures={"t_noise": out, "t_spin": spin}, rect=rect,
                           blanks=[background] if rect is not None else None)
@@ -132,8 +133,10 @@ class ObjectNoise(Node):
         vals = noise.noise3_at(pos[..., :3], p.octaves, seed, p.mode, k)
         if spin is not None:
             s = np.asarray(spin, dtype=np.float64)[..., :2]
-            n = np.linalg.norm(s, axis=-1, keepdims=True)
-            c, si = np.split(np.divide(s, n, out=np.array([1.0, 0.0]) + 0 * s, where=n > 0), 2, axis=-1)
+            n = np.linalg.norm(s, axis=-1)
+            turned = n > 0  # (0, 0): nothing drawn there, the pair as it is
+            c = np.where(turned, s[..., 0] / np.where(turned, n, 1.0), 1.0)[..., None]
+            si = np.where(turned, s[..., 1] / np.where(turned, n, 1.0), 0.0)[..., None]
             vals = np.concatenate([c * vals[..., :1] - si * vals[..., 1:], si * vals[..., :1] + c * vals[..., 1:]],
                                   axis=-1)
         return np.where(pos[..., 3:4] > 0, vals, np.asarray(p.background, dtype=np.float64))
