@@ -101,17 +101,29 @@ def cache_options(f: Any) -> Any:
               "written (default 1: fastest measured at nearly the size of 6; docs/performance.md).")
 @click.option("--page", metavar="A4|A3|letter|WxHmm", help="SVG output: the page's physical size in mm, the drawing "
               "fitted inside a 10 mm margin, stroke widths in mm (docs/strokes.md). Default: pixels.")
+@click.option("--film", "film_setting", is_flag=True, help="Render with the pipeline's film setting "
+              "(docs/animation.md, Making films): every hold at 0 and, for a shipped pipeline, the setting measured "
+              "for films (a variant file or parameters); --set applies on top.")
 @pipeline_options
 @cache_options
 @out_dir_options
 @scheduler_options
 def run(pipeline: str, out: str | None, output_name: str | None, frames: str | None, explain: bool, quiet: bool,
         watch: bool, interval: float, fps: float | None, camera: str | None, crf: int | None, resume: bool,
-        png_level: int | None, page: str | None, overrides: tuple[str, ...], size: str | None, scene: str | None,
-        no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool, scheduler: str | None,
-        chunk: int | None, view: str | None = None, up: str | None = None, fill: float | None = None) -> None:
+        png_level: int | None, page: str | None, film_setting: bool, overrides: tuple[str, ...], size: str | None,
+        scene: str | None, no_cache: bool, cache_dir: Path | None, out_dir: Path | None, allow_outside: bool,
+        scheduler: str | None, chunk: int | None, view: str | None = None, up: str | None = None,
+        fill: float | None = None) -> None:
     """Render a pipeline to an image (or a frame sequence)."""
     from .executor import Executor
+
+    if film_setting:
+        from . import films
+
+        pipeline, film_overrides = films.film_setting(pipeline)
+        overrides = (*film_overrides, *overrides)
+        if not quiet:
+            click.echo(f"film setting: {pipeline} " + " ".join(f"--set {o}" for o in film_overrides), err=True)
 
     if scheduler is not None:
         if watch or explain:

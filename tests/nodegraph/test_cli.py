@@ -119,3 +119,34 @@ def test_bench_takes_a_shipped_pipeline_by_name(cli):
     # `sketchgraph bench pencil --scene M` as `sketchgraph run pencil` takes it
     r = cli("bench", "pencil", "--help")
     assert r.exit_code == 0 and "sketchgraph bench pencil" in r.output and "--scene" in r.output
+
+
+def test_run_film_renders_the_pipelines_film_setting(gl, cli, tmp_path: Path):
+    """`--film`: a shipped pipeline's film setting (nodegraph/films.py: holds at 0, then its measured overrides or
+    its variant file), the same image as those settings given by hand; --set applies on top; a pipeline that is
+    not shipped gets its holds at 0."""
+    from nodegraph import films
+
+    by_hand = ["--set", "distortion.hold=0", "--set", "contour.hold=0"] + [
+        a for k, v in films.FILM["pencil"].items() for a in ("--set", f"{k}={v}")]
+    for name, args in (("film", ["--film"]), ("hand", by_hand)):
+        r = cli("run", "pencil", *args, "--size", "48x48", "-o", str(tmp_path / f"{name}.png"))
+        assert r.exit_code == 0, r.output
+    assert (tmp_path / "film.png").read_bytes() == (tmp_path / "hand.png").read_bytes()
+    r = cli("run", "pencil", "--film", "--size", "48x48", "-o", str(tmp_path / "film.png"))
+    assert "film setting: pencil --set distortion.hold=0 --set contour.hold=0 --set shade.anchor=surface " \
+           "--set distortion.layers=1" in r.output
+    # a variant file: nienhaus_sketchy's film setting is pipelines/film/nienhaus_sketchy.yaml
+    r = cli("run", "nienhaus_sketchy", "--film", "--size", "48x48", "-o", str(tmp_path / "n.png"))
+    assert r.exit_code == 0 and "film setting: " + str(Path(films.film_pipeline("nienhaus_sketchy"))) in r.output
+    r = cli("run", PIPE, "--film", "--size", "48x48", "-o", str(tmp_path / "n2.png"), "-q")  # by path, as by name
+    assert (tmp_path / "n2.png").read_bytes() == (tmp_path / "n.png").read_bytes()
+    # --set wins over the film setting
+    r = cli("run", "pencil", "--film", "--set", "distortion.layers=3", "--size", "48x48", "-o",
+            str(tmp_path / "three.png"), "-q")
+    assert r.exit_code == 0 and (tmp_path / "three.png").read_bytes() != (tmp_path / "film.png").read_bytes()
+    # not shipped: its holds at 0 and nothing else
+    own = tmp_path / "own.yaml"
+    own.write_text((ROOT / "pipelines" / "nienhaus_sketchy.yaml").read_text())
+    source, overrides = films.film_setting(str(own))
+    assert source == str(own) and overrides == ["noise.hold=0"]

@@ -73,6 +73,9 @@ from typing import Any
 import click
 import numpy as np
 
+from ... import films
+from ...errors import PipelineError
+from ...films import FILM, FILM_PIPELINE  # noqa: F401  (the film settings, re-exported for the bench's users)
 from ...fsio import atomic_write_text
 from ...output import motion as mo
 from .gltfdoc import GltfDoc, quaternion
@@ -83,30 +86,8 @@ HOLDS = (1, 2, 4)
 RESEED_STRIDE = 7919  # pipeline seed of frame t in the re-seeded baseline: the pipeline's + 7919 (t + 1)
 BAND_PX = 6.0  # `extended`: background this close to an object moves with it (px at 256 px, scaled with size)
 DARK = 0.1  # a pixel counts as drawn where it is this much darker than its 5x5 grey closing (sketchiness)
-# each pipeline's film setting: overrides as `--set NODE.PARAM=VALUE` takes them, on top of `hold: 0` on every node
-# that has a hold (film_overrides); {} = the pipeline with every hold at 0. Where the screen-space Perlin uncertainty
-# is the method (the paper's default), the film setting is a variant file (FILM_PIPELINE, in pipelines/film/) with
-# geometry-controlled uncertainty instead. Chosen by measurement: docs/animation.md, "Making films".
-FILM: dict[str, dict[str, Any]] = {
-    "chalk": {},
-    "loose_and_sketchy": {},  # particles started from points fixed on the surfaces (starts: surface)
-    "loose_and_sketchy_shaded": {},
-    "nienhaus_sketchy": {},
-    "object_space_uncertainty": {"noise.octaves": 1},  # one octave: no fine wobble to change as outlines slide
-    # hatching fixed to the (rest-pose) surface, one contour attempt instead of three (each attempt's screen-space
-    # shake swims over a moving surface): docs/pencil.md
-    "pencil": {"shade.anchor": "surface", "distortion.layers": 1},
-    "pencil_contours": {},
-    "repeated_edges": {},
-    "sketchy_composite": {},
-    "sketchy_lines": {},
-    "sketchy_strokes": {},  # its uncertainty is read on the surface already (stroke_style), held at 0
-    "plotter_lines": {"hatch.anchor": "surface"},  # hatching seeded from fixed surface points
-}
-# variant pipelines (paths relative to the shipped pipelines' folder) that FILM's overrides apply to
-FILM_PIPELINE: dict[str, str] = {name: f"film/{name}.yaml" for name in (
-    "chalk", "loose_and_sketchy", "loose_and_sketchy_shaded", "nienhaus_sketchy", "repeated_edges", "sketchy_composite",
-    "sketchy_lines")}
+# each pipeline's film setting (nodegraph/films.py: FILM, FILM_PIPELINE), chosen by measurement with this bench:
+# docs/animation.md, "Making films"
 # node type -> the params that set how far drawn marks stray (scaled together by SWEEP_FACTORS)
 SWEEP: dict[str, tuple[str, ...]] = {
     "sketch": ("edge_matrix", "shade_matrix"),
@@ -455,27 +436,20 @@ def grain_off(pipe: Any) -> dict[str, Any]:
 
 
 def held_nodes(pipe: Any) -> list[str]:
-    from ...node import HOLD_PARAM
-
-    return [nid for nid, node in pipe.pipeline.nodes.items() if HOLD_PARAM in type(node.params).model_fields]
+    return films.held_nodes(pipe.pipeline)
 
 
 def film_pipeline(name: str) -> str:
-    """The pipeline a film setting runs: the variant file FILM_PIPELINE names (beside the shipped pipelines), or
-    the shipped pipeline itself."""
-    if name not in FILM_PIPELINE:
-        return name
-    from ... import shipped
-
-    root = shipped.folder()
-    if root is None:
-        raise click.UsageError("the shipped pipelines are not installed: no film variant to load")
-    return str(root / FILM_PIPELINE[name])
+    """The pipeline a film setting runs (films.film_pipeline); a usage error where the variant cannot be found."""
+    try:
+        return films.film_pipeline(name)
+    except PipelineError as exc:
+        raise click.UsageError(str(exc)) from None
 
 
 def film_overrides(pipe: Any, name: str) -> dict[str, Any]:
-    """A pipeline's film setting as `--set` overrides: `hold: 0` on every node that has a hold, then FILM[name]."""
-    return {**{f"{nid}.hold": 0 for nid in held_nodes(pipe)}, **FILM.get(name, {})}
+    """A pipeline's film setting as `--set` overrides (films.film_overrides)."""
+    return films.film_overrides(pipe.pipeline, name)
 
 
 def sweep_overrides(pipe: Any, factor: float) -> dict[str, Any]:
