@@ -336,7 +336,8 @@ class Session:
              set: Mapping[str, Any] | Iterable[str] | None = None,  # noqa: A002 - the CLI's --set
              out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
              up: str | None = None, reference_size: int | None = None, fill: float | None = None,
-             animation: str | int | None = None, animation_end: str | None = None, front: str | None = None) -> Pipe:
+             animation: str | int | None = None, animation_end: str | None = None, front: str | None = None,
+             film: bool = False) -> Pipe:
         """A pipeline by path or shipped name, with the command line's overrides: `scene` (builtin:NAME, a
         scene YAML or a mesh file, relative to the current directory), `size` ((width, height) or 'WxH'),
         `set` ({"node.param": value} or ["node.param=value"]), and `view` and `up` (`--view`, `--up`: the
@@ -346,7 +347,9 @@ class Session:
         unless `allow_outside` (the CLI's --out-dir and --allow-outside-out-dir). `reference_size` replaces the
         pipeline's (the shorter side at which its image-space params hold as written; docs/sizes.md).
         `animation` (`--animation`: a clip's name or index, or "all", the default) and `animation_end`
-        (`--animation-end`: hold, the default, or loop) choose what glTF files play (docs/animation.md). A mesh
+        (`--animation-end`: hold, the default, or loop) choose what glTF files play (docs/animation.md). `film`
+        (`--film`): the pipeline's film setting (nodegraph/films.py: every hold at 0 and, for a shipped pipeline, its
+        variant file or parameters; `set` applies on top; docs/animation.md, Making films). A mesh
         file parsed by an earlier process with the same disk cache is read from it (nodegraph/scene/meshstore.py).
         Every argument is checked before anything is read (see the module's docstring)."""
         from .pipeline import resolve
@@ -372,8 +375,14 @@ class Session:
         if reference_size is not None:
             reference_size = _int("reference_size", reference_size, 1, 16384, "a size in pixels",
                                   PipelineArgumentError)
+        film = _bool("film", film)
         try:
             resolve(source)
+            if film:
+                from .films import film_setting
+
+                source, film_overrides = film_setting(source)
+                overrides = [*film_overrides, *overrides]
         except PipelineError as exc:
             raise PipelineArgumentError(f"pipeline={_shown(pipeline)}: {exc}") from None
         meshstore.use_cache(self.cache)
@@ -427,14 +436,15 @@ def load(pipeline: str | Path, *, scene: str | Path | None = None, size: tuple[i
          set: Mapping[str, Any] | Iterable[str] | None = None, session: Session | None = None,  # noqa: A002
          out_dir: str | Path | None = None, allow_outside: bool = False, view: str | None = None,
          up: str | None = None, reference_size: int | None = None, fill: float | None = None,
-         animation: str | int | None = None, animation_end: str | None = None, front: str | None = None) -> Pipe:
+         animation: str | int | None = None, animation_end: str | None = None, front: str | None = None,
+         film: bool = False) -> Pipe:
     """Load and validate a pipeline (a path, or the name of a shipped one) in the default session."""
     if session is not None and not isinstance(session, Session):
         raise _type_error("session", session, "a nodegraph.Session or None")
     return (session or default_session()).load(pipeline, scene=scene, size=size, set=set, out_dir=out_dir,
                                                allow_outside=allow_outside, view=view, up=up,
                                                reference_size=reference_size, fill=fill, animation=animation,
-                                               animation_end=animation_end, front=front)
+                                               animation_end=animation_end, front=front, film=film)
 
 
 class Pipe:

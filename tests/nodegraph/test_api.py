@@ -153,3 +153,16 @@ def test_docs_have_examples() -> None:
 def test_docs_api_examples_run(gl, index: int, monkeypatch: pytest.MonkeyPatch, cache_dir: Path) -> None:
     monkeypatch.chdir(ROOT)
     exec(compile(_doc_examples()[index], f"docs/api.md example {index + 1}", "exec"), {})
+
+
+def test_load_film_is_the_pipelines_film_setting(gl) -> None:
+    """`film=True` (the CLI's --film): pencil with its holds at 0 and its measured setting, the same pixels as that
+    setting given by hand; `set=` applies on top."""
+    from nodegraph import films
+
+    with ng.Session(cache=False) as session:
+        film = session.load("pencil", size=(48, 48), film=True).render(dtype="float32")
+        by_hand = {"distortion.hold": 0, "contour.hold": 0, **films.FILM["pencil"]}
+        np.testing.assert_array_equal(film, session.load("pencil", size=(48, 48), set=by_hand).render(dtype="float32"))
+        three = session.load("pencil", size=(48, 48), film=True, set={"distortion.layers": 3}).render(dtype="float32")
+        assert not np.array_equal(three, film)
