@@ -152,7 +152,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("gpu", ("nodegraph.gpu",)),
     ("output", ("nodegraph.output",)),
     ("engine", ("nodegraph.node", "nodegraph.registry", "nodegraph.shipped", "nodegraph.pipeline", "nodegraph.plan",
-                "nodegraph.executor")),
+                "nodegraph.executor", "nodegraph.films")),
     ("face", ("nodegraph", "nodegraph.render", "nodegraph.api", "nodegraph.distributed")),
     ("tools", ("nodegraph.tools",)),
     ("cli", ("nodegraph.cli",)),
