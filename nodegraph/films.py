@@ -67,19 +67,12 @@ def film_overrides(pipeline: Any, name: str | None) -> dict[str, Any]:
 
 
 def shipped_name(spec: str | Path) -> str | None:
-    """The shipped pipeline `spec` is (its name, or the path of its file), else None."""
+    """The shipped pipeline `spec` is (its name, or the path of its file), else None. A spec that names nothing is
+    the one-line PipelineError `shipped.resolve` gives."""
     from . import shipped
 
-    found = shipped.paths()
-    text = str(spec)
-    stem = text[:-5] if text.endswith(".yaml") else text[:-4] if text.endswith(".yml") else text
-    if stem in found and not Path(text).expanduser().is_file():
-        return stem
-    try:
-        resolved = Path(text).expanduser().resolve()
-    except (OSError, ValueError):
-        return None
-    return next((n for n, p in found.items() if p.resolve() == resolved), None)
+    path = shipped.resolve(spec).resolve()
+    return next((name for name, p in shipped.paths().items() if p.resolve() == path), None)
 
 
 def film_setting(spec: str) -> tuple[str, list[str]]:
