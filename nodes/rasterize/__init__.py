@@ -338,7 +338,7 @@ class Rasterize(Node):
         gl = ctx.gl
         w, h = ctx.size
         view, world, proj = now
-        first = first_scene(scene)
+        first = scene_at(scene, 0)
         first_view = np.asarray(first.camera_at(0).view_matrix(), dtype=np.float64)
         target = ctx.target("spin", filter="nearest")
         fbo = gl.framebuffer([target], gl.depth_buffer((w, h)))
@@ -377,11 +377,11 @@ MOTION_SHADER = "motion.glsl"
 SPIN_SHADER = "spin.glsl"
 
 
-def first_scene(scene: Any) -> Any:
-    """The scene at frame 0: the animated scene's pose at 0 where `scene` is a pose (`Scene.at`), else the scene
-    itself (whose camera_at(0) undoes its orbit)."""
+def scene_at(scene: Any, frame: int) -> Any:
+    """The scene as it is at `frame`: the animated scene's pose there where `scene` is a pose (`Scene.at`), else
+    the scene itself (whose camera_at(frame) turns its orbit)."""
     source = scene.animated_source() if hasattr(scene, "animated_source") else None
-    return scene if source is None else source.at(0)
+    return scene if source is None else source.at(frame)
 
 
 def skin_turn(mesh: Any, first: Any) -> np.ndarray | None:
@@ -441,15 +441,11 @@ def _spin_geometry(gl: Any, prog: Any, mesh: Any, first: Any, crease_angle: floa
 
 
 def previous_scene(scene: Any, frame: int) -> tuple[Any, int]:
-    """The scene as it was one frame before `frame`, and that frame: the animated scene's pose at frame - 1
-    where `scene` is a pose (`Scene.at`), else the scene itself (its orbit turns the camera back); at frame 0
-    the scene itself at frame 0 (no motion)."""
+    """The scene as it was one frame before `frame`, and that frame (`scene_at`); at frame 0 the scene itself at
+    frame 0 (no motion)."""
     if frame == 0:
         return scene, 0
-    source = scene.animated_source() if hasattr(scene, "animated_source") else None
-    if source is None:
-        return scene, frame - 1
-    return source.at(frame - 1), frame - 1
+    return scene_at(scene, frame - 1), frame - 1
 
 
 def _motion_geometry(gl: Any, prog: Any, mesh: Any, prev_mesh: Any, crease_angle: float, enlarging: bool,
