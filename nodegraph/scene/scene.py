@@ -425,8 +425,10 @@ class Scene:
         key = ("pose", int(frame))
         hit = self._cache.get(key)
         if hit is None:
-            poses = [k for k in self._cache if isinstance(k, tuple) and k[0] == "pose"]
-            for k in poses[: max(0, len(poses) - 3)]:  # a few poses: keys and computes of one frame share one
+            # a few poses: keys and computes of one frame share one; frame 0 stays (rasterize's `spin` turns every
+            # frame against it)
+            poses = [k for k in self._cache if isinstance(k, tuple) and k[0] == "pose" and k[1] != 0]
+            for k in poses[: max(0, len(poses) - 3)]:
                 del self._cache[k]
             hit = self._cache[key] = self.animation.pose(self, int(frame))
             hit._cache["posed_from"] = self  # the animated scene: rasterize's `motion` poses the frame before

@@ -98,6 +98,28 @@ camera: side
     assert sc.select_camera(scene, "front").camera.eye == pytest.approx([0, 0, 5])
 
 
+def test_posed_frames_are_kept_a_few_at_a_time_and_frame_0_for_good(tmp_path, monkeypatch):
+    """Scene.at keeps the last few poses and frame 0 (rasterize's spin pass turns every frame against it):
+    a film's frames do not pose frame 0 again."""
+    scene = sc.load_scene(str(_write(tmp_path, SLIDE)))
+    posed: list[int] = []
+    pose = type(scene.animation).pose
+
+    def counted(self, s, frame):
+        posed.append(frame)
+        return pose(self, s, frame)
+
+    monkeypatch.setattr(type(scene.animation), "pose", counted)
+    first = scene.at(0)
+    for f in range(1, 12):
+        assert scene.at(f) is scene.at(f)  # one pose per frame however often it is asked for
+        assert scene.at(0) is first
+    assert posed == list(range(12))
+    assert scene.at(1) is not None and posed[-1] == 1  # frame 1 was let go; frame 0 never was
+    kept = [k for k in scene._cache if isinstance(k, tuple) and k[0] == "pose"]
+    assert len(kept) <= 5 and ("pose", 0) in kept
+
+
 def test_static_scene_keys_do_not_change_with_posing():
     scene = sc.load_scene("builtin:torus")
     assert scene.animation is None and scene.at(7) is scene
