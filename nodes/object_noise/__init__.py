@@ -36,7 +36,8 @@ class ObjectNoise(Node):
     picture since frame 0 (`rasterize.spin`): a part turning in the picture's plane (a bending arm, a wheel, a
     rolling camera) carries its marks' offsets with it instead of keeping them pointing the same way on the
     screen while the lines turn under them. At frame 0 and for a still the turn is 0 and the values are the
-    same as without it."""
+    same as without it. The pair is turned before `sketch` applies its matrices, so a sheared matrix's slant stays
+    on the page; `sketch`'s own `spin` input turns the shifts after them instead (the whole mark turns)."""
 
     version = "1"
     shaders = ("object_noise.glsl",)  # includes ../perlin_noise/improved_noise.glsl: hashed with it

@@ -82,7 +82,8 @@ class Rasterize(Node):
         "spin": Output(Texture("RG32F"), "How far the surface under each pixel has turned in the picture's plane "
                        "since frame 0, as (cos, sin) (camera, object animation, skinning; a turn about an axis in "
                        "the picture's plane counts 0); (0, 0) background. Drawn with the same enlargement as the "
-                       "other outputs, for object_noise's `spin` input (docs/animation.md, Making films)."),
+                       "other outputs, for the `spin` inputs of object_noise and sketch (docs/animation.md, Making "
+                       "films)."),
     }
 
     class Params(NodeParams):

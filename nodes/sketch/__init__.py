@@ -38,7 +38,17 @@ class Sketch(Node):
     `depth_sprite.sketch_depth`; `offsets` only holds the first layer's shift. With `depth` connected,
     pixels whose perturbed depth is the far plane are paper (nothing of the object lands there), which is
     exactly what the depth sprite shows over paper: `depth_sprite` with nothing under it then passes this
-    colour through, and the sketch pass is the paper's single final pass (§3.5)."""
+    colour through, and the sketch pass is the paper's single final pass (§3.5).
+
+    The shifts are in the picture's axes. With `spin` connected (our addition; the paper's shifts keep the
+    picture's axes) each shift, once through its matrix, is turned in pixels by the angle the surface under the
+    pixel has turned in the picture since frame 0 (`rasterize.spin` of the rasterize node the offsets were read
+    on): a part turning in the picture's plane (a bending arm, a wheel, a rolling camera) carries its marks'
+    shifts with it, sheared matrices included, instead of keeping them pointing the same way on the screen while
+    its lines turn under them. At frame 0 and in a still the turn is 0 and the image is the same as without it.
+    `object_noise`'s own `spin` input turns the noise pair before the matrices instead: the same for matrices that
+    only scale and turn ([[a, b], [-b, a]]; the shipped pipelines' are, or nearly, but chalk's), but a sheared
+    matrix's slant then stays on the page (chalk's film setting keeps it there, like a hand's drag)."""
 
     version = "3"
     shaders = ("sketch.glsl",)
@@ -49,6 +59,9 @@ class Sketch(Node):
                         "object_noise.out)."),
         "depth": Input(Texture("R32F"), "Window depth of the same objects (rasterize.depth); needed only for "
                        "the `depth` output.", optional=True),
+        "spin": Input(Texture("RG32F"), "Optional: the surface's turn in the picture since frame 0 (rasterize.spin, "
+                      "same size): every shift is turned by it after its matrix, so marks turn with the surface "
+                      "(a film setting; docs/animation.md, Making films).", optional=True),
     }
     outputs = {
         "color": Output(Texture("RGBA16F"), "The sketchy drawing; alpha = coverage of ink or colour."),
@@ -110,6 +123,13 @@ class Sketch(Node):
         size = inputs["shade"].size
         targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
         textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
+        spin = inputs.get("spin")
+        if spin is not None:
+            if spin.size != size:
+                raise NodeError(f"spin is {spin.size[0]}x{spin.size[1]} but shade is {size[0]}x{size[1]}: connect "
+                                "rasterize.spin at the drawing's size", self.id, self.type_name)
+            defines["HAS_SPIN"] = 1
+            textures["t_spin"] = spin
         if "depth" in inputs:  # the key depends on the connection, so the colour does too, never on `needed`
             defines["HAS_DEPTH"] = 1
             if inputs["depth"] is None:  # unread (see unread_inputs): the shade's alpha answers the far test
@@ -120,7 +140,7 @@ class Sketch(Node):
         mats = np.stack([np.asarray(layer.matrix, dtype=np.float32) for layer in layers])  # row-major: bind transposes
         colors = np.asarray([layer.color for layer in layers], dtype=np.float32)
         shade_matrix = np.asarray(p.shade_matrix, dtype=np.float32)
-        rect = self._rect(ports, textures, [shade_matrix, *mats], size)
+        rect = self._rect(ports, textures, [shade_matrix, *mats], size, turned=spin is not None)
         blanks = {"color": (*p.paper, 0.0), "depth": (1.0,)}
         ctx.gl.fullscreen(prog, [targets[port] for port in ports],
                           textures=textures,
@@ -133,7 +153,7 @@ class Sketch(Node):
 
     @staticmethod
     def _rect(ports: list[str], textures: dict[str, Any], matrices: list[np.ndarray],
-              size: tuple[int, int]) -> tuple[int, int, int, int] | None:
+              size: tuple[int, int], turned: bool = False) -> tuple[int, int, int, int] | None:
         """Where the pass can draw anything but paper: every lookup at a shifted coordinate lands on a blank
         texel (no edge, no shade coverage, no surface behind) at a pixel farther than the largest shift (matrix
         times the offset's bound, plus the bilinear footprint) from the footprints of the maps read there; such
@@ -144,7 +164,7 @@ class Sketch(Node):
             return None
         rects = []
         for name, tex in textures.items():
-            if name == "t_offset":
+            if name in ("t_offset", "t_spin"):
                 continue
             fp = footprint.of(tex)
             if fp is None or tex.size != size:
@@ -158,6 +178,8 @@ class Sketch(Node):
             rects.append(fp.rect)
         a = np.abs(np.asarray(bound[:2], dtype=np.float64))
         shift = np.max([np.abs(np.asarray(m, dtype=np.float64)) @ a for m in matrices], axis=0) * np.asarray(size)
+        if turned:  # a shift turned by `spin` (in pixels) keeps its length, not its components
+            shift = np.full(2, np.linalg.norm(shift))
         return footprint.grow(footprint.union(rects), int(np.ceil(shift[0])) + 2, int(np.ceil(shift[1])) + 2, size)
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
@@ -10,14 +12,17 @@ from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
 def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,
            layers: list[tuple[np.ndarray, tuple[float, float, float]]], edge_strength: float = 1.0,
            use_shade: bool = True, paper: tuple[float, float, float] = (0.98, 0.97, 0.94),
-           depth: np.ndarray | None = None, line_contrast: float = 0.1) -> dict[str, np.ndarray]:
+           depth: np.ndarray | None = None, line_contrast: float = 0.1,
+           spin: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """edges (H, W), shade (H, W, 4), offset (H, W, 2); layers: [(2x2 matrix, colour)]; depth (H, W)
-    optional: adds the "depth" output (minimum of the depth map over every perturbed lookup)."""
+    optional: adds the "depth" output (minimum of the depth map over every perturbed lookup); spin (H, W, 2)
+    optional: (cos, sin) turning every shift, after its matrix, in pixels ((0, 0): not turned)."""
     h, w = shade.shape[:2]
     u, v = pixel_uv(w, h)
     off = bilinear(offset, u, v)
+    turn = _turn(spin, w, h)
     sm = np.asarray(shade_matrix, dtype=np.float64)
-    s_off = off @ sm.T
+    s_off = turn(off @ sm.T)
     sh = bilinear(shade, u + s_off[..., 0], v + s_off[..., 1]) * float(use_shade)
     color = np.asarray(paper, dtype=np.float64) * (1 - sh[..., 3:4]) + sh[..., :3] * sh[..., 3:4]
     cover = sh[..., 3]
@@ -28,7 +33,7 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
         z = nearest(depth, u + s_off[..., 0], v + s_off[..., 1])
     first = None
     for matrix, edge_color in layers:
-        e_off = off @ np.asarray(matrix, dtype=np.float64).T
+        e_off = turn(off @ np.asarray(matrix, dtype=np.float64).T)
         first = e_off if first is None else first
         e = np.clip(bilinear(edges, u + e_off[..., 0], v + e_off[..., 1]) * edge_strength, 0, 1)
         ink = np.asarray(edge_color, dtype=np.float64)
@@ -49,3 +54,20 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
     if depth is not None:
         out["depth"] = z
     return out
+
+
+def _turn(spin: np.ndarray | None, w: int, h: int) -> Callable[[np.ndarray], np.ndarray]:
+    """The shifts (H, W, 2, texture units) turned by `spin` in pixels; as they are without it."""
+    if spin is None:
+        return lambda o: o
+    s = np.asarray(spin, dtype=np.float64)[..., :2]
+    n = np.linalg.norm(s, axis=-1, keepdims=True)
+    s = np.where(n > 0, s / np.where(n > 0, n, 1.0), [1.0, 0.0])
+    size = np.array([w, h], dtype=np.float64)
+
+    def turn(o: np.ndarray) -> np.ndarray:
+        px = o * size
+        return np.stack([s[..., 0] * px[..., 0] - s[..., 1] * px[..., 1],
+                         s[..., 1] * px[..., 0] + s[..., 0] * px[..., 1]], axis=-1) / size
+
+    return turn

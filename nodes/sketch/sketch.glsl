@@ -16,6 +16,19 @@ uniform float u_edge_strength;
 uniform float u_use_shade;
 uniform vec3 u_paper;
 uniform float u_line_contrast;  // a line over a fill less than this much lighter than its ink turns to paper
+#ifdef HAS_SPIN
+// the surface's turn in the picture since frame 0 (rasterize.spin: cos, sin; (0, 0) where nothing was drawn):
+// every shift, once through its matrix, is turned by it in pixels, so a mark keeps its place beside a turning part
+uniform sampler2D t_spin;
+vec2 turned(vec2 off, vec2 s) {
+    vec2 size = vec2(textureSize(t_shade, 0));
+    vec2 px = off * size;
+    return vec2(s.x * px.x - s.y * px.y, s.y * px.x + s.x * px.y) / size;
+}
+#define SHIFT(m) turned((m) * off, spin)
+#else
+#define SHIFT(m) ((m) * off)
+#endif
 #ifdef LOC_COLOR
 layout(location = LOC_COLOR) out vec4 o_color;
 #endif
@@ -44,7 +57,12 @@ float depth_at(vec2 uv) {
 #endif
 void main() {
     vec2 off = texelFetch(t_offset, ivec2(gl_FragCoord.xy), 0).rg;  // same grid as the output: no filtering
-    vec2 shade_off = u_shade_matrix * off;
+#ifdef HAS_SPIN
+    vec2 spin = texelFetch(t_spin, ivec2(gl_FragCoord.xy), 0).rg;
+    float spin_len = length(spin);
+    spin = spin_len > 0.0 ? spin / spin_len : vec2(1.0, 0.0);
+#endif
+    vec2 shade_off = SHIFT(u_shade_matrix);
     vec4 shade = texture(t_shade, v_uv + shade_off) * u_use_shade;
     vec3 color = mix(u_paper, shade.rgb, shade.a);
     float cover = shade.a;
@@ -52,12 +70,12 @@ void main() {
     // (a dark texture), that ink turns towards the paper colour, fully where the fill is as dark as the ink
     const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
     float fill_luma = dot(color, LUMA);
-    vec2 first_edge_off = u_edge_matrix[0] * off;
+    vec2 first_edge_off = SHIFT(u_edge_matrix[0]);
 #ifdef HAS_DEPTH
     float z = u_use_shade > 0.5 ? depth_at(v_uv + shade_off) : 1.0;
 #endif
     for (int i = 0; i < LAYERS; ++i) {
-        vec2 edge_off = u_edge_matrix[i] * off;
+        vec2 edge_off = SHIFT(u_edge_matrix[i]);
         float e = clamp(texture(t_edges, v_uv + edge_off).r * u_edge_strength, 0.0, 1.0);
         float ink_luma = dot(u_edge_color[i], LUMA);
         float light = u_line_contrast > 0.0

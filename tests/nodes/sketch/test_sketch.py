@@ -18,7 +18,10 @@ def _smooth(rng, shape, scale=6):
     return np.kron(base, np.ones((scale, scale) + (1,) * (len(shape) - 2)))[: shape[0], : shape[1]]
 
 
-def test_sketch_matches_float64_reference(gl, rng):
+@pytest.mark.parametrize("spin", [False, True], ids=["screen-axes", "spin"])
+def test_sketch_matches_float64_reference(gl, rng, spin):
+    """With `spin`, each pixel's shifts turned (after their matrices, in pixels: the image is not square) by a
+    random angle, (0, 0) (not turned) on a quarter of the pixels."""
     h, w = 64, 96
     edges = gl.upload(_smooth(rng, (h, w)).astype(np.float32)[..., None], "R16F")
     shade_arr = _smooth(rng, (h, w, 4)).astype(np.float32)
@@ -29,16 +32,40 @@ def test_sketch_matches_float64_reference(gl, rng):
               {"matrix": ((-0.03, 0.0), (0.0, 0.06)), "color": (0.6, 0.1, 0.1)})
     params = Sketch.Params(shade_matrix=((-0.04, 0.02), (0.01, -0.05)), edge_layers=layers, edge_strength=1.3)
     node = Sketch("s", params)
-    got = run_node(gl, node, {"edges": edges, "shade": shade, "offset": offset}, (w, h),
-                   needed=frozenset({"color", "offsets"}))
+    inputs = {"edges": edges, "shade": shade, "offset": offset}
+    turn = None
+    if spin:
+        a = rng.uniform(-np.pi, np.pi, (h, w))
+        turn = np.stack([np.cos(a), np.sin(a)], axis=-1).astype(np.float32) * rng.uniform(0.5, 2.0, (h, w, 1))
+        turn[rng.random((h, w)) < 0.25] = 0.0
+        inputs["spin"] = gl.upload(turn, "RG32F")
+    got = run_node(gl, node, inputs, (w, h), needed=frozenset({"color", "offsets"}))
     # the reference reads exactly what the GPU holds (after 8-bit / half quantisation)
     ref = sketch_ref(edges.read()[..., 0], shade.read(), offset.read(), np.asarray(params.shade_matrix),
                      [(np.asarray(lay.matrix), lay.color) for lay in node.layers()], params.edge_strength,
-                     params.use_shade, params.paper)
+                     params.use_shade, params.paper, spin=turn)
+    # the shifts themselves, to half precision (|shift| < 0.1)
+    np.testing.assert_allclose(got["offsets"].read(), ref["offsets"], atol=1e-4)
+    if spin:  # turned: a shift keeps its length in pixels, and differs from the unturned one where turned
+        px = ref["offsets"][..., :2] * [w, h]
+        plain = sketch_ref(edges.read()[..., 0], shade.read(), offset.read(), np.asarray(params.shade_matrix),
+                           [(np.asarray(lay.matrix), lay.color) for lay in node.layers()])["offsets"][..., :2] * [w, h]
+        np.testing.assert_allclose(np.linalg.norm(px, axis=-1), np.linalg.norm(plain, axis=-1), rtol=1e-9)
+        turned = np.linalg.norm(turn, axis=-1) > 0
+        assert np.abs(px - plain)[turned].max() > 1.0 and np.abs(px - plain)[~turned].max() < 1e-9
     for port in ("color", "offsets"):
         err = np.abs(got[port].read() - ref[port])
         # bilinear weights are quantised to 8 bits in llvmpipe's sampler; outputs are half floats
         assert np.percentile(err, 99) < 1e-2 and err.max() < 5e-2, (port, err.max())
+
+
+def test_a_spin_of_another_size_is_one_line_error(gl):
+    tex = {"edges": gl.upload(np.zeros((16, 16, 1), np.float32), "R16F"),
+           "shade": gl.upload(np.zeros((16, 16, 4), np.float32), "RGBA8"),
+           "offset": gl.upload(np.zeros((16, 16, 2), np.float32), "RG16F"),
+           "spin": gl.upload(np.zeros((8, 8, 2), np.float32), "RG32F")}
+    with pytest.raises(NodeError, match="spin is 8x8 but shade is 16x16"):
+        run_node(gl, Sketch("s", Sketch.Params()), tex, (16, 16), needed=frozenset({"color"}))
 
 
 def _synthetic_edges(rng: np.random.Generator, h: int, w: int) -> np.ndarray:
