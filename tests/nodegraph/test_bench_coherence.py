@@ -61,8 +61,9 @@ def test_a_small_run_reports_every_shot(gl):
     assert r["film"]["overrides"] == {"noise.hold": 0, **co.FILM["nienhaus_sketchy"]}
     assert r["film"]["pipeline"] == co.FILM_PIPELINE["nienhaus_sketchy"]
     for f in [*r["default"]["shots"].values(), *r["film"]["shots"].values()]:  # beside the index: the variants
-        for v in co.VARIANTS:
-            assert f[v]["e_plain"] > 0.0 and math.isfinite(f[v]["e_pipeline"])
+        for v in co.VARIANTS:  # the plain render draws nothing on the sheet: no change there
+            assert (f[v]["e_plain"] == 0.0 if v == "sheet" else f[v]["e_plain"] > 0.0), (v, f[v])
+            assert math.isfinite(f[v]["e_pipeline"])
         assert f["coherence_index"] is None or 0.0 <= f["coherence_index"] <= 1.0
     for f in r["film"]["shots"].values():
         assert f["e_pipeline"] < f["e_reseed"]  # noise held on the surface: less change than new noise a frame
@@ -105,6 +106,11 @@ def test_the_film_setting_is_more_coherent_than_the_default_on_the_bend_shot(gl,
             left_out = masks["with_boundaries"] & ~masks["index"]
             assert not (masks["index"] & ~masks["with_boundaries"]).any()
             assert 0 < left_out.sum() < 0.1 * masks["with_boundaries"].sum()
+            # the index's pixels split into those on the tube and those on the sheet, both there
+            assert np.array_equal(masks["surfaces"] | masks["sheet"], masks["index"])
+            assert not (masks["surfaces"] & masks["sheet"]).any() and masks["surfaces"].any() and masks["sheet"].any()
+        for t, masks in enumerate(shot.masks, start=1):
+            assert (shot.depth[t][masks["surfaces"]] < 1.0).all() and (shot.depth[t][masks["sheet"]] >= 1.0).all()
         index, error = {}, {}
         for label, source in (("default", name), ("film", co.film_pipeline(name))):
             probe = session.load(source, size=size)

@@ -48,6 +48,12 @@ sheet the band has just left is left out as uncovered sheet is (`extended_pixels
 pixels no motion (the sheet stays put), which the plain render, drawing nothing beyond its outlines, never pays
 for; the extended figures show how much of a pipeline's index that accounts for.
 
+`surfaces` and `sheet`: the index's own pixels split in two, those where the plain render shows a surface and those
+where it shows the sheet (marks beyond the outlines: offset lines, spilled shade). The exact motion keeps the
+sheet still, so a mark there that moves with its object counts as change as a re-seeded one does; where the two
+sheet errors are alike, the index cannot tell a coherent drawing from a boiling one on the sheet, and `surfaces`
+is its figure for what lies on the objects.
+
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
 like an elbow); `--shots heldout` measures on three more of the same kinds that no film setting was chosen on
@@ -322,7 +328,8 @@ def luminance(img: np.ndarray) -> np.ndarray:
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
-VARIANTS = ("with_boundaries", "extended")  # figures beside the index's, measured over other pixels (docstring)
+# figures beside the index's, measured over other pixels (docstring)
+VARIANTS = ("with_boundaries", "extended", "surfaces", "sheet")
 
 
 class Shot:
@@ -343,11 +350,15 @@ class Shot:
     def _masks(self, t: int) -> dict[str, np.ndarray]:
         """The pixels each figure counts for the pair (t - 1, t): `index` the reliable ones (visible in both
         frames, off motion boundaries), `with_boundaries` those visible in both, `extended` those of
-        `extended_pixels`."""
+        `extended_pixels`, `surfaces` and `sheet` the index's where the plain render shows a surface at t, and the
+        sheet."""
         visible = mo.visible_both(self.motion[t], self.depth[t - 1])
         boundaries = mo.motion_boundaries(self.motion[t], self.linear[t])
         extended = extended_pixels(self.motion[t], self.depth[t - 1], self.extended[t], self.extended[t - 1][1])
-        return {"index": visible & ~boundaries, "with_boundaries": visible, "extended": extended & ~boundaries}
+        index = visible & ~boundaries
+        covered = self.motion[t][..., 3] > 0
+        return {"index": index, "with_boundaries": visible, "extended": extended & ~boundaries,
+                "surfaces": index & covered, "sheet": index & ~covered}
 
     def error(self, lum: list[np.ndarray]) -> float:
         """Mean warping error over the consecutive pairs of frames (the index's pixels)."""
@@ -355,14 +366,14 @@ class Shot:
 
     def errors(self, lum: list[np.ndarray]) -> dict[str, float]:
         """Mean warping error over the consecutive pairs of frames for each set of pixels (`_masks`): along the
-        exact motion for `index` and `with_boundaries`, along the extended motion (`extend_motion`) for
-        `extended`."""
+        exact motion for all but `extended`, along the extended motion (`extend_motion`) for `extended`."""
         out: dict[str, list[float]] = {"index": [], **{v: [] for v in VARIANTS}}
         for t in range(1, len(lum)):
             masks = self.masks[t - 1]
             diff = np.abs(lum[t] - mo.warp(lum[t - 1], self.motion[t]))
             ext = np.abs(lum[t] - mo.warp(lum[t - 1], self.extended[t][0]))
-            for key, d in (("index", diff), ("with_boundaries", diff), ("extended", ext)):
+            for key in out:
+                d = ext if key == "extended" else diff
                 out[key].append(d[masks[key]].mean() if masks[key].any() else np.nan)
         return {k: float(np.nanmean(v)) for k, v in out.items()}
 
