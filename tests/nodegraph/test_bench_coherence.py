@@ -216,3 +216,14 @@ def test_pencils_film_setting_reaches_the_target_on_every_shot(gl, shots):
     assert film["overrides"]["distortion.layers"] == 1 and film["overrides"]["shade.anchor"] == "surface"
     for shot, f in film["shots"].items():
         assert f["coherence_index"] >= 0.8, (shots, shot, f)
+
+
+def test_summary_says_which_measures_the_film_setting_reaches():
+    def shot(index, extended, surfaces):
+        return {"coherence_index": index, "extended": {"coherence_index": extended},
+                "surfaces": {"coherence_index": surfaces}}
+
+    shots = {"turn": shot(1.0, 1.0, 1.0), "orbit": shot(0.79, 0.8, 0.95), "bend": shot(0.9, 0.85, None)}
+    assert co._reaches(shots) == "n/y/-"
+    shots["bend"] = shot(0.9, 0.5, 0.81)
+    assert co._reaches(shots) == "n/n/y"

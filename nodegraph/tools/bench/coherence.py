@@ -90,6 +90,7 @@ FPS = 24.0
 SHOTS = ("turn", "orbit", "bend")
 HOLDS = (1, 2, 4)
 RESEED_STRIDE = 7919  # pipeline seed of frame t in the re-seeded baseline: the pipeline's + 7919 (t + 1)
+TARGET = 0.8  # the index a film setting is to reach on every shot (issue 37; `summary` says which do)
 BAND_PX = 6.0  # `extended`: background this close to an object moves with it (px at 256 px, scaled with size)
 DARK = 0.1  # a pixel counts as drawn where it is this much darker than its 5x5 grey closing (sketchiness)
 # each pipeline's film setting (nodegraph/films.py: FILM, FILM_PIPELINE), chosen by measurement with this bench:
@@ -800,10 +801,12 @@ def _draws_image(name: str) -> bool:
 
 
 def summary(result: dict[str, Any]) -> str:
-    """A table: per pipeline, the index per shot (default), with hold 1/2/4 where measured, and sketchiness."""
+    """A table: per pipeline, the index per shot (default, film), whether the film setting reaches TARGET on every
+    shot by the index, `extended` and `surfaces` (y / n / - where undefined), hold 1/2/4 where measured, and
+    sketchiness."""
     width = max([26, *map(len, result["pipelines"])])
     lines = [f"{'pipeline':{width}s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   film " +
-             " ".join(f"{s:>6s}" for s in SHOTS) + "   hold1/2/4 (mean)  sketch px"]
+             " ".join(f"{s:>6s}" for s in SHOTS) + f"   {TARGET} i/e/s   hold1/2/4 (mean)  sketch px"]
     for name, r in result["pipelines"].items():
         d, f = r["default"]["shots"], r["film"]["shots"]
         holds = ""
@@ -813,8 +816,19 @@ def summary(result: dict[str, Any]) -> str:
         lines.append(f"{name:{width}s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
                                                for s in SHOTS) + "        " +
                      " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in SHOTS) +
-                     f"   {holds:17s} {r['sketchiness_px']:.2f}" + (f" (film {film:.2f})" if film else ""))
+                     f"   {_reaches(f):9s} {holds:17s} {r['sketchiness_px']:.2f}" +
+                     (f" (film {film:.2f})" if film else ""))
     return "\n".join(lines)
+
+
+def _reaches(shots: dict[str, Any]) -> str:
+    """'y/n/y': whether every shot's index reaches TARGET, by the index, `extended` and `surfaces` ('-': undefined
+    on some shot)."""
+    def one(get: Any) -> str:
+        values = [get(f)["coherence_index"] for f in shots.values()]
+        return "-" if any(v is None for v in values) else "y" if all(v >= TARGET for v in values) else "n"
+
+    return "/".join(one(get) for get in (lambda f: f, lambda f: f["extended"], lambda f: f["surfaces"]))
 
 
 def _mean(values: list[float | None]) -> float | None:
