@@ -45,7 +45,7 @@ class ObjectNoise(Node):
     inputs = {
         "position": Input(Texture("RGBA32F"), "Object-space position g(s,t), alpha = coverage "
                           "(rasterize.position, usually with `enlarge` > 0)."),
-        "spin": Input(Texture("RG32F"), "Optional: the surface's turn in the picture since frame 0 (rasterize.spin "
+        "spin": Input(Texture("RG32F"), "The surface's turn in the picture since frame 0 (rasterize.spin "
                       "of the same rasterize node): the pair (off_s, off_t) is turned by it, so the offsets turn "
                       "with the surface (a film setting; docs/animation.md, Making films).", optional=True),
     }

@@ -59,7 +59,7 @@ class Sketch(Node):
                         "object_noise.out)."),
         "depth": Input(Texture("R32F"), "Window depth of the same objects (rasterize.depth); needed only for "
                        "the `depth` output.", optional=True),
-        "spin": Input(Texture("RG32F"), "Optional: the surface's turn in the picture since frame 0 (rasterize.spin, "
+        "spin": Input(Texture("RG32F"), "The surface's turn in the picture since frame 0 (rasterize.spin, "
                       "same size): every shift is turned by it after its matrix, so marks turn with the surface "
                       "(a film setting; docs/animation.md, Making films).", optional=True),
     }
