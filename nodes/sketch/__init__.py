@@ -124,10 +124,12 @@ class Sketch(Node):
         targets = {port: ctx.target(port, size, filter="nearest" if port == "depth" else "linear") for port in ports}
         textures = {"t_edges": inputs["edges"], "t_shade": inputs["shade"], "t_offset": inputs["offset"]}
         spin = inputs.get("spin")
+        # offset and spin are read texel for texel on the output's grid: another size would read past their edges
+        for name, tex in (("offset", inputs["offset"]), ("spin", spin)):
+            if tex is not None and tex.size != size:
+                raise NodeError(f"{name} is {tex.size[0]}x{tex.size[1]} but shade is {size[0]}x{size[1]}: connect "
+                                f"one made at the drawing's size", self.id, self.type_name)
         if spin is not None:
-            if spin.size != size:
-                raise NodeError(f"spin is {spin.size[0]}x{spin.size[1]} but shade is {size[0]}x{size[1]}: connect "
-                                "rasterize.spin at the drawing's size", self.id, self.type_name)
             defines["HAS_SPIN"] = 1
             textures["t_spin"] = spin
         if "depth" in inputs:  # the key depends on the connection, so the colour does too, never on `needed`

@@ -59,12 +59,15 @@ def test_sketch_matches_float64_reference(gl, rng, spin):
         assert np.percentile(err, 99) < 1e-2 and err.max() < 5e-2, (port, err.max())
 
 
-def test_a_spin_of_another_size_is_one_line_error(gl):
+@pytest.mark.parametrize("name", ["offset", "spin"])
+def test_an_offset_or_spin_of_another_size_is_one_line_error(gl, name):
+    """Both are read texel for texel on the output's grid."""
+    sizes = {"offset": 16, "spin": 16, name: 8}
     tex = {"edges": gl.upload(np.zeros((16, 16, 1), np.float32), "R16F"),
            "shade": gl.upload(np.zeros((16, 16, 4), np.float32), "RGBA8"),
-           "offset": gl.upload(np.zeros((16, 16, 2), np.float32), "RG16F"),
-           "spin": gl.upload(np.zeros((8, 8, 2), np.float32), "RG32F")}
-    with pytest.raises(NodeError, match="spin is 8x8 but shade is 16x16"):
+           "offset": gl.upload(np.zeros((sizes["offset"],) * 2 + (2,), np.float32), "RG16F"),
+           "spin": gl.upload(np.zeros((sizes["spin"],) * 2 + (2,), np.float32), "RG32F")}
+    with pytest.raises(NodeError, match=f"{name} is 8x8 but shade is 16x16"):
         run_node(gl, Sketch("s", Sketch.Params()), tex, (16, 16), needed=frozenset({"color"}))
 
 
