@@ -359,3 +359,17 @@ def _scalar_reference_noise(x: float, y: float, z: float) -> float:
                         lerp(u, grad(p[AB], x, y - 1, z), grad(p[BB], x - 1, y - 1, z))),
                 lerp(v, lerp(u, grad(p[AA + 1], x, y, z - 1), grad(p[BA + 1], x - 1, y, z - 1)),
                      lerp(u, grad(p[AB + 1], x, y - 1, z - 1), grad(p[BB + 1], x - 1, y - 1, z - 1))))
+
+
+def turn_pairs(pairs: ArrayLike, spin: ArrayLike, scale: tuple[float, float] = (1.0, 1.0)) -> NDArray[np.float64]:
+    """(..., 2) offset pairs turned by the angle of `spin` ((..., 2+) as rasterize.spin writes it, (cos, sin) of any
+    length; (0, 0) where nothing was drawn: not turned), in a frame scaled by `scale` (pairs in texture units turned
+    in pixels: `scale` the image size). float64 reference of the turns in object_noise's spin_turn.glsl and
+    sketch.glsl."""
+    s = np.asarray(spin, dtype=np.float64)[..., :2]
+    n = np.linalg.norm(s, axis=-1, keepdims=True)
+    s = np.where(n > 0, s / np.where(n > 0, n, 1.0), [1.0, 0.0])
+    k = np.asarray(scale, dtype=np.float64)
+    p = np.asarray(pairs, dtype=np.float64) * k
+    return np.stack([s[..., 0] * p[..., 0] - s[..., 1] * p[..., 1],
+                     s[..., 1] * p[..., 0] + s[..., 0] * p[..., 1]], axis=-1) / k

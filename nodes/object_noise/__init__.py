@@ -133,13 +133,7 @@ class ObjectNoise(Node):
         k = float(np.float32(self.frequency(scene)))
         vals = noise.noise3_at(pos[..., :3], p.octaves, seed, p.mode, k)
         if spin is not None:
-            s = np.asarray(spin, dtype=np.float64)[..., :2]
-            n = np.linalg.norm(s, axis=-1)
-            turned = n > 0  # (0, 0): nothing drawn there, the pair as it is
-            c = np.where(turned, s[..., 0] / np.where(turned, n, 1.0), 1.0)[..., None]
-            si = np.where(turned, s[..., 1] / np.where(turned, n, 1.0), 0.0)[..., None]
-            vals = np.concatenate([c * vals[..., :1] - si * vals[..., 1:], si * vals[..., :1] + c * vals[..., 1:]],
-                                  axis=-1)
+            vals = noise.turn_pairs(vals, spin)
         return np.where(pos[..., 3:4] > 0, vals, np.asarray(p.background, dtype=np.float64))
 
 

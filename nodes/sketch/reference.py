@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from nodegraph.gpu.sampling import bilinear, nearest, pixel_uv
+
+from .._shared.noise import turn_pairs
 
 
 def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matrix: np.ndarray,
@@ -20,7 +20,10 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
     h, w = shade.shape[:2]
     u, v = pixel_uv(w, h)
     off = bilinear(offset, u, v)
-    turn = _turn(spin, w, h)
+
+    def turn(o: np.ndarray) -> np.ndarray:
+        return o if spin is None else turn_pairs(o, spin, (w, h))
+
     sm = np.asarray(shade_matrix, dtype=np.float64)
     s_off = turn(off @ sm.T)
     sh = bilinear(shade, u + s_off[..., 0], v + s_off[..., 1]) * float(use_shade)
@@ -55,19 +58,3 @@ def sketch(edges: np.ndarray, shade: np.ndarray, offset: np.ndarray, shade_matri
         out["depth"] = z
     return out
 
-
-def _turn(spin: np.ndarray | None, w: int, h: int) -> Callable[[np.ndarray], np.ndarray]:
-    """The shifts (H, W, 2, texture units) turned by `spin` in pixels; as they are without it."""
-    if spin is None:
-        return lambda o: o
-    s = np.asarray(spin, dtype=np.float64)[..., :2]
-    n = np.linalg.norm(s, axis=-1, keepdims=True)
-    s = np.where(n > 0, s / np.where(n > 0, n, 1.0), [1.0, 0.0])
-    size = np.array([w, h], dtype=np.float64)
-
-    def turn(o: np.ndarray) -> np.ndarray:
-        px = o * size
-        return np.stack([s[..., 0] * px[..., 0] - s[..., 1] * px[..., 1],
-                         s[..., 1] * px[..., 0] + s[..., 0] * px[..., 1]], axis=-1) / size
-
-    return turn
