@@ -65,6 +65,19 @@ def render_normal_depth(gl, text: str) -> np.ndarray:
     return Executor(pipe, None, gl=gl).run().values[("g", "normal_depth")].read()
 
 
+def inspect_probe(tmp_path: Path, text: str, scene: Path, size: tuple[int, int],
+                  wanted: list[tuple[str, int]]) -> list[np.ndarray]:
+    """The pipeline `text` (written as tmp_path/probe.yaml) on `scene` at `size`, without a cache: each
+    (NODE.PORT, frame) of `wanted` inspected."""
+    import nodegraph as ng
+
+    probe = tmp_path / "probe.yaml"
+    probe.write_text(text)
+    with ng.Session(cache=False) as session:
+        pipe = session.load(probe, scene=str(scene), size=size)
+        return [pipe.inspect(ref, frame=frame) for ref, frame in wanted]
+
+
 # -- the per-node roster: a minimal pipeline, outputs as declared and planned, located errors ----------
 def run_minimal(gl, nodes: str, outputs: dict[str, str], size: tuple[int, int] = (48, 40),
                 scene: str = "builtin:box", seed: int = 5, requested: list | None = None, **load_kw):

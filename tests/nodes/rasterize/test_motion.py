@@ -16,6 +16,7 @@ import nodegraph as ng
 from nodegraph.output import motion as mo
 from nodegraph.scene import scene as sc
 from tests import gltf_files as gf
+from tests.helpers import inspect_probe
 
 W, H = 80, 64
 FPS = 24.0
@@ -61,12 +62,9 @@ def boxes(path: Path, move_box: bool, move_camera: bool, span: tuple = ((-1, 0, 
 
 
 def run(tmp_path: Path, scene: Path, frame: int, ports: tuple[str, ...]) -> dict[str, np.ndarray]:
-    probe = tmp_path / "probe.yaml"
-    probe.write_text(PROBE)
-    with ng.Session(cache=False) as session:
-        pipe = session.load(probe, scene=str(scene), size=(W, H))
-        return {p: pipe.inspect(f"gbuf.{p}", frame=f) for p, f in
-                [(p.split("@")[0], frame - 1 if p.endswith("@prev") else frame) for p in ports]}
+    wanted = [(p.split("@")[0], frame - 1 if p.endswith("@prev") else frame) for p in ports]
+    got = inspect_probe(tmp_path, PROBE, scene, (W, H), [(f"gbuf.{p}", f) for p, f in wanted])
+    return {p: v for (p, _), v in zip(wanted, got, strict=True)}
 
 
 def window(points: np.ndarray, cam) -> np.ndarray:

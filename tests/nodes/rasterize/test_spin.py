@@ -19,6 +19,7 @@ import nodegraph as ng
 from nodegraph.node import derive_seed
 from nodegraph.scene import scene as sc
 from tests import gltf_files as gf
+from tests.helpers import inspect_probe
 
 W, H = 96, 80
 FPS = 24.0
@@ -66,11 +67,7 @@ def scene_file(path: Path, axis: tuple[float, float, float] | None, roll: float 
 
 
 def run(tmp_path: Path, scene: Path, frame: int, ports: tuple[str, ...]) -> dict[str, np.ndarray]:
-    probe = tmp_path / "probe.yaml"
-    probe.write_text(PROBE)
-    with ng.Session(cache=False) as session:
-        pipe = session.load(probe, scene=str(scene), size=(W, H))
-        return {p: pipe.inspect(p, frame=frame) for p in ports}
+    return dict(zip(ports, inspect_probe(tmp_path, PROBE, scene, (W, H), [(p, frame) for p in ports]), strict=True))
 
 
 def angles(spin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
