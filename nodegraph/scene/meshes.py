@@ -845,17 +845,18 @@ def _load_uncached(p: Path) -> Mesh:
     f = np.asarray(f, dtype=np.int64).reshape(-1, 3)
     if len(f) == 0:
         raise MeshError(f"{p}: no faces (empty mesh; {_plural(len(v), 'vertex', 'vertices')} read)")
+    base, counting = (1, "counted from 1, as OBJ does") if ext == ".obj" else (0, "counted from 0")
     bad = ~np.isfinite(v).all(axis=1)
     if bad.any():
         raise MeshError(f"{p}: {int(bad.sum())} of {_plural(len(v), 'vertex', 'vertices')} with NaN/Inf "
-                        f"coordinates (first: vertex {int(np.argmax(bad))})")
+                        f"coordinates (first: vertex {int(np.argmax(bad)) + base}, {counting})")
     _check_precision(p, v)
     out = (f < 0) | (f >= len(v))
     if out.any():
-        rows = out.any(axis=1)
-        raise MeshError(f"{p}: face index out of range in {_plural(int(rows.sum()), 'face', 'faces')} (index "
-                        f"{int(f[out][0])} in face {int(np.argmax(rows))}; the file has "
-                        f"{_plural(len(v), 'vertex', 'vertices')}, numbered from 0)")
+        # the vertex in the file's own numbering (libigl gives OBJ's 1-based indices back from 0); no face number,
+        # since the reader splits polygons into triangles and would count those
+        raise MeshError(f"{p}: a face uses vertex {int(f[out][0]) + base} ({counting}), out of range: the file has "
+                        f"{_plural(len(v), 'vertex', 'vertices')}")
     if note:
         warnings.warn(f"{show_path(p)}: {note}", MeshWarning, stacklevel=3)
     with warnings.catch_warnings(record=True) as caught:
@@ -1067,15 +1068,15 @@ def _repair(mesh: Mesh) -> Mesh:
         return mesh
     keep = np.sort(idx_keep[unique_mask])
     if len(keep) == 0:  # an error, not a warning and then an error
-        raise MeshError(f"{mesh.source}: no faces left after removing {n_deg} degenerate faces")
+        raise MeshError(f"{mesh.source}: no faces left after removing "
+                        f"{_plural(n_deg, 'degenerate face', 'degenerate faces')} (repeated vertex or zero area)")
     warnings.warn(
-        f"mesh '{mesh.name}' ({mesh.source}): removed {n_deg} degenerate faces (repeated vertex or zero "
-        f"area) and {n_dup} duplicate faces; {len(keep)} of {len(f)} faces remain",
+        f"mesh '{mesh.name}' ({mesh.source}): removed {_plural(n_deg, 'degenerate face', 'degenerate faces')} "
+        f"(repeated vertex or zero area) and {_plural(n_dup, 'duplicate face', 'duplicate faces')}; {len(keep)} of "
+        f"{len(f)} faces remain",
         MeshWarning,
         stacklevel=4,
     )
-    if len(keep) == 0:
-        raise MeshError(f"{mesh.source}: no faces left after removing {n_deg} degenerate faces")
     return Mesh(mesh.name, mesh.vertices, mesh.faces[keep], mesh.source)
 
 

@@ -312,6 +312,20 @@ def test_load_index_out_of_range(tmp_path: Path) -> None:
     assert "out of range" in one_line_naming(err.value, p)
 
 
+def test_an_out_of_range_index_is_named_in_the_files_own_numbering(tmp_path: Path) -> None:
+    obj = tmp_path / "oor.obj"  # OBJ counts vertices from 1: the 9 the user wrote
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    with pytest.raises(MeshError) as err:
+        load_mesh(obj)
+    assert "a face uses vertex 9 (counted from 1, as OBJ does), out of range: the file has 3 vertices" in \
+        one_line_naming(err.value, obj)
+    off = tmp_path / "oor.off"  # OFF counts from 0
+    off.write_text("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 7\n")
+    with pytest.raises(MeshError) as err:
+        load_mesh(off)
+    assert "a face uses vertex 7 (counted from 0), out of range: the file has 3 vertices" in one_line_naming(err.value, off)
+
+
 def test_load_unreadable(tmp_path: Path) -> None:
     p = tmp_path / "broken.obj"
     p.write_text("v 0 0\nf 1 2 3\n")

@@ -436,19 +436,22 @@ def sweep_broken_meshes(meshes_dir: Path) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         for name, path in broken_mesh_cases(Path(tmp), meshes_dir).items():
             r = broken_mesh_report(path)
-            for key in ("message", "warnings", "render_warnings"):  # no temporary folder names in the record
+            def plain(text: str) -> str:  # no temporary or machine-specific folder names in the record
+                return text.replace(str(Path(tmp)), "<tmp>").replace(str(meshes_dir), "<meshes>")
+
+            for key in ("message", "warnings", "render_warnings"):
                 if isinstance(r.get(key), str):
-                    r[key] = r[key].replace(str(Path(tmp)), "<tmp>")
+                    r[key] = plain(r[key])
                 elif isinstance(r.get(key), list):
-                    r[key] = [w.replace(str(Path(tmp)), "<tmp>") for w in r[key]]
+                    r[key] = [plain(w) for w in r[key]]
             cases[name] = r
             log(f"  broken {name}: {r['outcome']}" + (f" F1 {r['edges_f1']:.3f}" if "edges_f1" in r else "")
                 + (f" ({r.get('message', '')[:90]})" if "message" in r else ""))
     return {"title": "Broken meshes", "cases": cases, "points": [], "break": None,
             "finding": "Open boundaries, several components, holes, unreferenced vertices, degenerate and "
-                       "duplicate faces load (with one MeshWarning for repairs) and draw; NaN/Inf coordinates, "
-                       "empty files, files without faces and out-of-range indices raise MeshError naming the "
-                       "file.",
+                       "duplicate faces load and draw (a MeshWarning for each repair, and for holes in an otherwise "
+                       "closed surface); NaN/Inf coordinates, empty files, files without faces and out-of-range "
+                       "indices raise MeshError naming the file.",
             "behaviour": "load_mesh: MeshWarning or MeshError; edge_detect and curvature stay finite."}
 
 
