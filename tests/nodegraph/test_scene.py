@@ -323,7 +323,8 @@ def test_an_out_of_range_index_is_named_in_the_files_own_numbering(tmp_path: Pat
     off.write_text("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 7\n")
     with pytest.raises(MeshError) as err:
         load_mesh(off)
-    assert "a face uses vertex 7 (counted from 0), out of range: the file has 3 vertices" in one_line_naming(err.value, off)
+    assert "a face uses vertex 7 (counted from 0), out of range: the file has 3 vertices" in \
+        one_line_naming(err.value, off)
 
 
 def test_load_unreadable(tmp_path: Path) -> None:
