@@ -304,9 +304,12 @@ def chart_pipelines(result: dict[str, Any], out: Path) -> list[Path]:
     by: dict[str, list[dict]] = defaultdict(list)
     for e in entries:
         by[e["pipeline"]].append(e)
-    for name, rows in sorted(by.items()):
+    colours = plt.get_cmap("tab20").colors  # more pipelines than the default cycle's ten colours
+    markers = "osD^v<>ph*"
+    for i, (name, rows) in enumerate(sorted(by.items())):
         rows.sort(key=lambda r: r["size"])
-        ax.plot([r["size"] ** 2 / 1e6 for r in rows], [r["ms"] for r in rows], marker="o", label=name)
+        ax.plot([r["size"] ** 2 / 1e6 for r in rows], [r["ms"] for r in rows], marker=markers[i % len(markers)],
+                color=colours[(2 * i) % 20 if i < 10 else (2 * i + 1) % 20], label=name)
     ax.set_xscale("log")
     ax.set_yscale("log")
     sizes = sorted({r["size"] for r in entries})
@@ -417,18 +420,24 @@ def draw_all(result: dict[str, Any], out: Path) -> list[Path]:
     return paths
 
 
+CHARTS = {"field": chart_field, "edges": chart_edges, "curvature": chart_curvature, "particles": chart_particles,
+          "hatching": chart_hatching, "noise": chart_noise, "pipelines": chart_pipelines,
+          "stability": chart_stability}
+
+
 def main(argv: list[str] | None = None) -> int:
-    """python -m nodegraph.tools.bench.accuracy_charts field FIGURES.json OUTDIR: draws one chart family from a
-    JSON of figures (field: nodes/curvature/field_figures.py's --json)."""
+    """python -m nodegraph.tools.bench.accuracy_charts CHART FIGURES.json OUTDIR: draws one chart family from a
+    JSON of figures (field: nodes/curvature/field_figures.py's --json; the others: `bench accuracy --json`, e.g.
+    docs/charts/accuracy.json after merging a family measured again)."""
     import argparse
     import json
 
     ap = argparse.ArgumentParser(description=main.__doc__)
-    ap.add_argument("chart", choices=["field"])
+    ap.add_argument("chart", choices=sorted(CHARTS))
     ap.add_argument("figures", type=Path)
     ap.add_argument("out", type=Path)
     a = ap.parse_args(argv)
-    for p in {"field": chart_field}[a.chart](json.loads(a.figures.read_text()), a.out):
+    for p in CHARTS[a.chart](json.loads(a.figures.read_text()), a.out):
         print(f"wrote {p}")
     return 0
 

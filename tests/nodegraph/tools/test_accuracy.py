@@ -101,3 +101,22 @@ def test_bench_accuracy_rejects_unknown_families():
 
     res = CliRunner().invoke(main, ["bench", "accuracy", "--families", "edges,colour"])
     assert res.exit_code == 2 and "unknown families" in res.output
+
+
+def test_a_chart_is_drawn_again_from_a_json_of_figures(tmp_path, monkeypatch):
+    """`python -m nodegraph.tools.bench.accuracy_charts pipelines FIGURES OUT`: the chart from merged figures, one
+    line per pipeline in a colour of its own (twelve pipelines are more than the default cycle's ten)."""
+    pytest.importorskip("matplotlib")
+    from nodegraph.tools.bench import accuracy_charts
+
+    names = [f"p{i:02d}" for i in range(12)]
+    figures = {"pipelines": [{"pipeline": n, "size": s, "ms": (i + 1) * s / 100} for i, n in enumerate(names)
+                             for s in (400, 800)]}
+    (tmp_path / "f.json").write_text(json.dumps(figures))
+    assert accuracy_charts.main(["pipelines", str(tmp_path / "f.json"), str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "pipelines.png").stat().st_size > 1000
+    drawn = []
+    monkeypatch.setattr(accuracy_charts, "_save", lambda fig, out, name: drawn.append(fig) or [])
+    accuracy_charts.chart_pipelines(figures, tmp_path)
+    lines = drawn[0].axes[0].get_lines()
+    assert len(lines) == 12 and len({str(ln.get_color()) for ln in lines}) == 12
