@@ -247,7 +247,7 @@ def chart(out: dict[str, Any], path: Path, before: str = "posed_creases", after:
     h = mb.shape[1]
     rows = slice(h - 1 - ys.max() - 10, h - ys.min() + 10)
     cols = slice(max(xs.min() - 10, 0), xs.max() + 11)
-    fig, axes = plt.subplots(1, 2, figsize=(8, 5.5))
+    fig, axes = plt.subplots(1, 2, figsize=(9, 5.5))
     titles = {before: "smoothing groups from each posed frame", after: "smoothing groups from the rest pose"}
     for ax, name, m in ((axes[0], before, mb), (axes[1], after, ma)):
         a0, a1 = m[k][::-1][rows, cols], m[k + 1][::-1][rows, cols]
@@ -258,7 +258,8 @@ def chart(out: dict[str, Any], path: Path, before: str = "posed_creases", after:
         rgb[..., 2] -= on
         ax.imshow(np.clip(rgb, 0, 1), interpolation="nearest")
         e = out["rules"][name]
-        ax.set_title(f"{titles.get(name, name)}\nframes {k}-{k + 1}; flicker over the shot {e['flicker']:.4f}")
+        ax.set_title(f"{titles.get(name, name)}\nframes {k}-{k + 1}; flicker over the shot {e['flicker']:.4f}",
+                     fontsize=10)
         ax.axis("off")
     fig.suptitle("edge_detect on a leaning low-poly torso: red switched on, blue switched off", fontsize=9)
     path.parent.mkdir(parents=True, exist_ok=True)
