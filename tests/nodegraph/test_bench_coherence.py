@@ -227,3 +227,50 @@ def test_summary_says_which_measures_the_film_setting_reaches():
     assert co._reaches(shots) == "n/y/-"
     shots["bend"] = shot(0.9, 0.5, 0.81)
     assert co._reaches(shots) == "n/n/y"
+
+
+def test_moves_by_hand():
+    h, w = 3, 4
+    ys, xs = np.mgrid[0:h, 0:w]
+    still = np.dstack([xs + 0.5, (h - 1 - ys) + 0.5, np.zeros((h, w)), np.ones((h, w))])  # rows from the top
+    assert not co._moves(still)
+    moved = still.copy()
+    moved[0, 3, 0] += 0.01  # one covered pixel came from 0.01 px to the left
+    assert co._moves(moved)
+    moved[0, 3, 3] = 0.0  # ... on the background it does not count
+    assert not co._moves(moved)
+
+
+def test_scene_measures_a_file_of_ones_own(gl, tmp_path):
+    """`--scene F`: one shot, named after the file, measured as the built shots are (the held-out turn written to a
+    file of its own gives the same figures as under `--shots heldout`); a still scene is warned about; `--scene`
+    with `--shots` is refused."""
+    import json
+    import shutil
+
+    from click.testing import CliRunner
+
+    from nodegraph.cli import main
+
+    mine = tmp_path / "mine.glb"
+    shutil.copy(co.write_heldout_shots(tmp_path, 4)["turn"], mine)
+    out = tmp_path / "c.json"
+    args = ["bench", "coherence", "--pipelines", "pencil_contours", "--size", "96x96", "--frames", "4", "--no-hold",
+            "--no-sweep"]
+    res = CliRunner().invoke(main, [*args, "--scene", str(mine), "--json", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.output and "mine" in res.output.splitlines()[-3]  # the summary's header names it
+    data = json.loads(out.read_text())
+    assert data["shots"] == str(mine)
+    own = data["pipelines"]["pencil_contours"]["default"]["shots"]
+    assert list(own) == ["mine"]
+    built = co.run(["pencil_contours"], (96, 96), 4, do_hold=False, do_sweep=False, echo=lambda _m: None,
+                   shots="heldout")["pipelines"]["pencil_contours"]["default"]["shots"]["turn"]
+    for k in ("e_pipeline", "e_plain", "e_reseed"):
+        assert own["mine"][k] == pytest.approx(built[k], rel=1e-9), k
+    still = tmp_path / "still.yaml"
+    still.write_text("scene: still\nobjects:\n  - {name: ball, primitive: {type: sphere, radius: 0.5}}\n")
+    res = CliRunner().invoke(main, [*args, "--scene", str(still), "--frames", "3"])
+    assert res.exit_code == 0 and "warning: nothing moves in frames 0-2 of still.yaml" in res.output, res.output
+    res = CliRunner().invoke(main, [*args, "--scene", str(still), "--shots", "heldout"])
+    assert res.exit_code == 2 and "not both" in res.output

@@ -57,7 +57,8 @@ is its figure for what lies on the objects.
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
 like an elbow); `--shots heldout` measures on three more of the same kinds that no film setting was chosen on
-(`write_heldout_shots`). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
+(`write_heldout_shots`), and `--scene F` on one file of the user's own (its first `--frames` frames, one shot named
+after it). `film`: each pipeline's film setting (FILM_PIPELINE's variant file where one is named, with
 `film_overrides`: `hold: 0` on every node that has a hold, then FILM's overrides as `--set` takes them), with its
 sketchiness.
 `--pipelines` also takes pipeline files (a user's own, or an alternative such as
@@ -598,7 +599,9 @@ def _fmt(v: float | None) -> str:
 
 
 def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool = True, do_sweep: bool = True,
-        echo: Any = click.echo, shots: str = "report") -> dict[str, Any]:
+        echo: Any = click.echo, shots: str = "report", scene: Path | None = None) -> dict[str, Any]:
+    """Every pipeline's figures on the three shots of `shots`, or with `scene` on that one file's frames
+    0 .. frames - 1 (a shot named after the file)."""
     import nodegraph as ng
 
     t0 = time.perf_counter()
@@ -606,13 +609,16 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
         folder = Path(tmp)
         plain = folder / "plain.yaml"
         atomic_write_text(plain, PLAIN_YAML)
-        scenes = write_shots(folder, frames, shots)
+        scenes = {scene.stem: scene} if scene is not None else write_shots(folder, frames, shots)
         measured = {}
         for s, path in scenes.items():
             measured[s] = Shot(session, plain, path, size, frames)
             echo(f"shot {s}: plain floor E = {measured[s].e_plain:.4f}")
+            if not any(_moves(field) for field in measured[s].motion):
+                echo(f"warning: nothing moves in frames 0-{frames - 1} of {path.name}: the figures only say whether "
+                     "the drawing changes on a still picture (animate it, give it an orbit, or measure more --frames)")
         out: dict[str, Any] = {
-            "size": list(size), "frames": frames, "fps": FPS, "shots": shots,
+            "size": list(size), "frames": frames, "fps": FPS, "shots": str(scene) if scene is not None else shots,
             "measure": "mean |L_t - warp(L_t-1, motion_t)| of luminance (0..1) over pixels visible in both frames, "
                        "mean over consecutive pairs; paper grain off",
             "pipelines": {}}
@@ -623,15 +629,26 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
     return out
 
 
+def _moves(motion: np.ndarray, tol: float = 1e-3) -> bool:
+    """Whether any covered pixel of a motion field (rows from the top, as `Pipe.inspect` gives them) was elsewhere
+    in the previous frame: its xy is not the pixel's own window position."""
+    h, w = motion.shape[:2]
+    ys, xs = np.mgrid[0:h, 0:w]
+    own = np.stack([xs + 0.5, (h - 1 - ys) + 0.5], axis=-1)
+    covered = motion[..., 3] > 0
+    return bool((np.abs(motion[..., :2] - own).max(axis=-1)[covered] > tol).any())
+
+
 def chart(result: dict[str, Any], path: Path) -> Path:
-    """Coherence index (turn shot) against sketchiness for each pipeline's sweep."""
+    """Coherence index (turn shot, or the first shot measured) against sketchiness for each pipeline's sweep."""
     from .accuracy_charts import _plt
 
     plt = _plt()
     fig, ax = plt.subplots(figsize=(8.0, 4.6))
     ax.set_prop_cycle(color=plt.get_cmap("tab20").colors)  # more pipelines than the default ten colours
     for name, r in result["pipelines"].items():
-        turn = r["default"]["shots"].get("turn") or next(iter(r["default"]["shots"].values()))
+        first = "turn" if "turn" in r["default"]["shots"] else next(iter(r["default"]["shots"]))
+        turn = r["default"]["shots"][first]
         pts = r.get("sweep", {}).get("points") or [{"factor": 1.0, "sketchiness_px": r["sketchiness_px"],
                                                     "coherence_index": turn["coherence_index"]}]
         pts = [p for p in pts if p["coherence_index"] is not None and math.isfinite(p["sketchiness_px"])]
@@ -643,12 +660,14 @@ def chart(result: dict[str, Any], path: Path) -> Path:
             ax.scatter([p["sketchiness_px"]], [p["coherence_index"]], color=line.get_color(), zorder=3,
                        s=40 if p["factor"] == 1.0 else 14, marker="o" if p["factor"] == 1.0 else "s")
         film = r.get("film", {})
-        film_turn = film.get("shots", {}).get("turn", {}).get("coherence_index")
+        film_turn = film.get("shots", {}).get(first, {}).get("coherence_index")
         if film.get("sketchiness_px") is not None and film_turn is not None and math.isfinite(film["sketchiness_px"]):
             ax.scatter([film["sketchiness_px"]], [film_turn], color=line.get_color(), zorder=4, s=70, marker="*")
     ax.set_xlabel("sketchiness: mean distance of drawn pixels from the true lines (px at "
                   f"{result['size'][0]}x{result['size'][1]})")
-    ax.set_ylabel("coherence index, turn shot\n(1 = plain render, 0 = re-seeded every frame)")
+    shots = next(iter(result["pipelines"].values()))["default"]["shots"] if result["pipelines"] else {}
+    ax.set_ylabel(f"coherence index, {'turn' if 'turn' in shots else next(iter(shots), 'turn')} shot\n"
+                  "(1 = plain render, 0 = re-seeded every frame)")
     ax.set_ylim(-0.05, 1.05)
     ax.set_title("Coherence against sketchiness (dot: default; squares: main params x0.5 and x2; star: film "
                  "setting)", fontsize=9)
@@ -715,19 +734,23 @@ def stills(names: list[str], path: Path, size: tuple[int, int] = (256, 256)) -> 
 
 
 def contact_sheet(names: list[str], path: Path, size: tuple[int, int] = (160, 160), frames: int = 12,
-                  shot: str = "orbit", first: int = 4, count: int = 4) -> Path:
-    """`count` consecutive frames of `shot` per pipeline: the default, then the film setting (grain on)."""
+                  shot: str = "orbit", first: int = 4, count: int = 4, scene: Path | None = None) -> Path:
+    """`count` consecutive frames of `shot` (or of the file `scene`) per pipeline: the default, then the film
+    setting (grain on)."""
     import nodegraph as ng
 
     rows = []
     with tempfile.TemporaryDirectory(prefix="coherence-") as tmp, ng.Session(cache=False) as session:
-        scene = str(write_shots(Path(tmp), frames)[shot])
+        if scene is not None:
+            shot = scene.name
+        shown = str(scene) if scene is not None else str(write_shots(Path(tmp), frames)[shot])
+        first = min(first, max(frames - count, 0))
         span = range(first, first + count)
         for name in names:
             source = film_pipeline(name)
             film = film_overrides(session.load(source, size=size), name)
             for label, src, ov in (("default", name, {}), ("film", source, film)):
-                pipe = session.load(src, scene=scene, size=size, set=ov)
+                pipe = session.load(src, scene=shown, size=size, set=ov)
                 rows.append((f"{name}: {label}", [_tile(img) for _, img in pipe.frames(span, output="image",
                                                                                        dtype="float32")]))
     pairs = [(f"{a[0]}   /   {b[0]}", a[1] + b[1]) for a, b in zip(rows[::2], rows[1::2], strict=True)]
@@ -754,8 +777,12 @@ def _size(text: str) -> tuple[int, int]:
                    "shipped one that has one).")
 @click.option("--size", default="256x256", show_default=True, help="WxH of the frames.")
 @click.option("--frames", default=12, show_default=True, type=click.IntRange(3, 240), help="Frames per shot.")
-@click.option("--shots", type=click.Choice(["report", "heldout"]), default="report", show_default=True,
-              help="The shots the film settings were chosen on, or three held-out ones (other shapes and paths).")
+@click.option("--shots", type=click.Choice(["report", "heldout"]), default=None,
+              help="The shots the film settings were chosen on (report, the default), or three held-out ones (other "
+                   "shapes and paths).")
+@click.option("--scene", "scene", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="Measure on this animated scene instead (a glTF file, or a scene YAML with keyframes or an "
+                   "orbit): its frames 0 .. --frames - 1, one shot named after the file.")
 @click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
 @click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
 @click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
@@ -764,9 +791,13 @@ def _size(text: str) -> tuple[int, int]:
               help="Also write 4 consecutive frames of the orbit shot per pipeline, default and film (PNG).")
 @click.option("--stills", "stills_path", type=click.Path(path_type=Path), default=None,
               help="Also write each pipeline's still on its own scene, default beside film (PNG).")
-def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, shots: str, no_hold: bool,
-            no_sweep: bool, chart_path: Path | None, sheet_path: Path | None, stills_path: Path | None) -> None:
+def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, shots: str | None,
+            scene: Path | None, no_hold: bool, no_sweep: bool, chart_path: Path | None, sheet_path: Path | None,
+            stills_path: Path | None) -> None:
     from ... import shipped
+
+    if scene is not None and shots is not None:
+        raise click.UsageError("give --scene (your own shot) or --shots (the built ones), not both")
 
     known = shipped.names()
     names = [p.strip() for p in pipelines.split(",") if p.strip()] if pipelines else [n for n in known
@@ -778,7 +809,7 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
     imageless = [n for n in names if not _draws_image(n)]
     if imageless:
         raise click.BadParameter(f"{', '.join(imageless)}: no `image` output to measure", param_hint="--pipelines")
-    result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots)
+    result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots or "report", scene=scene)
     click.echo(summary(result))
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
@@ -787,7 +818,7 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
     if chart_path:
         click.echo(f"wrote {chart(result, chart_path)}")
     if sheet_path:
-        click.echo(f"wrote {contact_sheet(names, sheet_path, frames=frames)}")
+        click.echo(f"wrote {contact_sheet(names, sheet_path, frames=frames, scene=scene)}")
     if stills_path:
         click.echo(f"wrote {stills(names, stills_path)}")
 
@@ -805,8 +836,10 @@ def summary(result: dict[str, Any]) -> str:
     shot by the index, `extended` and `surfaces` (y / n / - where undefined), hold 1/2/4 where measured, and
     sketchiness."""
     width = max([26, *map(len, result["pipelines"])])
-    lines = [f"{'pipeline':{width}s} " + " ".join(f"{s:>6s}" for s in SHOTS) + "   film " +
-             " ".join(f"{s:>6s}" for s in SHOTS) + f"   {TARGET} i/e/s   hold1/2/4 (mean)  sketch px"]
+    first = next(iter(result["pipelines"].values()), None)
+    names = list(first["default"]["shots"]) if first else list(SHOTS)  # the three shots, or a --scene file's one
+    lines = [f"{'pipeline':{width}s} " + " ".join(f"{s[:6]:>6s}" for s in names) + "   film " +
+             " ".join(f"{s[:6]:>6s}" for s in names) + f"   {TARGET} i/e/s   hold1/2/4 (mean)  sketch px"]
     for name, r in result["pipelines"].items():
         d, f = r["default"]["shots"], r["film"]["shots"]
         holds = ""
@@ -814,8 +847,8 @@ def summary(result: dict[str, Any]) -> str:
             holds = "/".join(_fmt(_mean([f["coherence_index"] for f in r["hold"][str(n)].values()])) for n in HOLDS)
         film = r["film"].get("sketchiness_px")
         lines.append(f"{name:{width}s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
-                                               for s in SHOTS) + "        " +
-                     " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in SHOTS) +
+                                               for s in names) + "        " +
+                     " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in names) +
                      f"   {_reaches(f):9s} {holds:17s} {r['sketchiness_px']:.2f}" +
                      (f" (film {film:.2f})" if film else ""))
     return "\n".join(lines)
