@@ -206,7 +206,7 @@ def chart_uncertainty(result: dict[str, Any], out: Path) -> list[Path]:
         ax.legend(fontsize=6, loc="best")
     w, h = result["size"]
     fig.suptitle(f"Uncertainty on the screen vs on the surface: time against shower-door motion "
-                 f"({w}x{h}, llvmpipe, loaded 2-core machine)", fontsize=9)
+                 f"({w}x{h}, llvmpipe, shared 2-core machine)", fontsize=9)
     fig.tight_layout()
     return _save(fig, out, "uncertainty_cost")
 
@@ -289,7 +289,7 @@ def chart_feature_lines(result: dict[str, Any], out: Path) -> list[Path]:
     bx.set_title("The one-off per mesh: first frame against later frames")
     bx.legend(fontsize=7)
     w, h = result["size"]
-    fig.suptitle(f"What feature lines cost ({w}x{h}, llvmpipe, loaded 2-core machine)", fontsize=9)
+    fig.suptitle(f"What feature lines cost ({w}x{h}, llvmpipe, shared 2-core machine)", fontsize=9)
     fig.tight_layout()
     return _save(fig, out, "feature_lines_cost")
 
