@@ -781,14 +781,15 @@ def _size(text: str) -> tuple[int, int]:
               help="The shots the film settings were chosen on (report, the default), or three held-out ones (other "
                    "shapes and paths).")
 @click.option("--scene", "scene", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
-              help="Measure on this animated scene instead (a glTF file, or a scene YAML with keyframes or an "
-                   "orbit): its frames 0 .. --frames - 1, one shot named after the file.")
+              help="Measure on this animated scene instead (a glTF file, a scene YAML with keyframes or an orbit, "
+                   "or a mesh file, which orbits): its frames 0 .. --frames - 1, one shot named after the file.")
 @click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
 @click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
 @click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
               help="Write the chart of coherence against sketchiness (PNG), e.g. docs/charts/coherence.png.")
 @click.option("--contact-sheet", "sheet_path", type=click.Path(path_type=Path), default=None,
-              help="Also write 4 consecutive frames of the orbit shot per pipeline, default and film (PNG).")
+              help="Also write 4 consecutive frames of the orbit shot (or of --scene's file) per pipeline, default "
+                   "and film (PNG).")
 @click.option("--stills", "stills_path", type=click.Path(path_type=Path), default=None,
               help="Also write each pipeline's still on its own scene, default beside film (PNG).")
 def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, shots: str | None,
