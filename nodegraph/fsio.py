@@ -68,6 +68,30 @@ def clean(text: str, limit: int = 120) -> str:
     return out if len(out) <= limit else out[: limit - 1] + "…"
 
 
+# --- compiled kernels: optional, and one line where they cannot be used ---------------------------------------
+_COMPILED_WARNED: set[str] = set()
+
+
+def compiled(package: str, name: str, what: str, instead: str) -> Any:
+    """The Numba-compiled module `package.name`, or None: silently where it cannot be imported (Numba is optional;
+    the caller's NumPy or Python code gives the same results, slower), and with one RuntimeWarning per module
+    where Numba, importing it, finds no writable folder for its cache of compiled code (a read-only install
+    without NUMBA_CACHE_DIR). `what` names the compiled code and `instead` what runs in its place, for that line."""
+    import importlib
+    import warnings
+
+    try:
+        return importlib.import_module(f"{package}.{name}")
+    except ImportError:
+        return None
+    except RuntimeError as exc:
+        if f"{package}.{name}" not in _COMPILED_WARNED:
+            _COMPILED_WARNED.add(f"{package}.{name}")
+            warnings.warn(f"{what} unavailable ({exc}); running {instead}. Set NUMBA_CACHE_DIR to a writable "
+                          "folder.", RuntimeWarning, stacklevel=3)
+        return None
+
+
 # --- image libraries, kept quiet: each problem becomes one line of ours --------------------------------------
 _STDERR_LOCK = threading.RLock()
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..fsio import compiled
 from .meshes import FALLBACK_NORMAL, Mesh, RenderArrays, _cross, _normalize_or
 
 BATCH_KEY = "posing.batch"  # a posed mesh's `_cache` entry: (its PoseBatch, its index there)
@@ -26,16 +27,12 @@ _JIT: Any = None  # the compiled passes (posing_jit), False where Numba is unava
 
 
 def _jit() -> Any:
-    """nodegraph/scene/posing_jit.py, or None where Numba cannot be imported or cache its code (the NumPy code
-    here gives the same arrays, slower)."""
+    """nodegraph/scene/posing_jit.py, or None where Numba cannot be imported or finds no writable place for its
+    cache (a warning, once; the NumPy code here gives the same arrays, slower; `fsio.compiled`)."""
     global _JIT
     if _JIT is None:
-        try:
-            from . import posing_jit
-
-            _JIT = posing_jit
-        except (ImportError, RuntimeError):
-            _JIT = False
+        _JIT = compiled(__package__, "posing_jit", "posing: the compiled skinning is",
+                        "the NumPy skinning, same poses, slower") or False
     return _JIT or None
 
 

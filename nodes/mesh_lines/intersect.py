@@ -29,22 +29,20 @@ from typing import Any
 
 import numpy as np
 
+from nodegraph.fsio import compiled
+
 from . import extract
 
 _JIT: Any = None  # intersect_jit, False where Numba is unavailable
 
 
 def _jit() -> Any:
-    """nodes/mesh_lines/intersect_jit.py, or None where Numba cannot be imported (the NumPy code gives the same
-    pairs, slower)."""
+    """nodes/mesh_lines/intersect_jit.py, or None where Numba cannot be imported or finds no writable place for its
+    cache (a warning, once; the NumPy code gives the same pairs, slower; `fsio.compiled`)."""
     global _JIT
     if _JIT is None:
-        try:
-            from . import intersect_jit
-
-            _JIT = intersect_jit
-        except (ImportError, RuntimeError):
-            _JIT = False
+        _JIT = compiled(__package__, "intersect_jit", "mesh_lines: the compiled intersection search is",
+                        "the NumPy search, same lines, slower") or False
     return _JIT or None
 
 

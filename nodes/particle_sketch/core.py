@@ -88,10 +88,11 @@ default, and batching stays as a measured variant (a heavier, more doubled outli
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Literal
 
 import numpy as np
+
+from nodegraph.fsio import compiled
 
 from .._shared import filters
 from .common import LINE_LEVEL, ParticleParams, Sites, SketchResult, disc_offsets, pad_for
@@ -460,23 +461,10 @@ class _SiteStarts:
 
 
 def _jit():
-    """The compiled sequential sketcher (module `jit`), or None where Numba cannot be imported."""
-    try:
-        from . import jit
-    except ImportError:  # numba is a dependency; this keeps the core usable without it
-        return None
-    except RuntimeError as exc:  # numba found no writable place for its cache (read-only install, no home)
-        global _JIT_WARNED
-        if not _JIT_WARNED:
-            _JIT_WARNED = True
-            warnings.warn(f"particle_sketch: the compiled sketcher is unavailable ({exc}); running the NumPy "
-                          "engine, same output, much slower. Set NUMBA_CACHE_DIR to a writable folder.",
-                          RuntimeWarning, stacklevel=3)
-        return None
-    return jit
-
-
-_JIT_WARNED = False
+    """The compiled sequential sketcher (module `jit`), or None where Numba cannot be imported or finds no writable
+    place for its cache (a warning, once: the NumPy engine gives the same output, slower; `fsio.compiled`)."""
+    return compiled(__package__, "jit", "particle_sketch: the compiled sketcher is",
+                    "the NumPy engine, same output, much slower")
 
 
 def simulate(edges: np.ndarray, ff: np.ndarray, params: ParticleParams | None = None,

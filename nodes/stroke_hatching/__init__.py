@@ -3,12 +3,12 @@ over the visible surfaces, spaced by tone, cross-hatched in the darkest tones.""
 
 from __future__ import annotations
 
-import warnings
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import Field
 
+from nodegraph import fsio
 from nodegraph.errors import NodeError
 from nodegraph.node import HashContext, Input, Node, NodeParams, Output, RunContext
 from nodegraph.scene import origin
@@ -282,20 +282,11 @@ _JIT: Any = None  # the module `jit`, False where Numba cannot be imported or ca
 
 def _jit() -> Any:
     """The compiled streamline loop (module `jit`), or None where Numba cannot be imported or finds no writable
-    place for its cache (a warning, once: the Python loop gives the same streamlines, slower)."""
+    place for its cache (a warning, once: the Python loop gives the same streamlines, slower; `fsio.compiled`)."""
     global _JIT
     if _JIT is None:
-        try:
-            from . import jit
-
-            _JIT = jit
-        except ImportError:
-            _JIT = False
-        except RuntimeError as exc:
-            _JIT = False
-            warnings.warn(f"stroke_hatching: the compiled streamlines are unavailable ({exc}); running the Python "
-                          "loop, same strokes, much slower. Set NUMBA_CACHE_DIR to a writable folder.",
-                          RuntimeWarning, stacklevel=3)
+        _JIT = fsio.compiled(__package__, "jit", "stroke_hatching: the compiled streamlines are",
+                             "the Python loop, same strokes, much slower") or False
     return _JIT or None
 
 
