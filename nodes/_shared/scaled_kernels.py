@@ -103,13 +103,73 @@ def defines(k: Kernels) -> dict[str, int]:
     return {"TENT_R": k.tent_r, "SOBEL_R": k.sobel_r}
 
 
+# Above this many multiply-adds a pixel for the tents at every Sobel tap ((2 tent_r + 1) x (2 sobel_r + 1)), the
+# nodes split each axis into a tent pass and a Sobel pass (tent_sobel.glsl: the same bits, two more passes): at the
+# reference size (force_field 27, depth_edges 9) and below it the two passes stay.
+SPLIT_ABOVE = 40
+
+
+def split(k: Kernels) -> bool:
+    """Whether tent_sobel.glsl's split passes (2, 3, 4, 5) are the cheaper way to apply `k`."""
+    return len(k.tent) * len(k.smooth) > SPLIT_ABOVE
+
+
 def pass_rects(rect: tuple[int, int, int, int], k: Kernels, size: tuple[int, int]
-               ) -> tuple[tuple[int, int, int, int], tuple[int, int, int, int]]:
-    """Where the two passes of tent_sobel.glsl can differ from their value on a constant input, given the
-    rectangle outside which their input is constant (`nodegraph.gpu.footprint`): the x pass's window reaches
-    tent_r + sobel_r pixels along x, the y pass's as far along y."""
+               ) -> tuple[tuple[int, int, int, int], ...]:
+    """Where the passes of tent_sobel.glsl can differ from their value on a constant input, given the rectangle
+    outside which their input is constant (`nodegraph.gpu.footprint`): the x pass's window reaches tent_r + sobel_r
+    pixels along x, the y pass's as far along y; split (`split`), each of the four passes reaches its own kernel's
+    radius along its axis."""
     from nodegraph.gpu import footprint
 
+    if split(k):  # the four split passes: the tent, then the Sobel pair, along x, then along y
+        rects = [footprint.grow(rect, k.tent_r, 0, size)]
+        rects.append(footprint.grow(rects[-1], k.sobel_r, 0, size))
+        rects.append(footprint.grow(rects[-1], 0, k.tent_r, size))
+        rects.append(footprint.grow(rects[-1], 0, k.sobel_r, size))
+        return tuple(rects)  # type: ignore[arg-type]
     win = k.tent_r + k.sobel_r
     across = footprint.grow(rect, win, 0, size)
     return across, footprint.grow(across, 0, win, size)  # type: ignore[return-value]
+
+
+def draw(ctx: object, shader: str, k: Kernels, size: tuple[int, int], x_pass: tuple[dict, dict, dict],
+         y_pass: tuple[dict, dict, dict, list], rects: tuple | None = None, blanks: list | None = None,
+         keep: bool = False) -> list:
+    """Run tent_sobel.glsl's passes of a node's `shader`: the x pass over the node's input (`x_pass`: its defines,
+    textures and uniforms) and the y pass into the node's targets (`y_pass`: defines, textures besides `t_x`,
+    uniforms, targets), or, where `split(k)`, the four split passes (2 and 5 the node's, 3 and 4 generic). `rects`
+    and `blanks` as `pass_rects` and `footprint.blank_results` give them, one per pass (the last pass's blanks,
+    one per target). Returns the targets; with `keep`, the intermediate textures first (for blank_results)."""
+    gl = ctx.gl  # type: ignore[attr-defined]
+    weights, defs = uniforms(k), defines(k)
+    x_defines, x_textures, x_uniforms = x_pass
+    y_defines, y_textures, y_uniforms, targets = y_pass
+    passes = (2, 3, 4, 5) if split(k) else (0, 1)
+    made: list = []
+    try:
+        source = None
+        for i, n in enumerate(passes):
+            last = i == len(passes) - 1
+            if i == 0:
+                extra, textures, unis = x_defines, x_textures, x_uniforms
+            elif last:
+                extra, textures, unis = y_defines, {**y_textures, "t_x": source}, y_uniforms
+            else:
+                extra, textures, unis = {}, {"t_t": source}, {}
+            out = targets if last else [gl.texture(size, "RG32F", filter="nearest")]
+            if not last:
+                made.append(out[0])
+            gl.fullscreen(ctx.program(shader, {"PASS": n, **defs, **extra}), out,  # type: ignore[attr-defined]
+                          textures=textures, uniforms={**unis, **weights}, rect=rects[i] if rects else None,
+                          blanks=(blanks[i:] if last else blanks[i:i + 1]) if blanks else None)
+            source = out[0]
+    except BaseException:
+        for tex in made:
+            gl.release(tex)
+        raise
+    if keep:
+        return [*made, *targets]
+    for tex in made:
+        gl.release(tex)
+    return list(targets)

@@ -124,7 +124,7 @@ class DepthEdges(Node):
             # need no new evaluation each frame
             ranged = self.params.mode == "linear" and fp.blank[0] != 0.0
             key = ("depth_edges", self.params.model_dump_json(), tuple(ports), depth.fmt, fp.blank, size[1],
-                   ctx.px_scale, self.depth_range(ctx) if ranged else None)
+                   ctx.px_scale, kernels.split(k), self.depth_range(ctx) if ranged else None)
             blanks = footprint.blank_results(
                 ctx.gl, key, [(depth.fmt, fp.blank)],
                 lambda src: list(self._draw(ctx, src[0], size[1], ports, k, keep_across=True).values()))
@@ -133,36 +133,26 @@ class DepthEdges(Node):
         return self._draw(ctx, depth, size[1], ports, k, rects, blanks)
 
     def _draw(self, ctx: RunContext, depth: Any, height: int, ports: list[str], k: kernels.Kernels,
-              rects: tuple[Any, Any] | None = None, blanks: list[tuple[float, ...]] | None = None,
+              rects: tuple[Any, ...] | None = None, blanks: list[tuple[float, ...]] | None = None,
               keep_across: bool = False) -> dict[str, Any]:
-        """The two passes over `depth` (the image's, or a 1x1 one for `footprint.blank_results`; `height`: the
-        image's, for the gradient's scale). `rects`/`blanks`: where each pass draws and the values outside (the
-        x pass's first, then the outputs'). `keep_across`: return the x pass's texture too, first."""
+        """The passes over `depth` (the image's, or a 1x1 one for `footprint.blank_results`; `height`: the image's,
+        for the gradient's scale): the x pass and the y pass, or the four split ones for wide kernels
+        (`kernels.draw`). `rects`/`blanks`: where each pass draws and the values outside (the intermediate
+        passes' first, then the outputs'). `keep_across`: return the intermediate textures too, first."""
         p = self.params
-        gl = ctx.gl
         size = depth.size
         linear = p.mode == "linear"
-        weights = kernels.uniforms(k)
-        across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
-        done = False
-        try:
-            gl.fullscreen(ctx.program("depth_edges.glsl", {"PASS": 0, "DEPTH_MODE": int(linear), **kernels.defines(k)}),
-                          [across], textures={"t_depth": depth},
-                          uniforms={"u_range": self.depth_range(ctx) if linear else (0.0, 1.0), **weights},
-                          rect=rects[0] if rects else None, blanks=blanks[:1] if blanks else None)
-            defines: dict[str, Any] = {_PORTS[port]: i for i, port in enumerate(ports)}
-            defines.update(PASS=1, **kernels.defines(k))
-            targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear")
-                       for port in ports}
-            gl.fullscreen(ctx.program("depth_edges.glsl", defines), [targets[port] for port in ports],
-                          textures={"t_x": across},
-                          uniforms={"u_threshold": p.threshold, "u_scale": self.gradient_scale(height), **weights},
-                          rect=rects[1] if rects else None, blanks=blanks[1:] if blanks else None)
-            done = keep_across
-        finally:
-            if not done:
-                gl.release(across)
-        return {"across": across, **targets} if keep_across else targets
+        defines: dict[str, Any] = {_PORTS[port]: i for i, port in enumerate(ports)}
+        targets = {port: ctx.target(port, size, filter="nearest" if port == "edges" else "linear") for port in ports}
+        out = kernels.draw(ctx, "depth_edges.glsl", k, size,
+                           ({"DEPTH_MODE": int(linear)}, {"t_depth": depth},
+                            {"u_range": self.depth_range(ctx) if linear else (0.0, 1.0)}),
+                           (defines, {}, {"u_threshold": p.threshold, "u_scale": self.gradient_scale(height)},
+                            [targets[port] for port in ports]),
+                           rects, blanks, keep=keep_across)
+        if keep_across:
+            return {**{f"across{i}": t for i, t in enumerate(out[:-len(ports)])}, **targets}
+        return targets
 
 
 NODE = DepthEdges

@@ -9,9 +9,11 @@
 // PASS 1 (along y): (gx, gy) = the seed's Sobel pair of the blurred depth times u_scale (height /
 //         reference height: per pixel of an image of the reference height; 1 with scaled kernels), mag = |(gx, gy)|,
 //         edge = mag >= threshold.
+// Split (wide kernels, tent_sobel.glsl): PASS 2 the depth's tent along x, PASS 3 and 4 the generic halves, PASS 5
+// PASS 1's outputs from the y tents.
 #if defined FRAGMENT_SHADER
 #include "tent_sobel.glsl"
-#if PASS == 0
+#if PASS == 0 || PASS == 2
 uniform sampler2D t_depth;
 uniform vec2 u_range;  // linear depth mapped to 0 and 1
 layout(location = 0) out vec2 o_x;
@@ -28,13 +30,20 @@ float depth_at(ivec2 p, ivec2 hi) {
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = textureSize(t_depth, 0) - 1;
+#if PASS == 0
     vec2 w[2 * WIN_R + 1];
     for (int m = -WIN_R; m <= WIN_R; ++m)
         w[m + WIN_R] = vec2(depth_at(p + ivec2(m, 0), hi));
     o_x = tent_sobel_x(w, p.x, hi.x);
-}
 #else
-uniform sampler2D t_x;
+    vec2 w[2 * TENT_R + 1];
+    for (int j = -TENT_R; j <= TENT_R; ++j)
+        w[j + TENT_R] = vec2(depth_at(p + ivec2(j, 0), hi));
+    o_x = tent_of(w);
+#endif
+}
+#elif PASS == 1 || PASS == 5
+uniform sampler2D t_x;  // PASS 1: the x pass; PASS 5: its y tents
 uniform float u_threshold;
 uniform float u_scale;
 #ifdef LOC_EDGES
@@ -49,11 +58,15 @@ layout(location = LOC_MAGNITUDE) out float o_magnitude;
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+#if PASS == 1
     ivec2 hi = textureSize(t_x, 0) - 1;
     vec2 w[2 * WIN_R + 1];
     for (int m = -WIN_R; m <= WIN_R; ++m)
         w[m + WIN_R] = texelFetch(t_x, ivec2(p.x, clamp(p.y + m, 0, hi.y)), 0).xy;
     vec2 g = tent_sobel_y(w, p.y, hi.y) * (u_scale / u_tent_norm);
+#else
+    vec2 g = sobel_y_from(t_x, p) * (u_scale / u_tent_norm);
+#endif
     float mag = sqrt(g.x * g.x + g.y * g.y);
 #ifdef LOC_EDGES
     o_edges = mag >= u_threshold ? 1.0 : 0.0;

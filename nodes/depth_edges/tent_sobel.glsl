@@ -61,3 +61,60 @@ vec2 tent_sobel_y(vec2 w[2 * WIN_R + 1], int y, int last) {
     mat2 sd = smooth_diff(w, y, last);
     return -vec2(sd[0].y, sd[1].x);
 }
+
+// Split passes. Forming the tent at every Sobel tap costs the product of the two widths (force_field's 19 x 7 taps at
+// twice the reference size); above `scaled_kernels.SPLIT_ABOVE` the nodes run each axis as two passes instead: the
+// tent into a texture (PASS 2 along x, the node's own input; PASS 4 along y, generic below), then the Sobel pair
+// from it at the clamped neighbours (PASS 3 along x, generic below; PASS 5 along y, the node's own output). The same
+// sums in the same order as tent_at and smooth_diff, so the same bits (tests/nodes/depth_edges).
+vec2 tent_of(vec2 w[2 * TENT_R + 1]) {
+    vec2 s = vec2(0.0);
+    for (int j = -TENT_R; j <= TENT_R; ++j)
+        s += u_tent[j + TENT_R] * w[j + TENT_R];
+    return s;
+}
+
+// (smooth, diff) from the tents at the clamped neighbours t[k + SOBEL_R] = T(c(p + k)).
+mat2 sobel_of(vec2 t[2 * SOBEL_R + 1]) {
+    vec2 sm = vec2(0.0);
+    vec2 df = vec2(0.0);
+    for (int k = -SOBEL_R; k <= SOBEL_R; ++k) {
+        sm += u_smooth[k + SOBEL_R] * t[k + SOBEL_R];
+        df += u_diff[k + SOBEL_R] * t[k + SOBEL_R];
+    }
+    return mat2(sm, df);
+}
+
+#if PASS == 3 || PASS == 4
+uniform sampler2D t_t;
+layout(location = 0) out vec2 o_t;
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 hi = textureSize(t_t, 0) - 1;
+#if PASS == 3
+    // x pass, second half: (smooth, diff) along x of the scalar tent (both channels hold it)
+    vec2 t[2 * SOBEL_R + 1];
+    for (int k = -SOBEL_R; k <= SOBEL_R; ++k)
+        t[k + SOBEL_R] = texelFetch(t_t, ivec2(clamp(p.x + k, 0, hi.x), p.y), 0).xy;
+    mat2 sd = sobel_of(t);
+    o_t = vec2(sd[0].x, sd[1].x);
+#else
+    // y pass, first half: the tent along y of the x pass's (smooth, diff)
+    vec2 w[2 * TENT_R + 1];
+    for (int j = -TENT_R; j <= TENT_R; ++j)
+        w[j + TENT_R] = texelFetch(t_t, ivec2(p.x, clamp(p.y + j, 0, hi.y)), 0).xy;
+    o_t = tent_of(w);
+#endif
+}
+#endif
+
+// y pass, second half (PASS 5): the seed's (gx, gy), unnormalised, from the y tents of the x pass's (smooth, diff).
+vec2 sobel_y_from(sampler2D tents, ivec2 p) {
+    int last = textureSize(tents, 0).y - 1;
+    vec2 t[2 * SOBEL_R + 1];
+    for (int k = -SOBEL_R; k <= SOBEL_R; ++k)
+        t[k + SOBEL_R] = texelFetch(tents, ivec2(p.x, clamp(p.y + k, 0, last)), 0).xy;
+    mat2 sd = sobel_of(t);
+    return -vec2(sd[0].y, sd[1].x);
+}

@@ -68,39 +68,23 @@ class ForceField(Node):
             # outside the gradient's footprint grown by the window (along x for the x pass, then along y) every
             # fetch reads the blank gradient: the field there is what the passes give on a constant
             rects = kernels.pass_rects(fp.rect, k, size)
-            key = ("force_field", self.params.model_dump_json(), grad.fmt, fp.blank, ctx.px_scale)
+            key = ("force_field", self.params.model_dump_json(), grad.fmt, fp.blank, ctx.px_scale, kernels.split(k))
             blanks = footprint.blank_results(ctx.gl, key, [(grad.fmt, fp.blank)],
-                                             lambda src: list(self._draw(ctx, src[0], k, keep_across=True)))
+                                             lambda src: self._draw(ctx, src[0], k, keep_across=True))
             if blanks is None:
                 rects = None
         return {"out": self._draw(ctx, grad, k, rects, blanks)[-1]}
 
-    def _draw(self, ctx: RunContext, grad: Any, k: kernels.Kernels, rects: tuple[Any, Any] | None = None,
+    def _draw(self, ctx: RunContext, grad: Any, k: kernels.Kernels, rects: tuple[Any, ...] | None = None,
               blanks: list[tuple[float, ...]] | None = None, keep_across: bool = False) -> list[Any]:
-        """The two passes over `grad` (the image's, or a 1x1 one for `footprint.blank_results`). `rects`/`blanks`:
-        where each pass draws and the values outside (the x pass's, then the field's). Returns [field], or
-        [x pass, field] with `keep_across`."""
+        """The passes over `grad` (the image's, or a 1x1 one for `footprint.blank_results`): the x pass and the y
+        pass, or the four split ones for wide kernels (`kernels.draw`). `rects`/`blanks`: where each pass draws and
+        the values outside. Returns [field], or with `keep_across` the intermediate textures first."""
         p = self.params
-        gl = ctx.gl
-        size = grad.size
-        weights, defs = kernels.uniforms(k), kernels.defines(k)
-        across = gl.texture(size, "RG32F", filter="nearest")  # the x pass: (smooth, diff) of the tent along x
-        done = False
-        try:
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 0, **defs}), [across],
-                          textures={"t_gradient": grad}, uniforms={"u_clamp": p.clamp, **weights},
-                          rect=rects[0] if rects else None, blanks=blanks[:1] if blanks else None)
-            out = ctx.target("out", size)
-            gl.fullscreen(ctx.program("force_field.glsl", {"PASS": 1, "RESTORING": int(p.restoring == "gradient"),
-                                                           **defs}),
-                          [out], textures={"t_gradient": grad, "t_x": across},
-                          uniforms={"u_saturate": p.saturate, **weights},
-                          rect=rects[1] if rects else None, blanks=blanks[1:] if blanks else None)
-            done = keep_across
-        finally:
-            if not done:
-                gl.release(across)
-        return [across, out] if keep_across else [out]
+        out = ctx.target("out", grad.size)
+        return kernels.draw(ctx, "force_field.glsl", k, grad.size, ({}, {"t_gradient": grad}, {"u_clamp": p.clamp}),
+                            ({"RESTORING": int(p.restoring == "gradient")}, {"t_gradient": grad},
+                             {"u_saturate": p.saturate}, [out]), rects, blanks, keep=keep_across)
 
 
 NODE = ForceField

@@ -270,3 +270,32 @@ def test_pipeline_reference_keeps_slopes_and_steps_at_every_size(gl):
         assert e.any() and not e[far].any()
         band[h] = e.sum() * 400 / h
     assert band == {200: 4.0, 400: 2.0, 800: 2.0}
+
+
+@pytest.mark.parametrize("reference", [64, 32, 24])  # px_scale 1 (the two passes), 2 and 2.67 (split by default)
+def test_split_passes_give_the_same_bits_as_the_two_passes(gl, monkeypatch, reference):
+    """Wide kernels run each axis as a tent pass and a Sobel pass (`scaled_kernels.split`, tent_sobel.glsl's PASS
+    2-5) instead of forming the tent at every Sobel tap: the same sums in the same order, so depth_edges' outputs
+    and force_field's field are the same bytes either way, borders included (a noisy depth, 64 x 48)."""
+    from nodegraph_nodes._shared import scaled_kernels as kernels
+    from nodegraph_nodes.force_field import ForceField
+
+    depth = np.random.default_rng(reference).uniform(0.3, 0.7, (48, 64)).astype(np.float32)
+
+    def both() -> list[np.ndarray]:
+        de = run_node(gl, DepthEdges("de", DepthEdges.Params(mode="window")),
+                      {"depth": gl.upload(depth, "R32F")}, (64, 48), reference_size=reference)
+        ff = run_node(gl, ForceField("ff", ForceField.Params()), {"gradient": de["gradient"]}, (64, 48),
+                      reference_size=reference)
+        return [de["gradient"].read(), de["magnitude"].read(), de["edges"].read(), ff["out"].read()]
+
+    s = 48 / reference
+    monkeypatch.setattr(kernels, "SPLIT_ABOVE", 10**9)
+    assert not kernels.split(kernels.kernels(5.0, s))
+    two = both()
+    monkeypatch.setattr(kernels, "SPLIT_ABOVE", 0)
+    assert kernels.split(kernels.kernels(5.0, s)) and kernels.split(kernels.kernels(2.0, s))
+    split = both()
+    for a, b in zip(two, split, strict=True):
+        assert a.tobytes() == b.tobytes()
+    assert np.abs(two[3]).max() > 0  # a field, not zeros
