@@ -11,8 +11,10 @@ import yaml
 from ...fsio import atomic_write_text
 from .model import EntryResult, Gallery
 
-
 # -- the page --------------------------------------------------------------------------------------------
+_SHEETS = ("contact sheet of intermediates", "contact sheet of frames", "wedge contact sheet")  # in this order
+
+
 def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryResult]) -> Path:
     import html
 
@@ -38,9 +40,13 @@ def write_index(gallery: Gallery, manifest: dict[str, Any], results: list[EntryR
         files = rec.get("files", {})
         present = {rel: f for rel, f in files.items() if (gallery.root / rel).exists()}
         first = rec.get("frames", [0])[0]  # other frames are on the frames sheet
-        outs = [rel for rel, f in present.items() if f["what"].startswith("output")
-                and f["what"].endswith(f", frame {first}")]
-        sheets = [rel for rel, f in present.items() if "contact sheet" in f["what"]]
+        # in an order of their own, not the record's: a record read from manifest.json has its files sorted, one
+        # just built has them in the order they were drawn, and the page is the same either way
+        outs = sorted(rel for rel, f in present.items() if f["what"].startswith("output")
+                      and f["what"].endswith(f", frame {first}"))
+        sheets = sorted((rel for rel, f in present.items() if "contact sheet" in f["what"]),
+                        key=lambda rel: (_SHEETS.index(present[rel]["what"]) if present[rel]["what"] in _SHEETS
+                                         else len(_SHEETS), rel))
         imgs = "".join(f'<figure><a href="{e(rel)}"><img class="out" src="{e(rel)}" alt="{e(rel)}"></a>'
                        f'<figcaption>{e(present[rel]["what"])}</figcaption></figure>' for rel in outs)
         sheet_html = "".join(f'<figure><a href="{e(rel)}"><img class="sheet" src="{e(rel)}" alt="{e(rel)}"></a>'

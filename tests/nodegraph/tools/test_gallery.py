@@ -81,6 +81,7 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     assert statuses(cold) == {"still": "rendered", "orbit": "rendered", "sweep": "rendered", "absent": "skipped"}
     assert "no-such-mesh-here.obj" in next(r.note for r in cold.results if r.name == "absent")
     first = tiny.manifest_path.read_bytes()
+    pictures = re.findall(r'<img class="\w+" src="([^"]+)"', (tiny.root / "index.html").read_text())
     m = json.loads(first)
     assert set(m["entries"]) == {"still", "orbit", "sweep"}
     still = m["entries"]["still"]
@@ -128,6 +129,9 @@ def test_builds_are_deterministic_and_incremental(gl, tiny, tmp_path):
     assert not (tiny.root / "images" / "gone").exists()
     assert tiny.manifest_path.read_bytes() == first
     assert statuses(incremental)["still"] == "up to date" and incremental.previous_cold_s == round(cold.total_s, 3)
+    # the page shows the pictures in the same order whether an entry was just drawn or read from the manifest
+    assert re.findall(r'<img class="\w+" src="([^"]+)"', (tiny.root / "index.html").read_text()) == pictures
+    assert pictures.index("images/orbit/intermediates.png") < pictures.index("images/orbit/frames.png")
     assert "x faster" in gal.format_build(incremental)
 
     # a changed param re-renders that entry only
