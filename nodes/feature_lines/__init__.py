@@ -83,9 +83,11 @@ class FeatureLines(Node):
         return origin.hash_extra(ctx.scene, ctx.frame)
 
     def segments(self, ctx: RunContext, curv: Any, index: int, mesh: Any, eye_object: np.ndarray,
-                 kinds: set[str]) -> dict[str, lines.Segments]:
+                 kinds: set[str], keep: int = 8) -> dict[str, lines.Segments]:
         """The segments of each kind in `kinds` for one object, seen from `eye_object` (object space; a
-        homogeneous (4,) direction at infinity for an orthographic camera, lines.towards_eye)."""
+        homogeneous (4,) direction at infinity for an orthographic camera, lines.towards_eye). The per-mesh data
+        (operators, smoothed curvature, ridges and valleys) is kept for the last `keep` meshes (at least 8): a
+        frame of a scene asks for every object's, so `keep` is at least the scene's object count."""
         p = self.params
         name = object_field(index, "kmin")
         if name not in curv.data:
@@ -100,7 +102,7 @@ class FeatureLines(Node):
         base = (mesh.content_hash(), ckey, p.curvature_smoothing)
         entry = cache.get(base)
         if entry is None:
-            if len(cache) >= 8:
+            while len(cache) >= max(8, keep):  # the oldest first
                 cache.pop(next(iter(cache)))
             arr = {k: curv.data[object_field(index, k)] for k in ("kmin", "kmax", "dmin", "dmax", "normal",
                                                                   "confidence")}
@@ -157,7 +159,8 @@ class FeatureLines(Node):
             eye_obj = np.linalg.inv(model) @ eye
             if not cam.orthographic:
                 eye_obj = eye_obj[:3]
-            per_object.append((obj, model, self.segments(ctx, inputs["curvature"], index, obj.mesh, eye_obj, kinds)))
+            per_object.append((obj, model, self.segments(ctx, inputs["curvature"], index, obj.mesh, eye_obj, kinds,
+                                                         keep=len(scene.objects))))
         line_width, line_scale = self.drawn_width(ctx.px_scale)
         targets = {port: ctx.target(port, nd.size) for port in ("out", *_KINDS) if port in needed}
         # where each port can be drawn on: its segments' projected points grown by half the quad's width (the
