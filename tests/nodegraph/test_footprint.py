@@ -332,6 +332,7 @@ CURTIS = ("pipeline: t\nsize: [{w}, {h}]\nreference_size: {ref}\nscene: {scene}\
     ((160, 120), 800, "linear_depth", "{}", "rotated"),  # px_scale 0.15: weights that are not small integers
     ((200, 200), 200, "linear_depth", "{threshold: 0.01}", "gradient"),  # px_scale 1: the seed's filters
     ((150, 100), 64, "depth", "{mode: window, reference_height: 100}", "rotated"),  # px_scale > 1, window depth
+    ((256, 192), 72, "linear_depth", "{}", "rotated"),  # px_scale 2.67: both nodes in their split passes
 ])
 @pytest.mark.parametrize("name", ["spot.obj", "builtin:torus"])
 def test_depth_edges_and_the_force_field_drawn_inside_their_footprints_give_the_whole_passes(
