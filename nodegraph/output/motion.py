@@ -33,17 +33,29 @@ def _corners(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[list[np.nda
     return [img[y0i, x0i], img[y0i, x1i], img[y1i, x0i], img[y1i, x1i]], fx, fy
 
 
+def _centres(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's own window position (x, y)."""
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+    return cols + 0.5, h - rows - 0.5
+
+
 def _source(motion: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Window position to read the previous frame at (background pixels: the pixel itself, the sheet does not
     move), and the coverage mask."""
     m = np.asarray(motion, dtype=np.float64)
-    h, w = m.shape[:2]
     covered = m[..., 3] > 0.5
-    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
-    xx, yy = cols + 0.5, h - rows - 0.5
+    xx, yy = _centres(*m.shape[:2])
     x = np.where(covered, m[..., 0], xx)
     y = np.where(covered, m[..., 1], yy)
     return x, y, covered
+
+
+def displacement(motion: np.ndarray) -> np.ndarray:
+    """(H, W, 2): how far each pixel's surface point was from the pixel in the previous frame, in pixels (window
+    axes; 0 on the background, where the sheet does not move)."""
+    x, y, _ = _source(motion)
+    xx, yy = _centres(*x.shape)
+    return np.stack([x - xx, y - yy], axis=-1)
 
 
 def sample(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

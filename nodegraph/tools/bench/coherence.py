@@ -630,13 +630,8 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
 
 
 def _moves(motion: np.ndarray, tol: float = 1e-3) -> bool:
-    """Whether any covered pixel of a motion field (rows from the top, as `Pipe.inspect` gives them) was elsewhere
-    in the previous frame: its xy is not the pixel's own window position."""
-    h, w = motion.shape[:2]
-    ys, xs = np.mgrid[0:h, 0:w]
-    own = np.stack([xs + 0.5, (h - 1 - ys) + 0.5], axis=-1)
-    covered = motion[..., 3] > 0
-    return bool((np.abs(motion[..., :2] - own).max(axis=-1)[covered] > tol).any())
+    """Whether any covered pixel of a motion field was elsewhere in the previous frame (`motion.displacement`)."""
+    return bool(np.abs(mo.displacement(motion)).max() > tol)
 
 
 def chart(result: dict[str, Any], path: Path) -> Path:
