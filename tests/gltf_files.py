@@ -2,7 +2,7 @@
 walking box figure, a morphing sphere, a two-bone skinned bar, a morphing quad and a file with two cameras
 (and an orthographic one); and, for the hostile-input tests, a file
 that uses most of what the reader reads as raw parts (JSON dict, binary buffer) to break, GLB bytes with any
-header field, and PNG/JPEG bytes (or headers alone)."""
+header field, and PNG/JPEG/WebP bytes (or headers alone)."""
 
 from __future__ import annotations
 
@@ -302,6 +302,26 @@ def png_bytes(rgb: np.ndarray) -> bytes:
             + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 
+def webp_bytes(rgb: np.ndarray, lossless: bool = True) -> bytes:
+    """A WebP of the (h, w, 3 or 4) uint8 array, written by OpenImageIO (libwebp): lossless (a VP8L chunk) or lossy
+    (VP8, or VP8X with alpha)."""
+    import tempfile
+
+    import OpenImageIO as oiio
+
+    h, w, nch = rgb.shape
+    spec = oiio.ImageSpec(w, h, nch, oiio.UINT8)
+    spec.attribute("compression", "lossless" if lossless else "webp")
+    spec.attribute("oiio:UnassociatedAlpha", 1)
+    with tempfile.TemporaryDirectory() as folder:
+        name = str(Path(folder) / "image.webp")
+        out = oiio.ImageOutput.create(name)
+        assert out is not None and out.open(name, spec), oiio.geterror()
+        out.write_image(np.ascontiguousarray(rgb, np.uint8))
+        out.close()
+        return Path(name).read_bytes()
+
+
 def png_header(width: int, height: int) -> bytes:
     """A PNG whose header claims width x height and whose pixel data is a few bytes (a decompression bomb's
     shape: nothing of it is decoded when the header is refused)."""
@@ -448,25 +468,35 @@ def _quad_camera(b: Builder) -> None:
 
 def textured_quad(path: Path, texels: np.ndarray, transform: dict | None = None, alpha_mode: str | None = None,
                   cutoff: float | None = None, factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0),
-                  wrap: int = 10497) -> Path:
+                  wrap: int = 10497, webp: np.ndarray | None = None, webp_required: bool = False) -> Path:
     """The quad with the (h, w, 3 or 4) uint8 image as its base colour texture (NEAREST filters, `wrap` both ways),
-    its top-left corner at uv (0, 0); `transform`: a KHR_texture_transform object; `alpha_mode`, `cutoff`."""
+    its top-left corner at uv (0, 0); `transform`: a KHR_texture_transform object; `alpha_mode`, `cutoff`.
+    `webp`: a second image, stored as a lossless WebP and named by the texture's EXT_texture_webp (the first
+    image is then its PNG fallback), `webp_required` lists the extension as required."""
     b = Builder()
     pos = b.accessor(QUAD_V, "VEC3", minmax=True)
     uv = b.accessor(QUAD_UV, "VEC2")
     idx = b.accessor(QUAD_F.reshape(-1), "SCALAR", USHORT)
-    png = png_bytes(np.asarray(texels, np.uint8))
-    while len(b.blob) % 4:
-        b.blob += b"\0"
-    b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(png)))
-    b.blob += png
-    b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType="image/png"))
+    images = [("image/png", png_bytes(np.asarray(texels, np.uint8)))]
+    if webp is not None:
+        images.append(("image/webp", webp_bytes(np.asarray(webp, np.uint8))))
+    for mime, data in images:
+        while len(b.blob) % 4:
+            b.blob += b"\0"
+        b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(data)))
+        b.blob += data
+        b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType=mime))
     b.doc.samplers.append(g.Sampler(magFilter=NEAREST, minFilter=NEAREST, wrapS=wrap, wrapT=wrap))
     b.doc.textures.append(g.Texture(source=0, sampler=0))
+    if webp is not None:
+        b.doc.textures[0].extensions = {"EXT_texture_webp": {"source": 1}}
+        b.doc.extensionsUsed.append("EXT_texture_webp")
+        if webp_required:
+            b.doc.extensionsRequired.append("EXT_texture_webp")
     info = g.TextureInfo(index=0)
     if transform is not None:
         info.extensions = {"KHR_texture_transform": transform}
-        b.doc.extensionsUsed = ["KHR_texture_transform"]
+        b.doc.extensionsUsed.append("KHR_texture_transform")
     mat = g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=list(factor),
                                                                  baseColorTexture=info), doubleSided=True)
     if alpha_mode is not None:

@@ -82,15 +82,16 @@ _HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization",
 # flat-coloured drawing (materials, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
 _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_transform", "KHR_lights_punctual",
-                       "KHR_xmp")
+                       "KHR_xmp", "EXT_texture_webp")
+_IMAGE_TYPES = ("image/png", "image/jpeg", "image/webp")  # image/webp: EXT_texture_webp (decoded by OpenImageIO)
 
 # --- limits: each is checked before the work it bounds; going past one is a one-line MeshError naming it ------
 MAX_FILE_BYTES = 2 << 30  # the .gltf or .glb file itself
 MAX_JSON_BYTES = 32 << 20  # its JSON text, data: URIs not counted (they count as buffers and images)
 MAX_JSON_OBJECTS = 2_000_000  # JSON objects ({...}) in it
 MAX_BUFFER_BYTES = 1 << 30  # all buffers together, by their declared byteLength
-MAX_IMAGE_BYTES = 256 << 20  # one encoded image (PNG or JPEG): a file, a data: URI or a bufferView
-MAX_TEXTURE_PIXELS = 8192 * 8192  # one texture, width x height read from the PNG/JPEG header before decoding
+MAX_IMAGE_BYTES = 256 << 20  # one encoded image (PNG, JPEG or WebP): a file, a data: URI or a bufferView
+MAX_TEXTURE_PIXELS = 8192 * 8192  # one texture, width x height read from the image's header before decoding
 MAX_NODES = 200_000
 MAX_DEPTH = 1_000  # levels below a root node
 MAX_ACCESSOR_COUNT = 1 << 26  # elements of one accessor
@@ -481,7 +482,10 @@ def _mib(n: float) -> str:
 
 
 def _image_size(data: bytes) -> tuple[str, int, int] | None:
-    """('png' | 'jpeg', width, height) from the header bytes (0, 0 where the header is broken); None: neither."""
+    """('png' | 'jpeg' | 'webp', width, height) from the header bytes (0, 0 where the header is broken); None:
+    none of them."""
+    if data[:4] == b"RIFF" and data[8:12] == b"WEBP":
+        return ("webp", *_webp_size(data))
     if data[:8] == b"\x89PNG\r\n\x1a\n":
         if len(data) < 24 or data[12:16] != b"IHDR":
             return "png", 0, 0
@@ -511,6 +515,20 @@ def _image_size(data: bytes) -> tuple[str, int, int] | None:
             i += 2 + seglen
         return "jpeg", 0, 0
     return None
+
+
+def _webp_size(data: bytes) -> tuple[int, int]:
+    """Width and height from a WebP file's first chunk (lossy VP8, lossless VP8L or extended VP8X); (0, 0) where
+    it is broken."""
+    kind, body = data[12:16], data[20:30]
+    if kind == b"VP8 " and len(body) >= 10 and body[3:6] == b"\x9d\x01\x2a":  # frame tag, start code, sizes
+        return int.from_bytes(body[6:8], "little") & 0x3FFF, int.from_bytes(body[8:10], "little") & 0x3FFF
+    if kind == b"VP8L" and len(body) >= 5 and body[0] == 0x2F:  # signature, then 14 + 14 bits of size - 1
+        bits = int.from_bytes(body[1:5], "little")
+        return (bits & 0x3FFF) + 1, ((bits >> 14) & 0x3FFF) + 1
+    if kind == b"VP8X" and len(body) >= 10:  # flags, reserved, then 24 + 24 bits of canvas size - 1
+        return int.from_bytes(body[4:7], "little") + 1, int.from_bytes(body[7:10], "little") + 1
+    return 0, 0
 
 
 _PNG_DEPTHS = {0: (1, 2, 4, 8, 16), 2: (8, 16), 3: (1, 2, 4, 8), 4: (8, 16), 6: (8, 16)}  # colour type: bit depths
@@ -1020,10 +1038,8 @@ class _Reader:
                 self.fail(f"{w}.byteLength", f"the buffers declare {_mib(total)} so far: the limit is "
                           f"{_mib(MAX_BUFFER_BYTES)} (MAX_BUFFER_BYTES)")
             uri = self._str(b, "uri", w)
-            if uri is None:
-                if self.bin is None or i != 0:
-                    self.fail(w, "has no uri and is not the GLB binary chunk (only buffers[0] of a .glb can be)")
-                if not length <= len(self.bin) <= length + 3:
+            if uri is None:  # without a uri only a .glb's buffers[0] has data; another is refused if read
+                if self.bin is not None and i == 0 and len(self.bin) < length:
                     self.fail(f"{w}.byteLength", f"{length}, but the GLB binary chunk has {len(self.bin)} bytes")
             elif uri[:5].lower() == "data:":
                 self._data_uri(uri, f"{w}.uri", length)
@@ -1142,8 +1158,9 @@ class _Reader:
             mime = self._str(im, "mimeType", w)
             if (uri is None) == (view is None):
                 self.fail(w, "needs exactly one of 'uri' and 'bufferView'")
-            if mime is not None and mime not in ("image/png", "image/jpeg"):
-                self.fail(f"{w}.mimeType", f"{mime[:40]!r}: must be image/png or image/jpeg")
+            if mime is not None and mime not in _IMAGE_TYPES:
+                self.fail(f"{w}.mimeType", f"{mime[:40]!r}: must be image/png, image/jpeg or image/webp (others "
+                          "come with an extension this reader does not read)")
             if view is not None:
                 if mime is None:
                     self.fail(w, "'mimeType' is required with 'bufferView'")
@@ -1162,6 +1179,9 @@ class _Reader:
             w = f"textures[{i}]"
             self._ref(t, "source", w, "images")
             self._ref(t, "sampler", w, "samplers")
+            webp = self._dict(self._dict(t, "extensions", w) or {}, "EXT_texture_webp", f"{w}.extensions")
+            if webp is not None:
+                self._ref(webp, "source", f"{w}.extensions.EXT_texture_webp", "images")
         self.material_uvs: list[set[int]] = []
         for i, m in enumerate(self.coll("materials")):
             w = f"materials[{i}]"
@@ -1248,9 +1268,7 @@ class _Reader:
                 idx = self._ref(p, "indices", wp, "accessors")
                 if idx is not None:
                     a = self._format(idx, f"{wp}.indices", (("SCALAR",), (_UB, _US, _UI), ()), "indices")
-                    if a.view is None:
-                        self.fail(f"{wp}.indices", f"accessor {idx} has no bufferView")
-                    if self.views[a.view][3] is not None:
+                    if a.view is not None and self.views[a.view][3] is not None:  # none: zeros (or sparse)
                         self.fail(f"{wp}.indices", f"bufferViews[{a.view}] has a byteStride (indices are packed)")
                 material = self._ref(p, "material", wp, "materials")
                 if material is not None:
@@ -1532,7 +1550,9 @@ class _Reader:
             length = self.buffer_len[i]
             uri = b.get("uri")
             if uri is None:
-                data = self.bin[:length]  # type: ignore[index]
+                if self.bin is None or i != 0:
+                    self.fail(w, "has no uri and is not the GLB binary chunk (only buffers[0] of a .glb can be)")
+                data = self.bin[:length]
             elif uri[:5].lower() == "data:":
                 data = self._decode64(self._data_uri(uri, f"{w}.uri", length), f"{w}.uri")
                 if len(data) != length:
@@ -1580,8 +1600,16 @@ class _Reader:
         if a.ctype == 5126 and not np.all(np.isfinite(arr)):
             self.fail(where, f"accessor {i} holds NaN or infinite values")
         for bound, have, word in ((a.minimum, arr.min(axis=0), "min"), (a.maximum, arr.max(axis=0), "max")):
-            if bound is not None and np.any(np.asarray(bound) != have.astype(np.float64)):
-                k = int(np.argmax(np.asarray(bound) != have.astype(np.float64)))
+            # float bounds are compared as float32, as the data is: JSON writers print a float32 value in as few
+            # digits as name it (0.1 for float32 0.1), and the Khronos validator reads bounds so too. Zeros that
+            # no bufferView or sparse part gave are not checked (nor by the validator)
+            if bound is None or (a.view is None and a.sparse is None):
+                continue
+            with np.errstate(over="ignore"):  # a bound past float32's range becomes inf, and differs
+                declared = np.asarray(bound, np.float32 if a.ctype == 5126 else np.float64)
+            off = declared != have.astype(declared.dtype)
+            if np.any(off):
+                k = int(np.argmax(off))
                 self.fail(where, f"accessor {i} declares {word} {bound[k]!r} for component {k}; its data has "
                           f"{float(have[k])!r}")
         if not as_float:
@@ -1700,19 +1728,22 @@ class _Reader:
     def texture(self, tex_index: int) -> tuple[np.ndarray, str, np.ndarray] | None:
         """A base colour texture decoded: (h, w, 4) uint8 pixels (RGB sRGB-encoded per the spec, alpha linear),
         the digest of its encoded bytes, its mean linear RGB; None if undecodable (noted). The image's size is
-        read from its PNG/JPEG header first and refused over MAX_TEXTURE_PIXELS; decoded images are kept per
+        read from its PNG, JPEG or WebP header first and refused over MAX_TEXTURE_PIXELS; decoded images are kept per
         content digest for the process (`decode_image`)."""
         if tex_index in self._textures:
             return self._textures[tex_index]
         out = None
-        src = self.j["textures"][tex_index].get("source")
+        tex = self.j["textures"][tex_index]
+        webp = (tex.get("extensions") or {}).get("EXT_texture_webp")
+        src = (webp or {}).get("source", tex.get("source"))  # the WebP image where given; `source`: its fallback
         if src is None:
-            self.note(f"base colour texture {tex_index} (no PNG or JPEG source; its factor alone is used)")
+            self.note(f"base colour texture {tex_index} (no PNG, JPEG or WebP source; its factor alone is used)")
         else:
             data = self.image_bytes(src)
             head = _image_size(data)
             if head is None or not head[1] or not head[2]:
-                self.note(f"base colour texture {tex_index} (not a readable PNG or JPEG; its factor alone is used)")
+                self.note(f"base colour texture {tex_index} (not a readable PNG, JPEG or WebP; its factor alone is "
+                          "used)")
             elif head[1] * head[2] > MAX_TEXTURE_PIXELS:
                 self.fail(f"images[{src}]", f"{head[1]}x{head[2]} pixels: the limit is {MAX_TEXTURE_PIXELS} "
                           "(MAX_TEXTURE_PIXELS)")
@@ -1732,15 +1763,15 @@ class _Reader:
         return out
 
     def _decode_pixels(self, data: bytes, head: tuple[str, int, int]) -> np.ndarray | None:
-        """The (h, w, 4) uint8 pixels of a PNG/JPEG whose header said width x height (within MAX_TEXTURE_PIXELS),
-        decoded by OpenImageIO in one read (grey -> RGB, no alpha -> 255); None where it cannot be decoded. The
-        one place images are decoded."""
+        """The (h, w, 4) uint8 pixels of a PNG, JPEG or WebP whose header said width x height (within
+        MAX_TEXTURE_PIXELS), decoded by OpenImageIO in one read (grey -> RGB, no alpha -> 255); None where it
+        cannot be decoded. The one place images are decoded."""
         try:
             oiio = fsio.oiio()
         except ImportError:
             return None
         kind, width, height = head
-        with tempfile.NamedTemporaryFile(suffix=".png" if kind == "png" else ".jpg") as tmp, \
+        with tempfile.NamedTemporaryFile(suffix={"png": ".png", "jpeg": ".jpg"}.get(kind, ".webp")) as tmp, \
                 fsio.native_stderr():  # OIIO reads files; libpng and libjpeg print past it: the note says it
             tmp.write(data)
             tmp.flush()
@@ -1809,6 +1840,16 @@ def _triangles(mode: int, idx: np.ndarray) -> np.ndarray:
     return tri[keep]
 
 
+def draco_only(r: _Reader, prim: dict[str, Any]) -> bool:
+    """Whether a primitive's geometry is only in a Draco stream (not decoded here). An extension on a primitive
+    that the file does not require leaves the primitive's own data whole (feature ids, variants, outlines: ignored);
+    KHR_draco_mesh_compression's primitive is read from its uncompressed copy where it carries one (every
+    accessor it names has a bufferView)."""
+    ext = prim.get("extensions")
+    return isinstance(ext, dict) and "KHR_draco_mesh_compression" in ext and any(
+        r.accs[a].view is None for a in [*prim["attributes"].values(), prim.get("indices")] if a is not None)
+
+
 def _read_mesh(r: _Reader, mi: int) -> list[_Prim]:
     m = r.j["meshes"][mi]
     prims: list[_Prim] = []
@@ -1820,11 +1861,10 @@ def _read_mesh(r: _Reader, mi: int) -> list[_Prim]:
         if mode not in (4, 5, 6):
             r.note(f"{label}: {_MODES.get(mode, mode)} (only triangles, strips and fans are drawn)")
             continue
-        ext = p.get("extensions")
-        if isinstance(ext, dict) and any(not k.startswith(_HARMLESS_PREFIXES) for k in ext):
-            r.note(f"{label}: compressed ({', '.join(ext)}; not decoded)")
-            continue
         attrs = p["attributes"]
+        if draco_only(r, p):
+            r.note(f"{label}: compressed (KHR_draco_mesh_compression; not decoded)")
+            continue
         if "POSITION" not in attrs:
             r.note(f"{label}: no POSITION")
             continue

@@ -23,7 +23,7 @@ DOES: dict[str, tuple[str, str]] = {
     "mesh": ("drawn", ""),
     "mesh.unplaced": ("ignored", "on no node of the scene"),
     "primitive.points_lines": ("ignored", "points and lines are not drawn"),
-    "primitive.compressed": ("ignored", "compressed geometry (Draco, meshopt) is not decoded"),
+    "primitive.compressed": ("ignored", "Draco-compressed, without an uncompressed copy: not decoded"),
     "material": ("used", "base colour: factor x vertex colours x texture, sampled per pixel"),
     "material.other_textures": ("ignored", "shading comes from the geometry's own normals and one light"),
     "material.alpha": ("used", "MASK cuts out below alphaCutoff; BLEND is drawn opaque"),
@@ -49,13 +49,16 @@ _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending i
     "KHR_mesh_quantization": ("used", "quantized attributes are read"),
     "KHR_lights_punctual": DOES["light"],
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
-    "KHR_draco_mesh_compression": DOES["primitive.compressed"],
-    "EXT_meshopt_compression": DOES["primitive.compressed"],
+    "KHR_draco_mesh_compression": ("ignored", "not decoded: a primitive's uncompressed copy is drawn where it has "
+                                              "one (a file that requires the extension is refused)"),
+    "EXT_meshopt_compression": ("ignored", "not decoded: the buffer views' uncompressed fallback is read (a file "
+                                           "that requires the extension is refused)"),
     "KHR_xmp": ("ignored", "metadata"),
     "KHR_xmp_json_ld": ("ignored", "metadata"),
     "KHR_materials_": ("ignored", "material extension: only the base colour is read"),
-    "EXT_texture_": ("ignored", "image format extension: PNG and JPEG sources are read"),
-    "KHR_texture_": ("ignored", "texture extension: PNG and JPEG sources are read"),
+    "EXT_texture_webp": ("used", "WebP base colour textures are decoded"),
+    "EXT_texture_": ("ignored", "image format extension: PNG, JPEG and WebP sources are read"),
+    "KHR_texture_": ("ignored", "texture extension: PNG, JPEG and WebP sources are read"),
 }
 
 
@@ -153,8 +156,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
             mode = prim.get("mode", 4)
             verts += n
             colors = colors or any(a.startswith("COLOR_") for a in attrs)
-            ext = prim.get("extensions")
-            if isinstance(ext, dict) and any(not e.startswith(gltf._HARMLESS_PREFIXES) for e in ext):
+            if gltf.draco_only(r, prim):
                 skipped.append(f"primitive {pi}: {DOES['primitive.compressed'][1]}")
             elif mode == 4:
                 tris += k // 3
@@ -197,7 +199,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
             head = gltf._image_size(data)
             item["bytes"] = len(data)
             if head is None:
-                item["problem"] = "not a PNG or JPEG"
+                item["problem"] = "not a PNG, JPEG or WebP"
             else:
                 item["format"], item["width"], item["height"] = head
                 if not head[1] or not head[2]:

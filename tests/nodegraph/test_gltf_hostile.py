@@ -333,8 +333,8 @@ BAD_JSON = [
     ("animations[0].channels[1].target.node", 0, "whose mesh has no morph targets"),
     ("animations[0].samplers[0].output", 3, "20 elements; 2 keys of rotation need 2"),
     ("animations[0].samplers[0].output", 12, "rotation output must be VEC4"),
-    ("buffers[0].byteLength", 10, "the GLB binary chunk has"),
-    ("images[0].mimeType", "image/gif", "must be image/png or image/jpeg"),
+    ("buffers[0].byteLength", 10, "run past the end of buffers[0] (byteLength 10)"),
+    ("images[0].mimeType", "image/gif", "must be image/png, image/jpeg or image/webp"),
 ]
 
 

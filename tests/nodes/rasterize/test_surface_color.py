@@ -68,6 +68,18 @@ def test_a_checker_texture_shows_each_texel_at_its_pixels(gl, tmp_path: Path) ->
             assert np.all(block[..., 3] == 1.0)
 
 
+@pytest.mark.parametrize("name,required", [("webp.glb", False), ("webp.gltf", True)])
+def test_a_webp_texture_is_drawn_over_its_png_fallback(gl, tmp_path: Path, name: str, required: bool) -> None:
+    """EXT_texture_webp: the texture's WebP image is drawn, not the PNG `source` beside it (here another image:
+    the checker turned over), and a file that requires the extension is read."""
+    tex = _checker()
+    img = _render(gl, gf.textured_quad(tmp_path / name, tex[::-1, ::-1], webp=tex, webp_required=required))
+    for r in range(4):
+        for c in range(4):
+            block = img[16 * r + 1:16 * r + 15, 16 * c + 1:16 * c + 15]
+            assert np.abs(block[..., :3] * 255 - tex[r, c]).max() <= 1.0, (r, c)
+
+
 def test_the_factor_multiplies_the_decoded_texture_in_linear_values(gl, tmp_path: Path) -> None:
     tex = _checker()
     factor = (0.5, 1.0, 0.25, 1.0)
