@@ -47,13 +47,14 @@ def quat_slerp(a: np.ndarray, b: np.ndarray, s: float) -> np.ndarray:
 
 
 def quat_matrix(q: Any) -> np.ndarray:
-    """(3, 3) rotation matrix of a unit quaternion (x, y, z, w)."""
-    x, y, z, w = quat_normalize(np.asarray(q, dtype=np.float64))
-    return np.array([
+    """(3, 3) rotation matrix of a unit quaternion (x, y, z, w); (..., 3, 3) of quaternions (..., 4)."""
+    x, y, z, w = np.moveaxis(quat_normalize(np.asarray(q, dtype=np.float64)), -1, 0)
+    m = np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
         [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
     ])
+    return np.moveaxis(m, (0, 1), (-2, -1))
 
 
 def trs_matrix(t: Any = (0, 0, 0), r: Any = (0, 0, 0, 1), s: Any = (1, 1, 1)) -> np.ndarray:

@@ -38,7 +38,7 @@ import warnings
 import zlib
 from collections.abc import Sequence
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, NoReturn
 from urllib.parse import unquote
@@ -55,6 +55,7 @@ from .animation import (
     ObjectAnim,
     Track,
     morph_vertices,
+    quat_matrix,
     skin_weights,
     trs_matrix,
 )
@@ -82,7 +83,7 @@ _HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization",
 # flat-coloured drawing (materials, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
 _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_transform", "KHR_lights_punctual",
-                       "KHR_xmp", "EXT_texture_webp")
+                       "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing")
 _IMAGE_TYPES = ("image/png", "image/jpeg", "image/webp")  # image/webp: EXT_texture_webp (decoded by OpenImageIO)
 
 # --- limits: each is checked before the work it bounds; going past one is a one-line MeshError naming it ------
@@ -450,6 +451,11 @@ _ANIM_OUTPUT = {
     "weights": (("SCALAR",), (_F, _BN, _UBN, _SN, _USN), ()),
 }
 _INTERPOLATIONS = ("LINEAR", "STEP", "CUBICSPLINE")
+_INSTANCE_ATTRIBUTES = {  # EXT_mesh_gpu_instancing
+    "TRANSLATION": (("VEC3",), (_F,), (_B, _BN, _S, _SN)),
+    "ROTATION": (("VEC4",), (_F, _BN, _SN), ()),
+    "SCALE": (("VEC3",), (_F,), (_B, _BN, _S, _SN)),
+}
 
 
 def _kind(v: Any) -> str:
@@ -993,7 +999,7 @@ class _Reader:
             if e not in used:
                 self.fail(f"extensionsRequired[{k}]", f"{e[:80]} is not listed in extensionsUsed")
         for e in used:
-            if e == "KHR_lights_punctual":  # read: the file's lights shade the drawing (_check_lights)
+            if e in ("KHR_lights_punctual", "EXT_mesh_gpu_instancing"):  # read: _check_lights, _instanced
                 pass
             elif not e.startswith(_HARMLESS_PREFIXES):
                 self.note(f"extension {e[:80]}")
@@ -1337,6 +1343,7 @@ class _Reader:
         nodes = self.coll("nodes")
         n = len(nodes)
         self.children: list[list[int]] = []
+        self.instancing: dict[int, dict[str, int]] = {}
         self.parent = [-1] * n
         parent = self.parent
         none: list[int] = []
@@ -1376,6 +1383,7 @@ class _Reader:
                 self.fail(f"{w}.rotation", "is not a unit quaternion")
             if skin is not None and mesh is None:
                 self.fail(f"{w}.skin", "a node with a skin needs a mesh")
+            self._check_instancing(i, nd, w, mesh)
             if skin is not None and not self.mesh_skinned[mesh]:  # type: ignore[index]
                 self.fail(f"{w}.skin", f"meshes[{mesh}] has a primitive without JOINTS_0 and WEIGHTS_0")
             weights = self._numbers(nd, "weights", w)
@@ -1401,6 +1409,36 @@ class _Reader:
         self.depth = [0] * n
         for i, d in zip(reached, depth, strict=True):
             self.depth[i] = d
+
+    def _check_instancing(self, i: int, nd: dict[str, Any], w: str, mesh: int | None) -> None:
+        """EXT_mesh_gpu_instancing on node i: its TRANSLATION / ROTATION / SCALE accessors, one count
+        (`self.instancing[i]`: attribute name -> accessor)."""
+        ext = nd.get("extensions")
+        if not isinstance(ext, dict) or "EXT_mesh_gpu_instancing" not in ext:
+            return
+        we = f"{w}.extensions.EXT_mesh_gpu_instancing"
+        inst = self._dict(ext, "EXT_mesh_gpu_instancing", f"{w}.extensions", required=True)
+        attrs = self._dict(inst, "attributes", we, required=True)
+        if mesh is None:
+            self.fail(we, "instances a mesh, but the node has none")
+        found: dict[str, int] = {}
+        counts: set[int] = set()
+        for name, v in attrs.items():
+            if name.startswith("_"):  # application-specific (instance ids, colours): not drawn
+                continue
+            if name not in _INSTANCE_ATTRIBUTES:
+                self.fail(f"{we}.attributes.{name[:40]}", "not an instancing attribute (TRANSLATION, ROTATION, SCALE "
+                          "or _APPLICATION_SPECIFIC)")
+            acc = self._index(v, f"{we}.attributes.{name}", "accessors")
+            a = self._format(acc, f"{we}.attributes.{name}", _INSTANCE_ATTRIBUTES[name], name)
+            found[name] = acc
+            counts.add(a.count)
+        if not found:
+            self.fail(f"{we}.attributes", "names none of TRANSLATION, ROTATION and SCALE")
+        if len(counts) > 1:
+            self.fail(f"{we}.attributes", "its accessors have different counts "
+                      f"({', '.join(map(str, sorted(counts)))})")
+        self.instancing[i] = found
 
     def _check_skins(self) -> None:
         self.skin_joints: list[list[int]] = []
@@ -1926,6 +1964,35 @@ for _a in (_T0, _Q0, _S0):
     _a.flags.writeable = False
 
 
+def _instanced(r: _Reader, node: int, prims: list[_Prim]) -> list[_Prim]:
+    """EXT_mesh_gpu_instancing: the node's primitives once per instance, each instance placed by its TRS in the
+    node's space (node world x T x R x S, as the extension defines), merged into one primitive each: one scene
+    object per primitive whatever the number of instances. Texture coordinates, vertex colours and morph targets
+    (turned with each instance) go with each copy."""
+    w = f"nodes[{node}].extensions.EXT_mesh_gpu_instancing.attributes"
+    cols = {name: r.accessor(acc, f"{w}.{name}") for name, acc in r.instancing[node].items()}
+    count = len(next(iter(cols.values())))
+    linear = quat_matrix(cols["ROTATION"]) if "ROTATION" in cols else np.tile(np.eye(3), (count, 1, 1))
+    if "SCALE" in cols:
+        linear = linear * cols["SCALE"][:, None, :]
+    shift = cols.get("TRANSLATION", np.zeros((count, 3)))
+    out = []
+    for prim in prims:
+        n = len(prim.positions)
+        r._spend(count * n * 8 * (3 + (0 if prim.targets is None else 3 * len(prim.targets))), w)
+        pos = (np.einsum("kij,nj->kni", linear, prim.positions) + shift[:, None, :]).reshape(-1, 3)
+        faces = (prim.faces[None] + (np.arange(count, dtype=np.int64) * n)[:, None, None]).reshape(-1, 3)
+        targets = None if prim.targets is None else np.einsum(
+            "kij,tnj->tkni", linear, prim.targets).reshape(len(prim.targets), -1, 3)
+        surface = prim.surface
+        if surface is not None:
+            surface = replace(surface, uvs=tuple(np.tile(uv, (count, 1)) for uv in surface.uvs),
+                              colors=None if surface.colors is None else np.tile(surface.colors, (count, 1)))
+        out.append(_Prim(name=prim.name, positions=pos, faces=faces, color=prim.color, targets=targets,
+                         surface=surface))
+    return out
+
+
 def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     r = _Reader(path, allow_outside)
     j = r.j
@@ -1938,7 +2005,9 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     meshes: list[list[_Prim]] = [[] for _ in r.coll("meshes")]
     for mi in used:
         meshes[mi] = _read_mesh(r, mi)
-    tris = sum(len(p.faces) for i in r.order if "mesh" in jnodes[i] for p in meshes[jnodes[i]["mesh"]])
+    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in r.order if i in r.instancing}
+    tris = sum(len(p.faces) * instances.get(i, 1) for i in r.order if "mesh" in jnodes[i]
+               for p in meshes[jnodes[i]["mesh"]])
     if tris > MAX_DRAWN_TRIANGLES:
         r.fail("nodes", f"the scene draws {tris} triangles: the limit is {MAX_DRAWN_TRIANGLES} (MAX_DRAWN_TRIANGLES)")
     mesh_weights = [np.asarray(m.get("weights") or [], dtype=np.float64) for m in r.coll("meshes")]
@@ -1964,6 +2033,13 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
                            mesh=nd.get("mesh"), skin=nd.get("skin"), camera=nd.get("camera"),
                            light=r.node_lights.get(i),
                            weights=np.asarray(nd["weights"], float) if nd.get("weights") else None))
+    for i in instances:  # each instanced node draws a mesh of its own: its mesh's primitives, once per instance
+        if nodes[i].skin is not None:
+            r.note(f"node '{nodes[i].name}': EXT_mesh_gpu_instancing of a skinned mesh (drawn once)")
+            continue
+        meshes.append(_instanced(r, i, meshes[nodes[i].mesh]))  # type: ignore[index]
+        mesh_weights.append(mesh_weights[nodes[i].mesh])  # type: ignore[index]
+        nodes[i].mesh = len(meshes) - 1
     # the scene's nodes by level: each level's world matrices are one batched product
     by_level: dict[int, list[int]] = {}
     for i in r.order:

@@ -48,6 +48,8 @@ DOES: dict[str, tuple[str, str]] = {
 _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending in _)
     "KHR_mesh_quantization": ("used", "quantized attributes are read"),
     "KHR_lights_punctual": DOES["light"],
+    "EXT_mesh_gpu_instancing": ("used", "every instance is drawn (node world x instance TRS), merged into the "
+                                        "node's objects"),
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
     "KHR_draco_mesh_compression": ("ignored", "not decoded: a primitive's uncompressed copy is drawn where it has "
                                               "one (a file that requires the extension is refused)"),

@@ -218,3 +218,61 @@ def test_a_files_lights_are_read_not_left_out(tmp_path, required: bool):
     assert len(scene.objects) == 1
     assert not [n for n in notes if "light" in n], notes
     assert scene.lights == ()  # a light defined but placed on no node shines nowhere
+
+
+def _instanced_boxes(path, rotation_ctype: int = gf.FLOAT, **extra: object):
+    """A box on a node turned 90 degrees about +Y and moved to x = 10, instanced three times by
+    EXT_mesh_gpu_instancing (`extra`: more keys for the extension's attributes)."""
+    b = gf.Builder()
+    box = b.mesh(gf.BOX_V, gf.BOX_F, color=(0.2, 0.4, 0.6))
+    t = np.array([[0, 0, 0], [3, 0, 0], [0, 2, -1]], np.float32)
+    q = np.array([gf.quat_axis((0, 0, 1), 0), gf.quat_axis((0, 0, 1), 90), gf.quat_axis((1, 0, 0), 45)])
+    s = np.array([[1, 1, 1], [2, 2, 2], [1, 3, 1]], np.float32)
+    if rotation_ctype == gf.FLOAT:
+        rot = b.accessor(q.astype(np.float32), "VEC4")
+    else:  # normalized signed shorts
+        rot = b.accessor(np.round(q * 32767).astype(np.int16), "VEC4", 5122, normalized=True)
+    attrs = {"TRANSLATION": b.accessor(t, "VEC3"), "ROTATION": rot, "SCALE": b.accessor(s, "VEC3"), **extra}
+    b.node(mesh=box, name="boxes", translation=[10.0, 0.0, 0.0], rotation=gf.quat_axis((0, 1, 0), 90),
+           extensions={"EXT_mesh_gpu_instancing": {"attributes": attrs}})
+    b.doc.extensionsUsed = ["EXT_mesh_gpu_instancing"]
+    return b.save(path), t.astype(np.float64), q, s.astype(np.float64)
+
+
+@pytest.mark.parametrize("ctype", [gf.FLOAT, 5122])
+def test_gpu_instancing_places_each_instance_by_its_trs_in_the_node(tmp_path, ctype):
+    path, t, q, s = _instanced_boxes(tmp_path / "inst.glb", ctype)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the extension is read: nothing is noted as left out
+        scene = sc.load_scene(str(path))
+    assert [o.name for o in scene.objects] == ["boxes"]
+    got = scene.objects[0].world_vertices()
+    node = np.eye(4)
+    node[:3, :3] = gf_quat_matrix(gf.quat_axis((0, 1, 0), 90))
+    node[:3, 3] = [10, 0, 0]
+    v = gf.BOX_V.astype(np.float64)
+    want = []
+    for k in range(3):  # node world x T x R x S, by hand
+        inst = np.eye(4)
+        inst[:3, :3] = gf_quat_matrix(list(q[k])) * s[k][None, :]
+        inst[:3, 3] = t[k]
+        want.append((node @ inst @ np.c_[v, np.ones(len(v))].T).T[:, :3])
+    # the scene may turn and frame the file as a whole (its up axis, origin): compare shapes after that
+    got_rel, want_rel = got - got.mean(0), np.concatenate(want) - np.concatenate(want).mean(0)
+    tol = 1e-6 if ctype == gf.FLOAT else 1e-3
+    assert got.shape == (24, 3) and np.abs(got_rel - want_rel).max() < tol
+    assert scene.objects[0].mesh.n_faces == 36
+
+
+def test_gpu_instancing_faults_and_application_attributes(tmp_path):
+    path, *_ = _instanced_boxes(tmp_path / "ids.glb", _ID=0)  # an application-specific attribute is not drawn
+    assert load_asset(path).meshes[-1][0].faces.shape == (36, 3)
+    b_path, *_ = _instanced_boxes(tmp_path / "bad.glb", FOO=0)
+    with pytest.raises(PipelineError, match=r"nodes\[0\]\.extensions\.EXT_mesh_gpu_instancing\.attributes\.FOO: "
+                                            "not an instancing attribute"):
+        sc.load_scene(str(b_path))
+    doc = g.GLTF2().load(str(path))
+    doc.accessors[doc.nodes[0].extensions["EXT_mesh_gpu_instancing"]["attributes"]["SCALE"]].count = 2
+    doc.save(str(tmp_path / "counts.glb"))
+    with pytest.raises(PipelineError, match="its accessors have different counts .2, 3."):
+        sc.load_scene(str(tmp_path / "counts.glb"))
