@@ -83,7 +83,8 @@ _HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization",
 # flat-coloured drawing (materials, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
 _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_transform", "KHR_lights_punctual",
-                       "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing")
+                       "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing", "KHR_node_visibility")
+_READ_EXTENSIONS = ("KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_node_visibility")  # not noted as left out
 _IMAGE_TYPES = ("image/png", "image/jpeg", "image/webp")  # image/webp: EXT_texture_webp (decoded by OpenImageIO)
 
 # --- limits: each is checked before the work it bounds; going past one is a one-line MeshError naming it ------
@@ -999,7 +1000,7 @@ class _Reader:
             if e not in used:
                 self.fail(f"extensionsRequired[{k}]", f"{e[:80]} is not listed in extensionsUsed")
         for e in used:
-            if e in ("KHR_lights_punctual", "EXT_mesh_gpu_instancing"):  # read: _check_lights, _instanced
+            if e in _READ_EXTENSIONS:
                 pass
             elif not e.startswith(_HARMLESS_PREFIXES):
                 self.note(f"extension {e[:80]}")
@@ -1344,6 +1345,7 @@ class _Reader:
         n = len(nodes)
         self.children: list[list[int]] = []
         self.instancing: dict[int, dict[str, int]] = {}
+        self.hidden: set[int] = set()  # KHR_node_visibility visible: false (the node and all below it)
         self.parent = [-1] * n
         parent = self.parent
         none: list[int] = []
@@ -1384,6 +1386,11 @@ class _Reader:
             if skin is not None and mesh is None:
                 self.fail(f"{w}.skin", "a node with a skin needs a mesh")
             self._check_instancing(i, nd, w, mesh)
+            ext = nd.get("extensions")
+            if isinstance(ext, dict) and "KHR_node_visibility" in ext:
+                vis = self._dict(ext, "KHR_node_visibility", f"{w}.extensions", required=True)
+                if not self._bool(vis, "visible", f"{w}.extensions.KHR_node_visibility", True):
+                    self.hidden.add(i)
             if skin is not None and not self.mesh_skinned[mesh]:  # type: ignore[index]
                 self.fail(f"{w}.skin", f"meshes[{mesh}] has a primitive without JOINTS_0 and WEIGHTS_0")
             weights = self._numbers(nd, "weights", w)
@@ -1997,17 +2004,21 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     r = _Reader(path, allow_outside)
     j = r.j
     jnodes = r.coll("nodes")
-    used = sorted({jnodes[i]["mesh"] for i in r.order if "mesh" in jnodes[i]})
+    hidden: set[int] = set()  # KHR_node_visibility: hidden nodes and every node below one (parents come first)
+    for i in r.order:
+        if i in r.hidden or r.parent[i] in hidden:
+            hidden.add(i)
+    drawn = [i for i in r.order if "mesh" in jnodes[i] and i not in hidden]
+    used = sorted({jnodes[i]["mesh"] for i in drawn})
     # limits on what is drawn, from the metadata alone: objects, and (an upper bound of) their triangles
-    n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) for i in r.order if "mesh" in jnodes[i])
+    n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) for i in drawn)
     if n_obj > MAX_OBJECTS:
         r.fail("nodes", f"the scene places {n_obj} primitives: the limit is {MAX_OBJECTS} (MAX_OBJECTS)")
     meshes: list[list[_Prim]] = [[] for _ in r.coll("meshes")]
     for mi in used:
         meshes[mi] = _read_mesh(r, mi)
-    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in r.order if i in r.instancing}
-    tris = sum(len(p.faces) * instances.get(i, 1) for i in r.order if "mesh" in jnodes[i]
-               for p in meshes[jnodes[i]["mesh"]])
+    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in drawn if i in r.instancing}
+    tris = sum(len(p.faces) * instances.get(i, 1) for i in drawn for p in meshes[jnodes[i]["mesh"]])
     if tris > MAX_DRAWN_TRIANGLES:
         r.fail("nodes", f"the scene draws {tris} triangles: the limit is {MAX_DRAWN_TRIANGLES} (MAX_DRAWN_TRIANGLES)")
     mesh_weights = [np.asarray(m.get("weights") or [], dtype=np.float64) for m in r.coll("meshes")]
@@ -2117,10 +2128,9 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             animations.append(GltfAnimation(name, channels, start, end, ai))
 
     objects = []
-    for i in r.order:
+    for i in drawn:
         nd = nodes[i]
-        if nd.mesh is None:
-            continue
+        assert nd.mesh is not None
         for pi in range(len(meshes[nd.mesh])):
             objects.append(GltfObject(i, nd.mesh, pi, nd.name if len(meshes[nd.mesh]) == 1 else f"{nd.name}.{pi}"))
     asset = GltfAsset(path=path, digest=r.hasher.hexdigest(), nodes=nodes, meshes=meshes, mesh_weights=mesh_weights,

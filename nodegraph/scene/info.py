@@ -50,6 +50,7 @@ _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending i
     "KHR_lights_punctual": DOES["light"],
     "EXT_mesh_gpu_instancing": ("used", "every instance is drawn (node world x instance TRS), merged into the "
                                         "node's objects"),
+    "KHR_node_visibility": ("used", "a node with visible: false is not drawn, nor is anything below it"),
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
     "KHR_draco_mesh_compression": ("ignored", "not decoded: a primitive's uncompressed copy is drawn where it has "
                                               "one (a file that requires the extension is refused)"),

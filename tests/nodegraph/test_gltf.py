@@ -276,3 +276,22 @@ def test_gpu_instancing_faults_and_application_attributes(tmp_path):
     doc.save(str(tmp_path / "counts.glb"))
     with pytest.raises(PipelineError, match="its accessors have different counts .2, 3."):
         sc.load_scene(str(tmp_path / "counts.glb"))
+
+
+def test_node_visibility_hides_a_node_and_everything_below_it(tmp_path):
+    """KHR_node_visibility: `visible: false` on a parent hides its child's mesh too; `visible: true` and nodes
+    without the extension are drawn; the extension is read, not noted as left out."""
+    b = gf.Builder()
+    box = b.mesh(gf.BOX_V, gf.BOX_F)
+    hidden = {"KHR_node_visibility": {"visible": False}}
+    b.node(name="shown", mesh=box, extensions={"KHR_node_visibility": {"visible": True}})
+    b.node(name="off", mesh=box, translation=[2.0, 0, 0], extensions=hidden, children=[2])
+    b.node(root=False, name="child_of_off", mesh=box, translation=[0, 2.0, 0])
+    b.node(name="plain", mesh=box, translation=[-2.0, 0, 0])
+    b.doc.extensionsUsed = ["KHR_node_visibility"]
+    b.doc.extensionsRequired = ["KHR_node_visibility"]
+    path = b.save(tmp_path / "vis.glb")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = sc.load_scene(str(path))
+    assert [o.name for o in scene.objects] == ["shown", "plain"]
