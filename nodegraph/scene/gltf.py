@@ -2000,14 +2000,20 @@ def _instanced(r: _Reader, node: int, prims: list[_Prim]) -> list[_Prim]:
     return out
 
 
+def hidden_nodes(r: _Reader) -> set[int]:
+    """KHR_node_visibility: the scene's nodes with `visible: false` and every node below one."""
+    hidden: set[int] = set()
+    for i in r.order:  # parents come before their children
+        if i in r.hidden or r.parent[i] in hidden:
+            hidden.add(i)
+    return hidden
+
+
 def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     r = _Reader(path, allow_outside)
     j = r.j
     jnodes = r.coll("nodes")
-    hidden: set[int] = set()  # KHR_node_visibility: hidden nodes and every node below one (parents come first)
-    for i in r.order:
-        if i in r.hidden or r.parent[i] in hidden:
-            hidden.add(i)
+    hidden = hidden_nodes(r)
     drawn = [i for i in r.order if "mesh" in jnodes[i] and i not in hidden]
     used = sorted({jnodes[i]["mesh"] for i in drawn})
     # limits on what is drawn, from the metadata alone: objects, and (an upper bound of) their triangles

@@ -22,6 +22,7 @@ from .meshes import GLTF_EXTENSIONS, SUPPORTED_EXTENSIONS
 DOES: dict[str, tuple[str, str]] = {
     "mesh": ("drawn", ""),
     "mesh.unplaced": ("ignored", "on no node of the scene"),
+    "mesh.hidden": ("ignored", "its nodes are hidden (KHR_node_visibility)"),
     "primitive.points_lines": ("ignored", "points and lines are not drawn"),
     "primitive.compressed": ("ignored", "Draco-compressed, without an uncompressed copy: not decoded"),
     "material": ("used", "base colour: factor x vertex colours x texture, sampled per pixel"),
@@ -135,6 +136,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
     jtex, jimg = r.coll("textures"), r.coll("images")
     left_out = list(asset.ignored) if asset is not None else []
     nodes_of: dict[tuple[str, int], list[int]] = {}
+    hidden = gltf.hidden_nodes(r)
     for i in r.order:
         for key in ("mesh", "camera", "skin"):
             if key in jnodes[i]:
@@ -168,8 +170,14 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
             else:
                 skipped.append(f"primitive {pi} ({gltf._MODES.get(mode, mode)}): {DOES['primitive.points_lines'][1]}")
         placed = node_names("mesh", mi)
-        key = "mesh.unplaced" if not placed else "mesh" if len(skipped) < len(m["primitives"]) else (
-            "primitive.compressed" if "compressed" in skipped[0] else "primitive.points_lines")
+        if not placed:
+            key = "mesh.unplaced"
+        elif all(i in hidden for i in nodes_of[("mesh", mi)]):
+            key = "mesh.hidden"
+        elif len(skipped) < len(m["primitives"]):
+            key = "mesh"
+        else:
+            key = "primitive.compressed" if "compressed" in skipped[0] else "primitive.points_lines"
         item: dict[str, Any] = {"index": mi, "name": _name(m, f"mesh{mi}"), "primitives": len(m["primitives"]),
                                 "triangles": tris, "vertices": verts, "morph_targets": r.mesh_targets[mi],
                                 "vertex_colors": colors, "nodes": placed,

@@ -295,3 +295,12 @@ def test_node_visibility_hides_a_node_and_everything_below_it(tmp_path):
         warnings.simplefilter("error")
         scene = sc.load_scene(str(path))
     assert [o.name for o in scene.objects] == ["shown", "plain"]
+    from nodegraph.scene import info  # `sketchgraph scene info` says why the mesh is not drawn only where it is not
+
+    b2 = gf.Builder()
+    other = b2.mesh(gf.BOX_V, gf.BOX_F)
+    b2.node(name="seen", mesh=b2.mesh(gf.BOX_V, gf.BOX_F))
+    b2.node(name="unseen", mesh=other, extensions=hidden)
+    b2.doc.extensionsUsed = ["KHR_node_visibility"]
+    verdicts = [m["sketchgraph"]["does"] for m in info.info(b2.save(tmp_path / "two.glb"))["meshes"]]
+    assert verdicts == ["ignored", "drawn"] and info.info(path)["meshes"][0]["sketchgraph"]["does"] == "drawn"
