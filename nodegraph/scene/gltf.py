@@ -38,7 +38,7 @@ import warnings
 import zlib
 from collections.abc import Sequence
 from contextvars import ContextVar
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 from urllib.parse import unquote
@@ -166,12 +166,18 @@ class GltfAnimation:
 
 @dataclass
 class GltfObject:
-    """One drawable: a primitive of the mesh on a node."""
+    """One drawable: a primitive of the mesh on a node (and, under EXT_mesh_gpu_instancing, one instance of it:
+    `instance` is its T x R x S in the node's space)."""
 
     node: int
     mesh: int
     prim: int
     name: str
+    instance: np.ndarray | None = None
+
+    def world(self, world: np.ndarray) -> np.ndarray:
+        """The object's world matrix (unskinned) from the nodes' world matrices."""
+        return world[self.node] if self.instance is None else world[self.node] @ self.instance
 
 
 @dataclass
@@ -399,7 +405,7 @@ class GltfAsset:
         lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
         for obj in self.objects:
             mesh, skinned = self.posed_mesh(obj, world, weights)
-            m = root if skinned else root @ world[obj.node]
+            m = root if skinned else root @ obj.world(world)
             if mesh.n_vertices:
                 v = mesh.vertices @ m[:3, :3].T + m[:3, 3]
                 lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
@@ -1971,32 +1977,20 @@ for _a in (_T0, _Q0, _S0):
     _a.flags.writeable = False
 
 
-def _instanced(r: _Reader, node: int, prims: list[_Prim]) -> list[_Prim]:
-    """EXT_mesh_gpu_instancing: the node's primitives once per instance, each instance placed by its TRS in the
-    node's space (node world x T x R x S, as the extension defines), merged into one primitive each: one scene
-    object per primitive whatever the number of instances. Texture coordinates, vertex colours and morph targets
-    (turned with each instance) go with each copy."""
+def _instance_matrices(r: _Reader, node: int) -> np.ndarray:
+    """EXT_mesh_gpu_instancing: each instance's T x R x S in the node's space, (count, 4, 4); the extension places
+    an instance at node world x T x R x S."""
     w = f"nodes[{node}].extensions.EXT_mesh_gpu_instancing.attributes"
     cols = {name: r.accessor(acc, f"{w}.{name}") for name, acc in r.instancing[node].items()}
     count = len(next(iter(cols.values())))
-    linear = quat_matrix(cols["ROTATION"]) if "ROTATION" in cols else np.tile(np.eye(3), (count, 1, 1))
+    out = np.tile(np.eye(4), (count, 1, 1))
+    out[:, :3, :3] = quat_matrix(cols["ROTATION"]) if "ROTATION" in cols else np.eye(3)
     if "SCALE" in cols:
-        linear = linear * cols["SCALE"][:, None, :]
-    shift = cols.get("TRANSLATION", np.zeros((count, 3)))
-    out = []
-    for prim in prims:
-        n = len(prim.positions)
-        r._spend(count * n * 8 * (3 + (0 if prim.targets is None else 3 * len(prim.targets))), w)
-        pos = (np.einsum("kij,nj->kni", linear, prim.positions) + shift[:, None, :]).reshape(-1, 3)
-        faces = (prim.faces[None] + (np.arange(count, dtype=np.int64) * n)[:, None, None]).reshape(-1, 3)
-        targets = None if prim.targets is None else np.einsum(
-            "kij,tnj->tkni", linear, prim.targets).reshape(len(prim.targets), -1, 3)
-        surface = prim.surface
-        if surface is not None:
-            surface = replace(surface, uvs=tuple(np.tile(uv, (count, 1)) for uv in surface.uvs),
-                              colors=None if surface.colors is None else np.tile(surface.colors, (count, 1)))
-        out.append(_Prim(name=prim.name, positions=pos, faces=faces, color=prim.color, targets=targets,
-                         surface=surface))
+        out[:, :3, :3] *= cols["SCALE"][:, None, :]
+    if "TRANSLATION" in cols:
+        out[:, :3, 3] = cols["TRANSLATION"]
+    if not np.all(np.isfinite(out)):
+        r.fail(w, "an instance's transform is not finite")
     return out
 
 
@@ -2017,13 +2011,13 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     drawn = [i for i in r.order if "mesh" in jnodes[i] and i not in hidden]
     used = sorted({jnodes[i]["mesh"] for i in drawn})
     # limits on what is drawn, from the metadata alone: objects, and (an upper bound of) their triangles
-    n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) for i in drawn)
+    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in drawn if i in r.instancing}
+    n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) * instances.get(i, 1) for i in drawn)
     if n_obj > MAX_OBJECTS:
         r.fail("nodes", f"the scene places {n_obj} primitives: the limit is {MAX_OBJECTS} (MAX_OBJECTS)")
     meshes: list[list[_Prim]] = [[] for _ in r.coll("meshes")]
     for mi in used:
         meshes[mi] = _read_mesh(r, mi)
-    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in drawn if i in r.instancing}
     tris = sum(len(p.faces) * instances.get(i, 1) for i in drawn for p in meshes[jnodes[i]["mesh"]])
     if tris > MAX_DRAWN_TRIANGLES:
         r.fail("nodes", f"the scene draws {tris} triangles: the limit is {MAX_DRAWN_TRIANGLES} (MAX_DRAWN_TRIANGLES)")
@@ -2050,13 +2044,6 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
                            mesh=nd.get("mesh"), skin=nd.get("skin"), camera=nd.get("camera"),
                            light=r.node_lights.get(i),
                            weights=np.asarray(nd["weights"], float) if nd.get("weights") else None))
-    for i in instances:  # each instanced node draws a mesh of its own: its mesh's primitives, once per instance
-        if nodes[i].skin is not None:
-            r.note(f"node '{nodes[i].name}': EXT_mesh_gpu_instancing of a skinned mesh (drawn once)")
-            continue
-        meshes.append(_instanced(r, i, meshes[nodes[i].mesh]))  # type: ignore[index]
-        mesh_weights.append(mesh_weights[nodes[i].mesh])  # type: ignore[index]
-        nodes[i].mesh = len(meshes) - 1
     # the scene's nodes by level: each level's world matrices are one batched product
     by_level: dict[int, list[int]] = {}
     for i in r.order:
@@ -2137,8 +2124,16 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     for i in drawn:
         nd = nodes[i]
         assert nd.mesh is not None
+        placed: list[np.ndarray | None] = [None]
+        if i in instances:  # one object per instance, all sharing the primitive's mesh (and what is derived from it)
+            if nd.skin is not None:
+                r.note(f"node '{nd.name}': EXT_mesh_gpu_instancing of a skinned mesh (drawn once)")
+            else:
+                placed = list(_instance_matrices(r, i))
         for pi in range(len(meshes[nd.mesh])):
-            objects.append(GltfObject(i, nd.mesh, pi, nd.name if len(meshes[nd.mesh]) == 1 else f"{nd.name}.{pi}"))
+            base = nd.name if len(meshes[nd.mesh]) == 1 else f"{nd.name}.{pi}"
+            for k, inst in enumerate(placed):
+                objects.append(GltfObject(i, nd.mesh, pi, base if inst is None else f"{base}[{k}]", inst))
     asset = GltfAsset(path=path, digest=r.hasher.hexdigest(), nodes=nodes, meshes=meshes, mesh_weights=mesh_weights,
                       skins=skins, cameras=cameras, animations=animations, order=r.order, objects=objects,
                       ignored=list(r.ignored), rest_local=rest_local, levels=levels, lights=list(r.light_defs))
@@ -2201,7 +2196,7 @@ class GltfInstance:
         out = []
         for obj in self.asset.objects:
             mesh, skinned = self.asset.posed_mesh(obj, world, weights)
-            m = self.root if skinned else self.root @ world[obj.node]
+            m = self.root if skinned else self.root @ obj.world(world)
             out.append((obj.name, mesh, m, self.asset.meshes[obj.mesh][obj.prim].color))
         return out
 
@@ -2221,7 +2216,7 @@ class GltfInstance:
             def pose(t: float, obj: GltfObject = obj) -> tuple[Mesh | None, np.ndarray]:
                 world, weights = self.asset.pose(t, self.anim)
                 mesh, sk = self.asset.posed_mesh(obj, world, weights)
-                return mesh, self.root if sk else self.root @ world[obj.node]
+                return mesh, self.root if sk else self.root @ obj.world(world)
 
             anims[first_index + k] = ObjectAnim(pose, f"{self.digest()}|object{k}")
         return anims
