@@ -2014,7 +2014,8 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in drawn if i in r.instancing}
     n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) * instances.get(i, 1) for i in drawn)
     if n_obj > MAX_OBJECTS:
-        r.fail("nodes", f"the scene places {n_obj} primitives: the limit is {MAX_OBJECTS} (MAX_OBJECTS)")
+        r.fail("nodes", f"the scene places {n_obj} primitives (instances counted): the limit is {MAX_OBJECTS} "
+               "(MAX_OBJECTS)")
     meshes: list[list[_Prim]] = [[] for _ in r.coll("meshes")]
     for mi in used:
         meshes[mi] = _read_mesh(r, mi)
