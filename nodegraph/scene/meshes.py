@@ -938,7 +938,7 @@ def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray, str]:
         tmp.seek(0)
         text = tmp.read(1 << 16).decode("utf-8", "replace")
     if result is not None:
-        notes = [ln for ln in text.splitlines() if ln[:1].strip()]
+        notes = _igl_notes(text)
         first = _reader_note(notes[0]) if notes else ""
         note = ("the mesh reader reported problems" + (f" (first: {first})" if first else "")) if notes else ""
         return (*result, note)
@@ -948,6 +948,31 @@ def _igl_read(p: Path) -> tuple[np.ndarray, np.ndarray, str]:
     lines = [ln for ln in text.splitlines() if ln[:1].strip()]  # indented lines quote the file
     reason = _reader_note(lines[0]) if lines else ""
     raise MeshError(f"{p}: unreadable mesh file" + (f" ({reason})" if reason else "")) from None
+
+
+# OBJ statements that carry no surface (object names, free-form curve and surface data, display and render
+# attributes): libigl's OBJ reader skips them with a warning each, which is no problem of the file's
+_OBJ_QUIET = frozenset({"o", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole",
+                        "scrv", "sp", "end", "con", "mg", "lod", "usemap", "maplib", "shadow_obj", "trace_obj",
+                        "ctech", "stech", "bevel", "c_interp", "d_interp"})
+
+
+def _igl_notes(text: str) -> list[str]:
+    """libigl's own lines of what it printed while reading (the indented lines quote the file), less its
+    warnings about OBJ statements that carry no surface (`_OBJ_QUIET`: Blender writes an `o NAME` line into every
+    OBJ). Lines (`l`) and points (`p`) are kept: they are geometry the drawing leaves out."""
+    lines = text.splitlines()
+    notes = []
+    for k, ln in enumerate(lines):
+        if not ln[:1].strip():
+            continue
+        quoted = lines[k + 1].split() if k + 1 < len(lines) and not lines[k + 1][:1].strip() else []
+        if "ignored non-comment line" in ln and quoted:
+            if quoted[0] in _OBJ_QUIET:
+                continue
+            ln = f"{ln.rstrip(':')} (an {clean(quoted[0], 12)!r} statement)"  # what the line was, not its content
+        notes.append(ln)
+    return notes
 
 
 def _reader_note(line: str) -> str:

@@ -368,6 +368,22 @@ def test_load_repairs_with_one_warning(tmp_path: Path) -> None:
     assert m.n_faces == 2
 
 
+def test_obj_statements_without_a_surface_load_quietly(tmp_path: Path) -> None:
+    """An object name (every Blender OBJ has `o NAME`) or free-form curve data is no problem of the file: no
+    warning. A polyline (`l`) is geometry left out: the warning names the statement, not the line's content."""
+    quiet = tmp_path / "blender.obj"
+    quiet.write_text("# Blender 4.2\nmtllib blender.mtl\no Cube\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n"
+                     "s 0\nusemtl Material\nf 1//1 2//1 3//1\nvp 0.5\ncstype bspline\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert load_mesh(quiet).n_faces == 1
+    assert [str(w.message) for w in caught if issubclass(w.category, MeshWarning)] == []
+    lines = tmp_path / "poly.obj"
+    lines.write_text("o Cube\nv 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nf 1 2 3\n")
+    with pytest.warns(MeshWarning, match=r"ignored non-comment line 5 \(an 'l' statement\)"):
+        assert load_mesh(lines).n_faces == 1
+
+
 def test_load_is_memoised_by_path_mtime_size(tmp_path: Path) -> None:
     clear_mesh_cache()
     p = tmp_path / "tri.obj"
