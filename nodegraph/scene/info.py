@@ -49,8 +49,8 @@ DOES: dict[str, tuple[str, str]] = {
 _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending in _)
     "KHR_mesh_quantization": ("used", "quantized attributes are read"),
     "KHR_lights_punctual": DOES["light"],
-    "EXT_mesh_gpu_instancing": ("used", "every instance is drawn (node world x instance TRS), merged into the "
-                                        "node's objects"),
+    "EXT_mesh_gpu_instancing": ("used", "every instance is drawn, an object of its own (node world x instance "
+                                        "TRS) sharing its mesh"),
     "KHR_node_visibility": ("used", "a node with visible: false is not drawn, nor is anything below it"),
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
     "KHR_draco_mesh_compression": ("ignored", "not decoded: a primitive's uncompressed copy is drawn where it has "
@@ -182,6 +182,10 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
                                 "triangles": tris, "vertices": verts, "morph_targets": r.mesh_targets[mi],
                                 "vertex_colors": colors, "nodes": placed,
                                 "sketchgraph": does(key)}
+        instanced = {_name(jnodes[i], f"node{i}"): r.accs[next(iter(r.instancing[i].values()))].count
+                     for i in nodes_of.get(("mesh", mi), []) if i in r.instancing}
+        if instanced:  # EXT_mesh_gpu_instancing: instances per node
+            item["instances"] = instanced
         if skipped:
             item["left_out"] = skipped
         meshes.append(item)
@@ -457,7 +461,8 @@ def format_info(d: dict[str, Any]) -> str:
         lines.append(f"  not drawable: {d['problem']}")
     lines += _section("meshes", d["meshes"], lambda m: [
         str(m["index"]), m["name"], _n(m["primitives"], "primitive"), _n(m["triangles"], "triangle"),
-        _n(m["vertices"], "vertex").replace("vertexs", "vertices"), _nodes(m["nodes"]),
+        _n(m["vertices"], "vertex").replace("vertexs", "vertices"),
+        _nodes([f"{n} x{m['instances'][n]}" if n in m.get("instances", {}) else n for n in m["nodes"]]),
         _verdict(m) + (f"; COLOR_n {DOES['vertex_colors'][0]}" if m["vertex_colors"] else "")], "mesh")
     lines += _section("materials", d["materials"], lambda m: [
         str(m["index"]), m["name"], "base " + _color(m["base_color"])

@@ -267,6 +267,11 @@ def test_gpu_instancing_places_each_instance_by_its_trs_in_the_node(tmp_path, ct
 def test_gpu_instancing_faults_and_application_attributes(tmp_path):
     path, *_ = _instanced_boxes(tmp_path / "ids.glb", _ID=0)  # an application-specific attribute is not drawn
     assert len(load_asset(path).objects) == 3
+    from nodegraph.scene import info
+
+    described = info.info(path)
+    assert described["meshes"][0]["instances"] == {"boxes": 3}
+    assert "boxes x3" in info.format_info(described)
     b_path, *_ = _instanced_boxes(tmp_path / "bad.glb", FOO=0)
     with pytest.raises(PipelineError, match=r"nodes\[0\]\.extensions\.EXT_mesh_gpu_instancing\.attributes\.FOO: "
                                             "not an instancing attribute"):
