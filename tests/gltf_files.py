@@ -322,6 +322,41 @@ def webp_bytes(rgb: np.ndarray, lossless: bool = True) -> bytes:
         return Path(name).read_bytes()
 
 
+def draco_box(path: Path, required: bool = True, stream: bytes | None = None) -> tuple[Path, np.ndarray, np.ndarray]:
+    """A box whose positions, texture coordinates and indices are only in a KHR_draco_mesh_compression stream
+    (encoded by DracoPy, order kept, 14-bit positions); `stream` replaces the stream's bytes (broken ones).
+    Returns the path, and the positions and faces as Draco decodes them (quantized)."""
+    import DracoPy
+
+    uv = (BOX_V[:, :2] + 0.5).astype(np.float64)
+    data = DracoPy.encode(BOX_V, BOX_F.astype(np.uint32), tex_coord=uv, preserve_order=True, quantization_bits=14)
+    decoded = DracoPy.decode(data)
+    ids = {a["attribute_type"]: a["unique_id"] for a in decoded.attributes}  # 0: position, 3: texture coordinate
+    b = Builder()
+    blob = data if stream is None else stream
+    b.blob += blob
+    b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=0, byteLength=len(blob)))
+    n = len(BOX_V)
+    b.doc.accessors += [
+        g.Accessor(componentType=FLOAT, count=n, type="VEC3", min=BOX_V.min(0).tolist(), max=BOX_V.max(0).tolist()),
+        g.Accessor(componentType=FLOAT, count=n, type="VEC2"),
+        g.Accessor(componentType=USHORT, count=BOX_F.size, type="SCALAR")]
+    prim = g.Primitive(attributes=g.Attributes(POSITION=0, TEXCOORD_0=1), indices=2, extensions={
+        "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": ids[0], "TEXCOORD_0": ids[3]}}})
+    b.doc.meshes.append(g.Mesh(primitives=[prim]))
+    b.node(mesh=0, name="box")
+    b.doc.extensionsUsed = ["KHR_draco_mesh_compression"]
+    if required:
+        b.doc.extensionsRequired = ["KHR_draco_mesh_compression"]
+    path = b.save(path)
+    doc = json.loads(Path(path).read_text()) if path.suffix == ".gltf" else None
+    if doc is not None:  # pygltflib writes "byteOffset": 0 into accessors without a bufferView
+        for acc in doc["accessors"]:
+            acc.pop("byteOffset", None)
+        path.write_text(json.dumps(doc))
+    return path, np.asarray(decoded.points, np.float64), np.asarray(decoded.faces, np.int64)
+
+
 def png_header(width: int, height: int) -> bytes:
     """A PNG whose header claims width x height and whose pixel data is a few bytes (a decompression bomb's
     shape: nothing of it is decoded when the header is refused)."""

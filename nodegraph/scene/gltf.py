@@ -83,8 +83,10 @@ _HARMLESS_PREFIXES = ("KHR_materials_", "KHR_texture_", "KHR_mesh_quantization",
 # flat-coloured drawing (materials, texture transforms, metadata); any other required one refuses the file, as the
 # spec says a loader must
 _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_transform", "KHR_lights_punctual",
-                       "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing", "KHR_node_visibility")
-_READ_EXTENSIONS = ("KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_node_visibility")  # not noted as left out
+                       "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing", "KHR_node_visibility",
+                       "KHR_draco_mesh_compression")
+_READ_EXTENSIONS = ("KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_node_visibility",  # not noted as left out
+                    "KHR_draco_mesh_compression")
 _IMAGE_TYPES = ("image/png", "image/jpeg", "image/webp")  # image/webp: EXT_texture_webp (decoded by OpenImageIO)
 
 # --- limits: each is checked before the work it bounds; going past one is a one-line MeshError naming it ------
@@ -687,6 +689,7 @@ class _Reader:
         self._textures: dict[int, tuple[np.ndarray, str, np.ndarray] | None] = {}
         self._colors: dict[int | None, tuple[float, float, float]] = {}
         self._decoded = 0
+        self._draco: dict[int, np.ndarray] = {}  # accessor -> its values decoded from a Draco stream
         raw = self._read_file()
         self.hasher = hashlib.sha256(raw)
         text, self.bin = self._container(raw)
@@ -1283,6 +1286,7 @@ class _Reader:
                     a = self._format(idx, f"{wp}.indices", (("SCALAR",), (_UB, _US, _UI), ()), "indices")
                     if a.view is not None and self.views[a.view][3] is not None:  # none: zeros (or sparse)
                         self.fail(f"{wp}.indices", f"bufferViews[{a.view}] has a byteStride (indices are packed)")
+                self._check_draco(p, wp, found, idx)
                 material = self._ref(p, "material", wp, "materials")
                 if material is not None:
                     for uv in sorted(self.material_uvs[material]):
@@ -1422,6 +1426,61 @@ class _Reader:
         self.depth = [0] * n
         for i, d in zip(reached, depth, strict=True):
             self.depth[i] = d
+
+    def _check_draco(self, p: dict[str, Any], wp: str, found: dict[str, int], indices: int | None) -> None:
+        """KHR_draco_mesh_compression on a primitive: its bufferView, and Draco unique ids for attributes the
+        primitive has (their accessors carry no bufferView: the stream holds their values)."""
+        ext = self._dict(p, "extensions", wp) or {}
+        draco = self._dict(ext, "KHR_draco_mesh_compression", f"{wp}.extensions")
+        if draco is None:
+            return
+        wd = f"{wp}.extensions.KHR_draco_mesh_compression"
+        self._ref(draco, "bufferView", wd, "bufferViews", required=True)
+        ids = self._dict(draco, "attributes", wd, required=True)
+        for name in ids:
+            self._int(ids, name, f"{wd}.attributes", lo=0, required=True)
+            if name not in found:
+                self.fail(f"{wd}.attributes.{name[:40]}", "names an attribute the primitive does not have")
+        if indices is None and p.get("mode", 4) == 4:
+            self.fail(wp, "a Draco-compressed triangle primitive needs indices")
+
+    def draco(self, p: dict[str, Any], where: str) -> None:
+        """Decode a primitive's KHR_draco_mesh_compression stream (DracoPy, Google's decoder) into the values of
+        the accessors it stands for, each checked against its accessor's count and components, the indices
+        against the vertex count. The accessors' declared sizes are counted against MAX_DECODED_BYTES first;
+        their min and max are not checked (writers give those of the values before quantization)."""
+        ext = p["extensions"]["KHR_draco_mesh_compression"]
+        wd = f"{where}.extensions.KHR_draco_mesh_compression"
+        attrs = {name: p["attributes"][name] for name in ext["attributes"]}
+        for acc in [*attrs.values(), p["indices"]]:
+            a = self.accs[acc]
+            self._spend(a.count * a.ncomp * 8, wd)
+        b, off, length, _ = self.views[ext["bufferView"]]
+        import DracoPy
+
+        try:
+            mesh = DracoPy.decode(self.buffer(b)[off:off + length])
+            faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1)
+        except Exception:  # the decoder raises its own types for a broken stream
+            self.fail(wd, "its Draco stream does not decode as a mesh")
+        n = None
+        for name, acc in attrs.items():
+            uid = ext["attributes"][name]
+            att = mesh.get_attribute_by_unique_id(uid)
+            a = self.accs[acc]
+            values = None if att is None else np.asarray(att["data"])
+            if values is None or values.ndim != 2 or values.shape != (a.count, a.ncomp):
+                have = "nothing" if values is None else "x".join(map(str, values.shape))
+                self.fail(f"{wd}.attributes.{name}", f"Draco attribute {uid} holds {have}; accessor {acc} declares "
+                          f"{a.count} x {a.ncomp}")
+            self._draco[acc] = values.astype(_DTYPES[a.ctype])
+            n = a.count
+        ia = self.accs[p["indices"]]
+        if len(faces) != ia.count or (n is not None and len(faces) and faces.max() >= n):
+            self.fail(f"{where}.indices", f"the Draco stream holds {len(faces)} indices up to "
+                      f"{int(faces.max()) if len(faces) else 0}; accessor {p['indices']} declares {ia.count} for "
+                      f"{n} vertices")
+        self._draco[p["indices"]] = faces.astype(_DTYPES[ia.ctype]).reshape(-1, 1)
 
     def _check_instancing(self, i: int, nd: dict[str, Any], w: str, mesh: int | None) -> None:
         """EXT_mesh_gpu_instancing on node i: its TRANSLATION / ROTATION / SCALE accessors, one count
@@ -1638,7 +1697,9 @@ class _Reader:
         a = self.accs[i]
         dtype = _DTYPES[a.ctype]
         self._spend(a.count * a.ncomp * (np.dtype(dtype).itemsize + (8 if as_float else 0)), where)
-        if a.view is not None:
+        if i in self._draco:
+            arr = self._draco[i]
+        elif a.view is not None:
             arr = np.array(self._view(a.view, a.offset, a.count, dtype, a.ncomp))
         else:
             arr = np.zeros((a.count, a.ncomp), dtype=dtype)
@@ -1892,10 +1953,10 @@ def _triangles(mode: int, idx: np.ndarray) -> np.ndarray:
 
 
 def draco_only(r: _Reader, prim: dict[str, Any]) -> bool:
-    """Whether a primitive's geometry is only in a Draco stream (not decoded here). An extension on a primitive
-    that the file does not require leaves the primitive's own data whole (feature ids, variants, outlines: ignored);
-    KHR_draco_mesh_compression's primitive is read from its uncompressed copy where it carries one (every
-    accessor it names has a bufferView)."""
+    """Whether a primitive's geometry is only in a Draco stream (then decoded: `_Reader.draco`). An extension on a
+    primitive that the file does not require leaves the primitive's own data whole (feature ids, variants,
+    outlines: ignored); KHR_draco_mesh_compression's primitive is read from its uncompressed copy where it carries
+    one (every accessor it names has a bufferView)."""
     ext = prim.get("extensions")
     return isinstance(ext, dict) and "KHR_draco_mesh_compression" in ext and any(
         r.accs[a].view is None for a in [*prim["attributes"].values(), prim.get("indices")] if a is not None)
@@ -1914,8 +1975,7 @@ def _read_mesh(r: _Reader, mi: int) -> list[_Prim]:
             continue
         attrs = p["attributes"]
         if draco_only(r, p):
-            r.note(f"{label}: compressed (KHR_draco_mesh_compression; not decoded)")
-            continue
+            r.draco(p, w)
         if "POSITION" not in attrs:
             r.note(f"{label}: no POSITION")
             continue

@@ -24,7 +24,6 @@ DOES: dict[str, tuple[str, str]] = {
     "mesh.unplaced": ("ignored", "on no node of the scene"),
     "mesh.hidden": ("ignored", "its nodes are hidden (KHR_node_visibility)"),
     "primitive.points_lines": ("ignored", "points and lines are not drawn"),
-    "primitive.compressed": ("ignored", "Draco-compressed, without an uncompressed copy: not decoded"),
     "material": ("used", "base colour: factor x vertex colours x texture, sampled per pixel"),
     "material.other_textures": ("ignored", "shading comes from the geometry's own normals and one light"),
     "material.alpha": ("used", "MASK cuts out below alphaCutoff; BLEND is drawn opaque"),
@@ -53,8 +52,8 @@ _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending i
                                         "TRS) sharing its mesh"),
     "KHR_node_visibility": ("used", "a node with visible: false is not drawn, nor is anything below it"),
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
-    "KHR_draco_mesh_compression": ("ignored", "not decoded: a primitive's uncompressed copy is drawn where it has "
-                                              "one (a file that requires the extension is refused)"),
+    "KHR_draco_mesh_compression": ("used", "decoded (DracoPy); a primitive that also carries an uncompressed copy "
+                                           "is read from the copy"),
     "EXT_meshopt_compression": ("ignored", "not decoded: the buffer views' uncompressed fallback is read (a file "
                                            "that requires the extension is refused)"),
     "KHR_xmp": ("ignored", "metadata"),
@@ -161,9 +160,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
             mode = prim.get("mode", 4)
             verts += n
             colors = colors or any(a.startswith("COLOR_") for a in attrs)
-            if gltf.draco_only(r, prim):
-                skipped.append(f"primitive {pi}: {DOES['primitive.compressed'][1]}")
-            elif mode == 4:
+            if mode == 4:
                 tris += k // 3
             elif mode in (5, 6):
                 tris += max(k - 2, 0)
@@ -177,7 +174,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
         elif len(skipped) < len(m["primitives"]):
             key = "mesh"
         else:
-            key = "primitive.compressed" if "compressed" in skipped[0] else "primitive.points_lines"
+            key = "primitive.points_lines"
         item: dict[str, Any] = {"index": mi, "name": _name(m, f"mesh{mi}"), "primitives": len(m["primitives"]),
                                 "triangles": tris, "vertices": verts, "morph_targets": r.mesh_targets[mi],
                                 "vertex_colors": colors, "nodes": placed,

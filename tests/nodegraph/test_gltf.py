@@ -103,13 +103,13 @@ def test_strips_fans_and_left_out_parts_warn_once(tmp_path):
                    np.array([0, 1, 2, 3], np.uint32), mode=5)
     b.doc.meshes[strip].primitives.append(g.Primitive(attributes=g.Attributes(POSITION=0), mode=1))
     b.node(mesh=strip, name="s")
-    b.doc.extensionsUsed = ["KHR_draco_mesh_compression"]
+    b.doc.extensionsUsed = ["EXT_meshopt_compression"]
     path = b.save(tmp_path / "strip.glb")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         asset = load_asset(path)
     msgs = [str(w.message) for w in caught if issubclass(w.category, MeshWarning)]
-    assert len(msgs) == 1 and "LINES" in msgs[0] and "KHR_draco_mesh_compression" in msgs[0]
+    assert len(msgs) == 1 and "LINES" in msgs[0] and "EXT_meshopt_compression" in msgs[0]
     faces = asset.meshes[0][0].faces
     assert faces.tolist() == [[0, 1, 2], [2, 1, 3]]  # the strip's second triangle keeps the winding
     assert load_any_mesh(path).n_faces == 2

@@ -137,9 +137,9 @@ def test_an_extension_the_file_does_not_require_leaves_the_primitive_drawn(tmp_p
     assert _faces(asset) == plain
 
 
-def test_draco_is_read_from_its_uncompressed_copy_or_left_out(tmp_path):
-    """KHR_draco_mesh_compression not required: the primitive's own accessors are its uncompressed copy and are
-    read; where they have no data (no bufferView) the primitive is left out, named in the warning."""
+def test_draco_is_read_from_its_uncompressed_copy(tmp_path):
+    """KHR_draco_mesh_compression not required, with the primitive's own accessors holding an uncompressed copy:
+    the copy is read (here the stream's bufferView is not even a Draco stream)."""
     doc, blob = gf.sink_parts()
     plain = _faces(_load(gf.write_parts(tmp_path / "plain.glb", doc, blob)))
     doc = copy.deepcopy(doc)
@@ -147,15 +147,39 @@ def test_draco_is_read_from_its_uncompressed_copy_or_left_out(tmp_path):
         "KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}
     doc["extensionsUsed"] = ["KHR_draco_mesh_compression"]
     assert _faces(_load(gf.write_parts(tmp_path / "copy.glb", doc, blob))) == plain
-    gltf._ASSETS.clear()
-    del doc["accessors"][1]["bufferView"]  # the box's indices: only in the Draco stream
-    with pytest.warns(gltf.MeshWarning, match="mesh0' primitive 0: compressed .KHR_draco_mesh_compression"):
-        asset = gltf.load_asset(gf.write_parts(tmp_path / "stream.glb", doc, blob))
-    assert asset.meshes[0] == [] and _faces(asset)[1:] == plain[1:]
-    described = info.info(tmp_path / "stream.glb")  # `sketchgraph info` says the same
-    assert described["meshes"][0]["left_out"] == ["primitive 0: Draco-compressed, without an uncompressed copy: "
-                                                  "not decoded"]
     assert "left_out" not in info.info(tmp_path / "copy.glb")["meshes"][0]
+
+
+@pytest.mark.parametrize("name,required", [("box.glb", True), ("box.gltf", False)])
+def test_a_draco_stream_is_decoded(tmp_path, name, required):
+    """A primitive whose positions, texture coordinates and indices are only in its Draco stream: decoded (the
+    file may require the extension), vertex for vertex what DracoPy decodes and within the 14-bit quantization of
+    the box it encoded; its texture coordinates reach the surface."""
+    path, points, faces = gf.draco_box(tmp_path / name, required=required)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # read, not noted as left out
+        asset = gltf.load_asset(path)
+    prim = asset.meshes[0][0]
+    assert np.array_equal(prim.positions, points) and np.array_equal(prim.faces, faces)
+    assert np.abs(prim.positions - gf.BOX_V).max() < 1.0 / (1 << 13)
+    assert prim.faces.tolist() == gf.BOX_F.tolist()  # order kept
+    assert info.extension_does("KHR_draco_mesh_compression")["does"] == "used"
+
+
+def test_a_broken_draco_stream_is_one_line(tmp_path):
+    cases = {"garbage": b"DRACO" + b"\x00" * 40, "not_draco": b"\x89PNG" + b"\x00" * 60}
+    for label, stream in cases.items():
+        bad, *_ = gf.draco_box(tmp_path / f"{label}.glb", stream=stream)
+        gltf._ASSETS.clear()
+        with pytest.raises(MeshError, match=r"KHR_draco_mesh_compression: its Draco stream does not decode") as err:
+            _load(bad)
+        assert "\n" not in str(err.value)
+    import DracoPy
+
+    other = DracoPy.encode(gf.BOX_V[:6], np.array([[0, 1, 2], [3, 4, 5]], np.uint32), preserve_order=True)
+    bad, *_ = gf.draco_box(tmp_path / "other.glb", stream=other)  # a stream of another mesh: 6 vertices, no uv
+    with pytest.raises(MeshError, match="holds .*; accessor 0 declares 8 x 3|Draco attribute"):
+        _load(bad)
 
 
 # --- buffers ----------------------------------------------------------------------------------------------
