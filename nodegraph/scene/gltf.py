@@ -86,7 +86,7 @@ _SUPPORTED_REQUIRED = ("KHR_mesh_quantization", "KHR_materials_", "KHR_texture_t
                        "KHR_xmp", "EXT_texture_webp", "EXT_mesh_gpu_instancing", "KHR_node_visibility",
                        "KHR_draco_mesh_compression")
 _READ_EXTENSIONS = ("KHR_lights_punctual", "EXT_mesh_gpu_instancing", "KHR_node_visibility",  # not noted as left out
-                    "KHR_draco_mesh_compression")
+                    "KHR_draco_mesh_compression", "KHR_animation_pointer")  # pointer: nodes' channels; others noted
 _IMAGE_TYPES = ("image/png", "image/jpeg", "image/webp")  # image/webp: EXT_texture_webp (decoded by OpenImageIO)
 
 # --- limits: each is checked before the work it bounds; going past one is a one-line MeshError naming it ------
@@ -460,6 +460,7 @@ _ANIM_OUTPUT = {
     "weights": (("SCALAR",), (_F, _BN, _UBN, _SN, _USN), ()),
 }
 _INTERPOLATIONS = ("LINEAR", "STEP", "CUBICSPLINE")
+_NODE_POINTER = re.compile(r"/nodes/(\d{1,9})/(translation|rotation|scale|weights)")  # KHR_animation_pointer
 _INSTANCE_ATTRIBUTES = {  # EXT_mesh_gpu_instancing
     "TRANSLATION": (("VEC3",), (_F,), (_B, _BN, _S, _SN)),
     "ROTATION": (("VEC4",), (_F, _BN, _SN), ()),
@@ -1577,8 +1578,9 @@ class _Reader:
                     self.fail(wc, "'sampler' is required")
                 smp = self._index(ch["sampler"], f"{wc}.sampler", "samplers", len(samplers), f" in {w}")
                 tgt = self._dict(ch, "target", wc, required=True)
-                node = self._ref(tgt, "node", f"{wc}.target", "nodes")
-                path = self._str(tgt, "path", f"{wc}.target", required=True)
+                self._ref(tgt, "node", f"{wc}.target", "nodes")
+                self._str(tgt, "path", f"{wc}.target", required=True)
+                node, path = self.target_of(tgt, f"{wc}.target")
                 if path not in _ANIM_OUTPUT:
                     continue  # an extension's path (the schema allows any string): noted when read
                 if node is None:
@@ -1602,6 +1604,22 @@ class _Reader:
                 per = 3 * k if s.get("interpolation") == "CUBICSPLINE" else k
                 if out.count != keys * per:
                     self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {path} need {keys * per}")
+
+    def target_of(self, tgt: dict[str, Any], where: str) -> tuple[int | None, str]:
+        """(node, path) a channel animates: its own, or under KHR_animation_pointer a JSON pointer to a node's
+        translation, rotation, scale or weights (other pointers: (None, their pointer), not read)."""
+        node, path = tgt.get("node"), tgt["path"]
+        if path != "pointer":
+            return node, path
+        ext = tgt.get("extensions")
+        ptr = (ext.get("KHR_animation_pointer") or {}).get("pointer") if isinstance(ext, dict) else None
+        if not isinstance(ptr, str):
+            self.fail(f"{where}.extensions", "a 'pointer' path needs KHR_animation_pointer's pointer (a string)")
+        m = _NODE_POINTER.fullmatch(ptr)
+        if m is None:
+            return None, ptr
+        node = self._index(int(m.group(1)), f"{where}.extensions.KHR_animation_pointer.pointer", "nodes")
+        return node, m.group(2)
 
     # -- data ------------------------------------------------------------------------------------------
     def _check_lights(self) -> None:
@@ -2152,12 +2170,12 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     animations = []
     for ai, an in enumerate(r.coll("animations")):
         channels = []
+        unread: list[str] = []  # targets of this clip's channels that are not read, for one note
         for ci, ch in enumerate(an["channels"]):
-            tgt = ch["target"]
-            if tgt.get("node") is None or tgt["path"] not in _ANIM_OUTPUT:
-                r.note(f"animation {ai}: channel {ci} (its target {str(tgt['path'])[:20]!r} is an extension's)")
+            node, pth = r.target_of(ch["target"], f"animations[{ai}].channels[{ci}].target")
+            if node is None or pth not in _ANIM_OUTPUT:
+                unread.append(f"channel {ci} {pth[:60]!r}")
                 continue
-            node, pth = int(tgt["node"]), tgt["path"]
             smp = an["samplers"][ch["sampler"]]
             ws = f"animations[{ai}].samplers[{ch['sampler']}]"
             times = r.accessor(smp["input"], f"{ws}.input")[:, 0]
@@ -2175,6 +2193,10 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             except ValueError as exc:
                 r.fail(f"{ws}", str(exc))
             channels.append((node, pth, track))
+        if unread:
+            r.note(f"animation {ai}: {len(unread)} channel{'s' if len(unread) > 1 else ''} whose target is not read "
+                   f"(an extension's: {', '.join(unread[:3])}" + (f" and {len(unread) - 3} more)" if len(unread) > 3
+                                                                 else ")"))
         if channels:
             start = min(tr.start for _, _, tr in channels)
             end = max(tr.end for _, _, tr in channels)

@@ -309,3 +309,36 @@ def test_node_visibility_hides_a_node_and_everything_below_it(tmp_path):
     b2.doc.extensionsUsed = ["KHR_node_visibility"]
     verdicts = [m["sketchgraph"]["does"] for m in info.info(b2.save(tmp_path / "two.glb"))["meshes"]]
     assert verdicts == ["ignored", "drawn"] and info.info(path)["meshes"][0]["sketchgraph"]["does"] == "drawn"
+
+
+def test_animation_pointer_channels_move_nodes_as_plain_channels_do(tmp_path):
+    """KHR_animation_pointer: a channel whose target is the pointer /nodes/N/translation (or rotation, scale,
+    weights) moves the node as the plain channel does; a pointer to anything else (a material's colour) is named
+    in the file's one warning, not read; a pointer to a node the file lacks is one line."""
+    import json
+
+    plain = gf.animated_box(tmp_path / "plain.gltf", external=False)
+    doc = json.loads(plain.read_text())
+    doc["extensionsUsed"] = ["KHR_animation_pointer"]
+    for ch in doc["animations"][0]["channels"]:
+        tgt = ch["target"]
+        ch["target"] = {"path": "pointer", "extensions": {"KHR_animation_pointer": {
+            "pointer": f"/nodes/{tgt['node']}/{tgt['path']}"}}}
+    anim = doc["animations"][0]
+    anim["channels"].append({"sampler": 0, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {
+        "pointer": "/materials/0/pbrMetallicRoughness/baseColorFactor"}}}})
+    pointed = tmp_path / "pointer.gltf"
+    pointed.write_text(json.dumps(doc))
+    with pytest.warns(MeshWarning, match="1 channel whose target is not read .an extension's: channel 1 "
+                                         "'/materials/0/pbrMetallicRoughness/baseColorFactor'"):
+        got = sc.load_scene(str(pointed))
+    want = sc.load_scene(str(plain))
+    for frame in (0, 6, 12, 24):
+        for a, b in zip(got.at(frame).objects, want.at(frame).objects, strict=True):
+            assert a.transform == pytest.approx(b.transform)
+    assert got.at(12).objects[0].transform[:3, 3] == pytest.approx([1.0, 0.0, 0.0])
+    anim["channels"][0]["target"]["extensions"]["KHR_animation_pointer"]["pointer"] = "/nodes/9/translation"
+    (tmp_path / "bad.gltf").write_text(json.dumps(doc))
+    with pytest.raises(PipelineError, match=r"animations\[0\]\.channels\[0\]\.target\.extensions\."
+                                            r"KHR_animation_pointer\.pointer: node 9 does not exist"):
+        sc.load_scene(str(tmp_path / "bad.gltf"))
