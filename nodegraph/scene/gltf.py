@@ -2227,6 +2227,25 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     return asset
 
 
+def left_out(notes: list[str]) -> str:
+    """The reader's notes as one text: notes that say the same of more than three primitives ("mesh 'A' primitive
+    0: alphaMode BLEND (drawn opaque)") as one, with the first three named and a count."""
+    groups: dict[tuple[bool, str], list[str]] = {}  # (of primitives?, what is said) -> the primitives
+    for note in notes:
+        label, sep, what = note.partition(": ")
+        of_prims = bool(sep) and label.startswith("mesh '")
+        groups.setdefault((of_prims, what if of_prims else note), []).append(label)
+    out = []
+    for (of_prims, what), labels in groups.items():
+        if not of_prims:
+            out.append(what)
+        elif len(labels) <= 3:
+            out += [f"{label}: {what}" for label in labels]
+        else:
+            out.append(f"{len(labels)} primitives: {what} ({', '.join(labels[:3])} and {len(labels) - 3} more)")
+    return "; ".join(out)
+
+
 _ASSETS: dict[tuple[str, int, int, bool], GltfAsset] = {}
 _ASSETS_KEPT = 16
 
@@ -2245,9 +2264,9 @@ def load_asset(path: str | Path, allow_outside: bool = False) -> GltfAsset:
         asset = _read(p, allow_outside)
         if not any(asset.meshes[o.mesh] for o in asset.objects):
             raise MeshError(f"{p}: no triangle meshes to draw"
-                            + (f" (left out: {'; '.join(asset.ignored)})" if asset.ignored else ""))
+                            + (f" (left out: {left_out(asset.ignored)})" if asset.ignored else ""))
         if asset.ignored:
-            warnings.warn(f"{p.name}: left out: {'; '.join(asset.ignored)}", MeshWarning, stacklevel=2)
+            warnings.warn(f"{p.name}: left out: {left_out(asset.ignored)}", MeshWarning, stacklevel=2)
         for k in [k for k in _ASSETS if k[0] == key[0]]:
             del _ASSETS[k]
         while len(_ASSETS) >= _ASSETS_KEPT:

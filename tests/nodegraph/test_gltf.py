@@ -342,3 +342,24 @@ def test_animation_pointer_channels_move_nodes_as_plain_channels_do(tmp_path):
     with pytest.raises(PipelineError, match=r"animations\[0\]\.channels\[0\]\.target\.extensions\."
                                             r"KHR_animation_pointer\.pointer: node 9 does not exist"):
         sc.load_scene(str(tmp_path / "bad.gltf"))
+
+
+def test_the_warning_says_the_same_of_many_primitives_once(tmp_path):
+    """Five primitives drawn opaque for alphaMode BLEND: one clause naming three and counting the rest; a note
+    said of three or fewer keeps each; other notes stay as they are, in order."""
+    b = gf.Builder()
+    for k in range(5):
+        colors = b.accessor(np.full((8, 3), 0.5, np.float32), "VEC3")  # coloured per vertex: the mode is read
+        mesh = b.mesh(gf.BOX_V + np.float32(2 * k), gf.BOX_F, color=(0.5, 0.5, 0.5), COLOR_0=colors)
+        b.doc.materials[-1].alphaMode = "BLEND"
+        b.node(mesh=mesh, name=f"glass{k}")
+    b.doc.extensionsUsed = ["VENDOR_thing"]
+    with pytest.warns(MeshWarning) as caught:
+        load_asset(b.save(tmp_path / "glass.glb"))
+    text = str(caught[0].message)
+    assert text.endswith("left out: extension VENDOR_thing; 5 primitives: alphaMode BLEND (drawn opaque) "
+                         "(mesh 'mesh0' primitive 0, mesh 'mesh1' primitive 0, mesh 'mesh2' primitive 0 and 2 more)")
+    from nodegraph.scene.gltf import left_out
+
+    three = [f"mesh '{c}' primitive 0: alphaMode BLEND (drawn opaque)" for c in "abc"]
+    assert left_out(three + ["extension Y"]) == "; ".join(three + ["extension Y"])
