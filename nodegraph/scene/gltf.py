@@ -164,6 +164,20 @@ class GltfAnimation:
     start: float
     end: float
     index: int = -1  # in the file's `animations` (a clip without a channel the reader reads is left out)
+    # KHR_animation_pointer channels of cameras and lights: (("camera" | "light", index, field), track)
+    props: list[tuple[tuple[str, int, str], Track | LoopedTrack]] = field(default_factory=list)
+
+    def value(self, kind: str, index: int, t: float) -> dict[str, Any]:
+        """The animated fields of camera or light `index` at time t (field -> value)."""
+        out: dict[str, Any] = {}
+        for (k, i, f), tr in self.props:
+            if k == kind and i == index:
+                v = np.asarray(tr.sample(t), dtype=np.float64).reshape(-1)
+                out[f] = float(v[0]) if len(v) == 1 else tuple(float(x) for x in v)
+        return out
+
+    def animates(self, kind: str, index: int) -> bool:
+        return any(k == kind and i == index for (k, i, _), _ in self.props)
 
 
 @dataclass
@@ -239,6 +253,7 @@ class GltfAsset:
                                 f"{self.clip_list()} (or all)")
         clips = [self.animations[i] for i in picked]
         channels: dict[tuple[int, str], tuple[int, str, Any]] = {}
+        props: dict[tuple[str, int, str], Any] = {}
         owner: dict[tuple[int, str], int] = {}
         taken: list[str] = []
         for clip in clips:
@@ -248,6 +263,8 @@ class GltfAsset:
                                  f"{owner[node, path]}")
                 owner[node, path] = clip.index
                 channels[node, path] = (node, path, LoopedTrack(track, clip.end) if end == "loop" else track)
+            for target, track in clip.props:  # cameras' and lights' fields: the later clip wins too
+                props[target] = LoopedTrack(track, clip.end) if end == "loop" else track
         if note and len(self.animations) > 1:
             plays = "all play together" if every else f"playing {clips[0].index} {clips[0].name!r}"
             if every and len({c.end for c in clips}) > 1:
@@ -261,7 +278,8 @@ class GltfAsset:
         if len(clips) == 1 and end == "hold":
             return clips[0]  # one clip as the file has it: its name (and so every key of it) as before
         name = f"{'+'.join(str(c.index) for c in clips)}:{end}"
-        return GltfAnimation(name, list(channels.values()), min(c.start for c in clips), max(c.end for c in clips))
+        return GltfAnimation(name, list(channels.values()), min(c.start for c in clips), max(c.end for c in clips),
+                             props=list(props.items()))
 
     def pose(self, t: float, anim: GltfAnimation | None) -> tuple[np.ndarray, dict[int, np.ndarray]]:
         """(world matrices (N, 4, 4), morph weights per node) at time t."""
@@ -461,6 +479,10 @@ _ANIM_OUTPUT = {
 }
 _INTERPOLATIONS = ("LINEAR", "STEP", "CUBICSPLINE")
 _NODE_POINTER = re.compile(r"/nodes/(\d{1,9})/(translation|rotation|scale|weights)")  # KHR_animation_pointer
+_PROP_POINTER = re.compile(  # KHR_animation_pointer: the camera and light fields a drawing uses
+    r"/cameras/(?P<cam>\d{1,9})/(?P<ctype>perspective|orthographic)/(?P<cfield>yfov|znear|zfar|ymag)"
+    r"|/extensions/KHR_lights_punctual/lights/(?P<light>\d{1,9})/"
+    r"(?P<lfield>color|intensity|range|spot/innerConeAngle|spot/outerConeAngle)")
 _INSTANCE_ATTRIBUTES = {  # EXT_mesh_gpu_instancing
     "TRANSLATION": (("VEC3",), (_F,), (_B, _BN, _S, _SN)),
     "ROTATION": (("VEC4",), (_F, _BN, _SN), ()),
@@ -1041,8 +1063,8 @@ class _Reader:
         self._check_nodes()
         self._check_skins()
         self._check_scenes()
-        self._check_animations()
         self._check_lights()
+        self._check_animations()  # after the lights: KHR_animation_pointer may animate them
 
     def _check_buffers(self) -> None:
         total = 0
@@ -1552,6 +1574,7 @@ class _Reader:
 
     def _check_animations(self) -> None:
         nodes = self.coll("nodes")
+        self.props: dict[tuple[int, int], tuple[str, int, str]] = {}
         for ai, an in enumerate(self.coll("animations")):
             w = f"animations[{ai}]"
             samplers = self._list(an, "samplers", w, required=True, nonempty=True)
@@ -1581,6 +1604,8 @@ class _Reader:
                 self._ref(tgt, "node", f"{wc}.target", "nodes")
                 self._str(tgt, "path", f"{wc}.target", required=True)
                 node, path = self.target_of(tgt, f"{wc}.target")
+                if node is None and tgt["path"] == "pointer":
+                    self._check_prop(ai, ci, path, samplers, wc)
                 if path not in _ANIM_OUTPUT:
                     continue  # an extension's path (the schema allows any string): noted when read
                 if node is None:
@@ -1604,6 +1629,36 @@ class _Reader:
                 per = 3 * k if s.get("interpolation") == "CUBICSPLINE" else k
                 if out.count != keys * per:
                     self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {path} need {keys * per}")
+
+    def _check_prop(self, ai: int, ci: int, ptr: str, samplers: list[Any], wc: str) -> None:
+        """A KHR_animation_pointer channel of a camera's or a light's field (`_PROP_POINTER`): the camera or light
+        exists and is of the pointer's type, the output is that field's format with one value per key
+        (`self.props[(ai, ci)]`: (kind, index, field))."""
+        m = _PROP_POINTER.fullmatch(ptr)
+        if m is None:
+            return
+        wp = f"{wc}.target.extensions.KHR_animation_pointer.pointer"
+        if m.group("cam") is not None:
+            kind, index, fld = "camera", self._index(int(m.group("cam")), wp, "cameras"), m.group("cfield")
+            cam = self.coll("cameras")[index]
+            if cam.get("type") != m.group("ctype"):
+                self.fail(wp, f"camera {index} is {cam.get('type')!r}, not {m.group('ctype')!r}")
+        else:
+            lights = self.light_defs
+            index = self._index(int(m.group("light")), wp, "lights", len(lights), " in KHR_lights_punctual")
+            kind, fld = "light", m.group("lfield")
+            if fld.startswith("spot/") and lights[index].kind != "spot":
+                self.fail(wp, f"light {index} is a {lights[index].kind} light, not a spot")
+        smp = samplers[self._index(self.coll("animations")[ai]["channels"][ci]["sampler"], f"{wc}.sampler",
+                                   "samplers", len(samplers))]
+        ws = f"{wc.rsplit('.channels', 1)[0]}.samplers"
+        out = self._format(smp["output"], f"{ws}.output", (("VEC3",) if fld == "color" else ("SCALAR",), (_F,), ()),
+                           f"{kind} {fld} output")
+        keys = self.accs[smp["input"]].count
+        per = 3 if smp.get("interpolation") == "CUBICSPLINE" else 1
+        if out.count != keys * per:
+            self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {kind} {fld} need {keys * per}")
+        self.props[(ai, ci)] = (kind, index, fld)
 
     def target_of(self, tgt: dict[str, Any], where: str) -> tuple[int | None, str]:
         """(node, path) a channel animates: its own, or under KHR_animation_pointer a JSON pointer to a node's
@@ -2072,6 +2127,29 @@ def _instance_matrices(r: _Reader, node: int) -> np.ndarray:
     return out
 
 
+_PROP_LIMITS = {"yfov": (1e-4, math.pi - 1e-4), "ymag": (1e-9, math.inf), "znear": (0.0, math.inf),
+                "zfar": (1e-9, math.inf), "intensity": (0.0, math.inf), "range": (1e-9, math.inf),
+                "color": (0.0, math.inf), "spot/innerConeAngle": (0.0, math.pi / 2),
+                "spot/outerConeAngle": (1e-4, math.pi / 2)}
+
+
+def _prop_track(r: _Reader, an: dict[str, Any], ch: dict[str, Any], ai: int, prop: tuple[str, int, str]) -> Track:
+    """The track of a camera's or a light's field (`_Reader._check_prop`), its values clamped to what the field
+    can hold (a yfov in (0, pi), an intensity >= 0, cone angles in [0, pi/2])."""
+    smp = an["samplers"][ch["sampler"]]
+    ws = f"animations[{ai}].samplers[{ch['sampler']}]"
+    times = r.accessor(smp["input"], f"{ws}.input")[:, 0]
+    if times[0] < 0:
+        r.fail(f"{ws}.input", f"key time {float(times[0])} is negative")
+    lo, hi = _PROP_LIMITS[prop[2]]
+    values = np.clip(r.accessor(smp["output"], f"{ws}.output"), lo, hi)
+    interp = smp.get("interpolation", "LINEAR")
+    try:
+        return Track(times, values, interp if interp in _INTERPOLATIONS else "LINEAR")
+    except ValueError as exc:
+        r.fail(ws, str(exc))
+
+
 def hidden_nodes(r: _Reader) -> set[int]:
     """KHR_node_visibility: the scene's nodes with `visible: false` and every node below one."""
     hidden: set[int] = set()
@@ -2170,9 +2248,14 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     animations = []
     for ai, an in enumerate(r.coll("animations")):
         channels = []
+        props: list[tuple[tuple[str, int, str], Track]] = []
         unread: list[str] = []  # targets of this clip's channels that are not read, for one note
         for ci, ch in enumerate(an["channels"]):
             node, pth = r.target_of(ch["target"], f"animations[{ai}].channels[{ci}].target")
+            prop = r.props.get((ai, ci))
+            if prop is not None:
+                props.append((prop, _prop_track(r, an, ch, ai, prop)))
+                continue
             if node is None or pth not in _ANIM_OUTPUT:
                 unread.append(f"channel {ci} {pth[:60]!r}")
                 continue
@@ -2197,11 +2280,11 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             r.note(f"animation {ai}: {len(unread)} channel{'s' if len(unread) > 1 else ''} whose target is not read "
                    f"(an extension's: {', '.join(unread[:3])}" + (f" and {len(unread) - 3} more)" if len(unread) > 3
                                                                  else ")"))
-        if channels:
-            start = min(tr.start for _, _, tr in channels)
-            end = max(tr.end for _, _, tr in channels)
+        if channels or props:
+            tracks = [tr for _, _, tr in channels] + [tr for _, tr in props]
             name = an.get("name") if isinstance(an.get("name"), str) else f"animation{ai}"
-            animations.append(GltfAnimation(name, channels, start, end, ai))
+            animations.append(GltfAnimation(name, channels, min(tr.start for tr in tracks),
+                                            max(tr.end for tr in tracks), ai, props))
 
     objects = []
     for i in drawn:
@@ -2336,11 +2419,24 @@ class GltfInstance:
         if not placed:
             return []
         world, _ = self.asset.pose(t, self.anim)
-        return [replace(self.asset.lights[li], matrix=self.root @ world[node]) for node, li in placed]
+        out = []
+        for node, li in placed:
+            light = replace(self.asset.lights[li], matrix=self.root @ world[node])
+            fields = self.anim.value("light", li, t) if self.anim is not None else {}
+            if fields:  # KHR_animation_pointer: colour, intensity, range, cone angles at t
+                outer = float(fields.get("spot/outerConeAngle", light.outer_cone))
+                inner = min(float(fields.get("spot/innerConeAngle", light.inner_cone)), outer * (1.0 - 1e-6))
+                light = replace(light, color=tuple(float(c) for c in fields.get("color", light.color)),
+                                intensity=float(fields.get("intensity", light.intensity)), inner_cone=inner,
+                                outer_cone=outer, range=None if light.kind == "directional" else (
+                                    float(fields["range"]) if "range" in fields else light.range))
+            out.append(light)
+        return out
 
     def lights_move(self) -> bool:
         moving, _ = self.asset.moving(self.anim)
-        return any(node in moving for node, _ in self.light_nodes())
+        return any(node in moving or (self.anim is not None and self.anim.animates("light", li))
+                   for node, li in self.light_nodes())
 
     def camera_names(self) -> list[tuple[str, int]]:
         """(name, camera index) of the cameras placed on nodes, by camera index."""
@@ -2355,11 +2451,21 @@ class GltfInstance:
         node = dict(self.asset.camera_nodes())[camera_index]
         moving, _ = self.asset.moving(self.anim)
         world, _ = self.asset.pose(t if node in moving else 0.0, self.anim)
+        fields = self.anim.value("camera", camera_index, t) if self.anim is not None else {}
+        if fields:  # KHR_animation_pointer: yfov (a zoom), ymag, znear, zfar at t
+            from dataclasses import replace
+
+            cam = replace(cam, **{k: float(v) for k, v in fields.items()})
+            if cam.kind == "perspective" and cam.znear <= 0.0:
+                cam = replace(cam, znear=1e-6)
+            if cam.zfar is not None and cam.zfar <= cam.znear:
+                cam = replace(cam, zfar=cam.znear * 1.001 + 1e-9)
         return camera_params(self.root @ world[node], cam, center, radius)
 
     def camera_moves(self, camera_index: int) -> bool:
         node = dict(self.asset.camera_nodes())[camera_index]
-        return node in self.asset.moving(self.anim)[0]
+        return node in self.asset.moving(self.anim)[0] or (
+            self.anim is not None and self.anim.animates("camera", camera_index))
 
     def find_camera(self, which: str | int | None) -> int | None:
         """A camera index by name or index; None: the first perspective or orthographic camera placed on a node

@@ -50,8 +50,9 @@ _EXTENSIONS: dict[str, tuple[str, str]] = {  # by name, then by prefix (ending i
     "KHR_lights_punctual": DOES["light"],
     "EXT_mesh_gpu_instancing": ("used", "every instance is drawn, an object of its own (node world x instance "
                                         "TRS) sharing its mesh"),
-    "KHR_animation_pointer": ("used", "channels that point at a node's translation, rotation, scale or weights play; "
-                                      "other pointers are not read"),
+    "KHR_animation_pointer": ("used", "channels that point at a node's translation, rotation, scale or weights, a "
+                                      "camera's yfov, ymag, znear or zfar, or a light's colour, intensity, range "
+                                      "or cone angles play; other pointers are not read"),
     "KHR_node_visibility": ("used", "a node with visible: false is not drawn, nor is anything below it"),
     "KHR_texture_transform": ("used", "offset, rotation, scale and texCoord of the base colour texture"),
     "KHR_draco_mesh_compression": ("used", "decoded (DracoPy); a primitive that also carries an uncompressed copy "

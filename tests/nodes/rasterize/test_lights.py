@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from nodegraph.errors import PipelineError
 from nodegraph.scene import lights as lights_mod
 from nodegraph.scene.meshes import MeshWarning
 from nodegraph.scene.scene import load_scene
@@ -232,3 +234,75 @@ def test_exposure_without_lights_says_it_has_no_effect(tmp_path) -> None:
     with pytest.warns(lights.LightWarning, match="exposure: the scene has no punctual lights"):
         s = sc.load_scene(str(path))
     assert not s.lights
+
+
+def _pointer_channel(path: Path, pointer: str, times: list[float], values: np.ndarray) -> None:
+    """Add to the .gltf at `path` a clip animating `pointer` (KHR_animation_pointer), LINEAR, values as given."""
+    import base64
+    import json
+
+    doc = json.loads(path.read_text())
+    uri = doc["buffers"][0]["uri"]
+    blob = bytearray(base64.b64decode(uri.split(",", 1)[1]) if uri.startswith("data:") else
+                     (path.parent / uri).read_bytes())
+    accs = []
+    for arr, kind in ((np.asarray(times, np.float32), "SCALAR"),
+                      (np.asarray(values, np.float32), "VEC3" if np.asarray(values).ndim == 2 else "SCALAR")):
+        while len(blob) % 4:
+            blob += b"\0"
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": arr.nbytes})
+        blob += arr.tobytes()
+        acc = {"bufferView": len(doc["bufferViews"]) - 1, "componentType": 5126, "count": len(arr), "type": kind}
+        if kind == "SCALAR" and not accs:
+            acc.update(min=[float(arr.min())], max=[float(arr.max())])
+        doc["accessors"].append(acc)
+        accs.append(len(doc["accessors"]) - 1)
+    doc["buffers"][0] = {"byteLength": len(blob),
+                         "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()}
+    doc.setdefault("animations", []).append({"samplers": [{"input": accs[0], "output": accs[1]}], "channels": [
+        {"sampler": 0, "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": pointer}}}}]})
+    doc["extensionsUsed"] = [*doc.get("extensionsUsed", []), "KHR_animation_pointer"]
+    path.write_text(json.dumps(doc))
+
+
+def test_a_light_animated_through_pointers_changes_over_the_film(tmp_path):
+    """KHR_animation_pointer on a light's intensity and colour: sampled at each frame (LINEAR, by hand), the
+    light counts as moving, and each frame's scene says so in its key."""
+    path = gltf_files.lit_quad(tmp_path / "dimmer.gltf", [{"type": "point", "intensity": 1.0}],
+                               [{"light": 0, "translation": [0.0, 0.0, 1.0]}])
+    _pointer_channel(path, "/extensions/KHR_lights_punctual/lights/0/intensity", [0.0, 1.0], np.array([1.0, 3.0]))
+    scene = load_scene(str(path))
+    assert scene.animation is not None and scene.animation.lights is not None
+    fps = scene.animation.fps
+    quarter = scene.at(int(fps / 4))
+    assert quarter.lights[0].intensity == pytest.approx(1.0 + 2.0 * int(fps / 4) / fps, abs=1e-6)
+    assert scene.at(int(fps)).lights[0].intensity == pytest.approx(3.0)
+    assert quarter.content_hash() != scene.at(0).content_hash()
+
+
+def test_a_camera_zoom_through_a_pointer(tmp_path):
+    """/cameras/N/perspective/yfov animated: the film's camera takes the yfov of each frame (by hand)."""
+    import json
+
+    from nodegraph.scene import gltf as gltf_mod
+
+    path = gltf_files.lit_quad(tmp_path / "zoom.gltf", [{"type": "point", "intensity": 1.0}],
+                               [{"light": 0, "translation": [0.0, 0.0, 1.0]}])
+    doc = json.loads(path.read_text())
+    doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1, "zfar": 20.0}}]
+    doc["nodes"].append({"camera": 0, "translation": [0.0, 0.0, 4.0]})
+    doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+    path.write_text(json.dumps(doc))
+    _pointer_channel(path, "/cameras/0/perspective/yfov", [0.0, 1.0], np.array([0.5, 1.0]))
+    scene = load_scene(str(path))
+    fps = scene.animation.fps
+    half = scene.at(int(fps / 2))
+    assert math.radians(half.camera.fov_y_deg) == pytest.approx(0.5 + 0.5 * int(fps / 2) / fps, abs=1e-6)
+    assert math.radians(scene.at(0).camera.fov_y_deg) == pytest.approx(0.5, abs=1e-6)
+    gltf_mod._ASSETS.clear()
+    doc = json.loads(path.read_text())
+    doc["animations"][0]["channels"][0]["target"]["extensions"]["KHR_animation_pointer"]["pointer"] = \
+        "/cameras/0/orthographic/ymag"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(PipelineError, match="camera 0 is 'perspective', not 'orthographic'"):
+        load_scene(str(path))
