@@ -403,7 +403,9 @@ def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs
     out: list[solids.Junctions | None] = []
     for i in range(len(objs)):
         mesh = scene.objects[objs[i][0]].mesh
-        others = [j for j in range(len(objs)) if j != i and not (np.any(hi[i] < lo[j]) or np.any(hi[j] < lo[i]))]
+        overlap = ~(np.any(hi[i] < lo, axis=1) | np.any(hi < lo[i], axis=1))  # world boxes that meet its own
+        overlap[i] = False
+        others = [int(j) for j in np.flatnonzero(overlap)]
         if not others and not mesh_parts(mesh).closed.any():
             out.append(None)
             continue
