@@ -8,10 +8,12 @@ from glTF's linear values to display values), perspective and orthographic camer
 morph targets (POSITION deltas) and animations (translation, rotation, scale and weights; LINEAR, STEP,
 CUBICSPLINE; every clip plays, together, unless one is chosen: `GltfAsset.animation`), and KHR_lights_punctual
 lights (directional, point, spot: they shade the drawing, placed and moved by their nodes;
-nodegraph/scene/lights.py). An orthographic camera's `ymag` (KHR: a half extent) is half the image's
-height, as `yfov` spans the height; the width follows the output's shape (`xmag` is not used). Points and lines are
-skipped; extensions that change geometry (Draco, meshopt) are not decoded. Whatever is left out is named in ONE
-warning per file. glTF is Y-up and right-handed, as the engine is.
+nodegraph/scene/lights.py). Also read: KHR_draco_mesh_compression (decoded by DracoPy), EXT_mesh_gpu_instancing
+(an object per instance), KHR_node_visibility, EXT_texture_webp, and KHR_animation_pointer's channels of nodes,
+cameras and lights. An orthographic camera's `ymag` (KHR: a half extent) is half the image's height, as `yfov`
+spans the height; the width follows the output's shape (`xmag` is not used). Points and lines are skipped;
+meshopt-compressed buffers are not decoded (a file that requires them is refused). Whatever is left out is named
+in ONE warning per file. glTF is Y-up and right-handed, as the engine is.
 
 A glTF file is untrusted input. The container (GLB header and chunks) and the JSON are parsed here, and the
 whole document is checked against the spec and the actual buffer bytes before any of it is used: every
