@@ -2309,6 +2309,10 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     if not np.all(np.isfinite(world)):
         bad = int(np.argwhere(~np.isfinite(world))[0][0])
         r.fail(f"nodes[{bad}]", "its world matrix overflows (not finite)")
+    for obj in asset.objects:
+        if obj.instance is not None and not np.all(np.isfinite(obj.world(world))):
+            r.fail(f"nodes[{obj.node}].extensions.EXT_mesh_gpu_instancing", f"instance {obj.name!r}: its world "
+                   "matrix overflows (not finite)")
     return asset
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pygltflib as g
 import pytest
 
-from nodegraph.errors import PipelineError
+from nodegraph.errors import MeshError, PipelineError
 from nodegraph.scene import animation as an
 from nodegraph.scene import scene as sc
 from nodegraph.scene.gltf import load_any_mesh, load_asset
@@ -363,3 +363,22 @@ def test_the_warning_says_the_same_of_many_primitives_once(tmp_path):
 
     three = [f"mesh '{c}' primitive 0: alphaMode BLEND (drawn opaque)" for c in "abc"]
     assert left_out(three + ["extension Y"]) == "; ".join(three + ["extension Y"])
+
+
+def test_an_instance_whose_world_matrix_overflows_is_one_line(tmp_path):
+    """Node scale 1e300 (finite) times an instance's scale 1e38 (a float32 can hold it) overflows float64."""
+    import json
+
+    path, *_ = _instanced_boxes(tmp_path / "huge.gltf")
+    doc = json.loads(path.read_text())
+    doc["nodes"][0]["scale"] = [1e300, 1e300, 1e300]
+    path.write_text(json.dumps(doc))
+    blob = bytearray((tmp_path / "huge.bin").read_bytes())
+    scale = doc["accessors"][doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["SCALE"]]
+    at = doc["bufferViews"][scale["bufferView"]].get("byteOffset", 0) + 12  # the second instance's scale
+    blob[at:at + 12] = np.array([1e38, 1e38, 1e38], np.float32).tobytes()
+    (tmp_path / "huge.bin").write_bytes(bytes(blob))
+    with pytest.raises(MeshError, match=r"nodes\[0\]\.extensions\.EXT_mesh_gpu_instancing: instance "
+                                            r"'boxes\[1\]': its world matrix overflows") as err:
+        load_asset(path)
+    assert "\n" not in str(err.value)
