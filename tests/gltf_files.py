@@ -434,6 +434,79 @@ def sink_parts(texture: bytes | None = None) -> tuple[dict, bytes]:
     return doc, bytes(b.blob)
 
 
+def extension_parts() -> tuple[dict, bytes]:
+    """(JSON document as a dict, binary buffer) of a small file that uses the extensions the reader reads beyond
+    the core: an instanced box (EXT_mesh_gpu_instancing, three instances), a hidden node with a child
+    (KHR_node_visibility), a Draco-compressed box (KHR_draco_mesh_compression), a WebP base colour texture
+    (EXT_texture_webp, with a PNG fallback), a point light and a camera on nodes, and one clip of
+    KHR_animation_pointer channels: a node's translation, the camera's yfov and the light's intensity. Buffer 0
+    has no uri (as in a .glb)."""
+    import DracoPy
+
+    b = Builder()
+    box = b.mesh(BOX_V, BOX_F, color=(0.5, 0.5, 0.5))
+    t = b.accessor(np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0]], np.float32), "VEC3")
+    r = b.accessor(np.array([quat_axis((0, 0, 1), a) for a in (0, 30, 60)], np.float32), "VEC4")
+    sc = b.accessor(np.array([[1, 1, 1], [0.5, 0.5, 0.5], [1, 2, 1]], np.float32), "VEC3")
+    b.node(mesh=box, name="instanced", extensions={"EXT_mesh_gpu_instancing": {"attributes": {
+        "TRANSLATION": t, "ROTATION": r, "SCALE": sc}}})
+    b.node(mesh=box, name="hidden", translation=[0.0, -3.0, 0.0], children=[2],
+           extensions={"KHR_node_visibility": {"visible": False}})
+    b.node(root=False, mesh=box, name="under_hidden", translation=[1.0, 0.0, 0.0])
+    # a Draco box: its accessors have no bufferView; the stream has its own
+    uv = (BOX_V[:, :2] + 0.5).astype(np.float64)
+    stream = DracoPy.encode(BOX_V, BOX_F.astype(np.uint32), tex_coord=uv, preserve_order=True)
+    ids = {a["attribute_type"]: a["unique_id"] for a in DracoPy.decode(stream).attributes}
+    while len(b.blob) % 4:
+        b.blob += b"\0"
+    b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(stream)))
+    b.blob += stream
+    b.doc.accessors += [g.Accessor(componentType=FLOAT, count=8, type="VEC3", min=[-0.5] * 3, max=[0.5] * 3),
+                        g.Accessor(componentType=FLOAT, count=8, type="VEC2"),
+                        g.Accessor(componentType=USHORT, count=36, type="SCALAR")]
+    n = len(b.doc.accessors)
+    # the WebP texture (its PNG fallback as `source`) on the Draco box's material
+    png = png_bytes(np.full((2, 2, 3), (255, 0, 0), np.uint8))
+    webp = webp_bytes(np.full((2, 2, 3), (0, 0, 255), np.uint8))
+    for mime, data in (("image/png", png), ("image/webp", webp)):
+        while len(b.blob) % 4:
+            b.blob += b"\0"
+        b.doc.bufferViews.append(g.BufferView(buffer=0, byteOffset=len(b.blob), byteLength=len(data)))
+        b.blob += data
+        b.doc.images.append(g.Image(bufferView=len(b.doc.bufferViews) - 1, mimeType=mime))
+    b.doc.textures.append(g.Texture(source=0, extensions={"EXT_texture_webp": {"source": 1}}))
+    b.doc.materials.append(g.Material(pbrMetallicRoughness=g.PbrMetallicRoughness(
+        baseColorTexture=g.TextureInfo(index=0))))
+    b.doc.meshes.append(g.Mesh(primitives=[g.Primitive(
+        attributes=g.Attributes(POSITION=n - 3, TEXCOORD_0=n - 2), indices=n - 1, material=len(b.doc.materials) - 1,
+        extensions={"KHR_draco_mesh_compression": {"bufferView": len(b.doc.bufferViews) - 3, "attributes": {
+            "POSITION": ids[0], "TEXCOORD_0": ids[3]}}})]))
+    mover = b.node(mesh=len(b.doc.meshes) - 1, name="draco", translation=[0.0, 0.0, -2.0])
+    b.doc.cameras.append(g.Camera(type="perspective", perspective=g.Perspective(yfov=0.8, znear=0.1, zfar=50.0)))
+    b.node(camera=0, name="cam", translation=[0.0, 0.0, 8.0])
+    b.node(name="lamp", translation=[0.0, 3.0, 2.0], extensions={"KHR_lights_punctual": {"light": 0}})
+    b.doc.extensions = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 2.0}]}}
+    times = b.accessor(np.array([0.0, 1.0], np.float32), "SCALAR", minmax=True)
+    move = b.accessor(np.array([[0, 0, -2], [1, 0, -2]], np.float32), "VEC3")
+    fov = b.accessor(np.array([0.8, 0.5], np.float32), "SCALAR")
+    dim = b.accessor(np.array([2.0, 0.5], np.float32), "SCALAR")
+    samplers, channels = [], []
+    for out, ptr in ((move, f"/nodes/{mover}/translation"), (fov, "/cameras/0/perspective/yfov"),
+                     (dim, "/extensions/KHR_lights_punctual/lights/0/intensity")):
+        samplers.append(g.AnimationSampler(input=times, output=out))
+        channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(
+            path="pointer", extensions={"KHR_animation_pointer": {"pointer": ptr}})))
+    b.doc.animations.append(g.Animation(name="pointers", samplers=samplers, channels=channels))
+    b.doc.extensionsUsed = ["EXT_mesh_gpu_instancing", "KHR_node_visibility", "KHR_draco_mesh_compression",
+                            "EXT_texture_webp", "KHR_lights_punctual", "KHR_animation_pointer"]
+    b.doc.buffers = [g.Buffer(byteLength=len(b.blob))]
+    doc = json.loads(b.doc.to_json())
+    for acc in doc["accessors"]:
+        if "bufferView" not in acc:
+            acc.pop("byteOffset", None)
+    return doc, bytes(b.blob)
+
+
 def glb_bytes(doc: dict, blob: bytes | None, version: int = 2, magic: bytes = b"glTF", length: int | None = None,
               json_type: int = 0x4E4F534A, bin_type: int = 0x004E4942) -> bytes:
     """A GLB of the document and binary chunk, each header field given (for broken ones)."""

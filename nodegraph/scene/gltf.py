@@ -1668,10 +1668,11 @@ class _Reader:
         node, path = tgt.get("node"), tgt["path"]
         if path != "pointer":
             return node, path
-        ext = tgt.get("extensions")
-        ptr = (ext.get("KHR_animation_pointer") or {}).get("pointer") if isinstance(ext, dict) else None
-        if not isinstance(ptr, str):
+        ext = self._dict(tgt, "extensions", where) or {}
+        pointer = self._dict(ext, "KHR_animation_pointer", f"{where}.extensions")
+        if pointer is None:
             return None, path  # another extension's target: noted, not read
+        ptr = self._str(pointer, "pointer", f"{where}.extensions.KHR_animation_pointer", required=True)
         m = _NODE_POINTER.fullmatch(ptr)
         if m is None:
             return None, ptr

@@ -730,10 +730,11 @@ _values = st.one_of(
 
 
 @st.composite
-def _json_mutation(draw):
-    doc = copy.deepcopy(_BASE_DOC)
+def _json_mutation(draw, base=None, paths=None):
+    """1-3 values of the document (`base`, default the sink file's) changed or deleted at its JSON `paths`."""
+    doc = copy.deepcopy(_BASE_DOC if base is None else base)
     for _ in range(draw(st.integers(1, 3))):
-        path = draw(st.sampled_from(_JSON_PATHS))
+        path = draw(st.sampled_from(_JSON_PATHS if paths is None else paths))
         obj = doc
         try:
             for p in path[:-1]:
@@ -748,8 +749,8 @@ def _json_mutation(draw):
 
 
 @st.composite
-def _blob_mutation(draw):
-    blob = bytearray(_BASE_BLOB)
+def _blob_mutation(draw, base=None):
+    blob = bytearray(_BASE_BLOB if base is None else base)
     for _ in range(draw(st.integers(1, 4))):
         at = draw(st.integers(0, len(blob) - 4))
         kind = draw(st.integers(0, 3))
@@ -906,3 +907,38 @@ def test_fuzz_draco_stream(edits, cut):
             stream = stream[: cut % (len(stream) + 1)]
         path, *_ = gf.draco_box(Path(tmp) / "f.glb", stream=bytes(stream) or b"\0")
         _check_loads_sanely_or_refuses(path)
+
+
+# the extensions read beyond the core (instancing, visibility, Draco, WebP, animation pointers), mutated likewise
+_EXT_DOC, _EXT_BLOB = gf.extension_parts()
+_EXT_PATHS = [p for p in _paths(_EXT_DOC) if not (p[0] == "buffers" and p[-1] == "uri")]
+
+
+def test_the_extensions_file_loads_as_built(tmp_path):
+    """The base of the two tests below: every extension in it is read (no warning) and does what it says."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        asset = gltf.load_asset(gf.write_parts(tmp_path / "ext.glb", _EXT_DOC, _EXT_BLOB))
+    assert [o.name for o in asset.objects] == ["instanced[0]", "instanced[1]", "instanced[2]", "draco"]
+    assert [p[0] for p in asset.animations[0].props] == [("camera", 0, "yfov"), ("light", 0, "intensity")]
+    assert asset.meshes[1][0].surface.material.texture.pixels[0, 0].tolist() == [0, 0, 255, 255]  # the WebP's
+
+
+@pytest.mark.slow  # Hypothesis, about 3 s
+@_FUZZ
+@given(doc=_json_mutation(_EXT_DOC, _EXT_PATHS), how=st.sampled_from(["glb", "data"]))
+def test_fuzz_extensions_json(doc, how):
+    buffers = doc.get("buffers")
+    if not (isinstance(buffers, list) and buffers and isinstance(buffers[0], dict)):
+        how = "glb"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = gf.write_parts(Path(tmp) / ("f.glb" if how == "glb" else "f.gltf"), doc, _EXT_BLOB, how)
+        _check_loads_sanely_or_refuses(path)
+
+
+@pytest.mark.slow  # Hypothesis, about 2 s
+@_FUZZ
+@given(blob=_blob_mutation(_EXT_BLOB))
+def test_fuzz_extensions_bytes(blob):
+    with tempfile.TemporaryDirectory() as tmp:
+        _check_loads_sanely_or_refuses(gf.write_parts(Path(tmp) / "f.glb", _EXT_DOC, blob))
