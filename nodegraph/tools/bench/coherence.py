@@ -54,6 +54,12 @@ sheet still, so a mark there that moves with its object counts as change as a re
 sheet errors are alike, the index cannot tell a coherent drawing from a boiling one on the sheet, and `surfaces`
 is its figure for what lies on the objects.
 
+`flow` (with `--flow`): the same figures along motion estimated as the papers estimate it, from the plain render
+alone (`estimated_flow`: TV-L1 optical flow, scikit-image, back and forward; Ruder et al.'s consistency and
+motion-boundary tests for the pixels counted). It cannot see a surface slide inside a smooth, textureless plain
+render, and it is smooth across outlines, so it charges marks fixed to surfaces and forgives marks beside outlines:
+beside the index, it shows how much a verdict owes to the exact motion.
+
 The shots are made here as glTF files: `turn` (a torus turning about a tilted axis, a box beside it), `orbit` (the
 camera dollying in along an arc around the still torus and box) and `bend` (a skinned tube bending at its middle
 like an elbow); `--shots heldout` measures on three more of the same kinds that no film setting was chosen on
@@ -334,11 +340,37 @@ def luminance(img: np.ndarray) -> np.ndarray:
 VARIANTS = ("with_boundaries", "extended", "surfaces", "sheet")
 
 
-class Shot:
-    """One shot's motion fields and previous depths (from a plain G-buffer), and its plain floor."""
+def estimated_flow(prev: np.ndarray, cur: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Motion from frame `prev` to frame `cur` (luminance, row 0 at the top) as the papers estimate it: TV-L1
+    optical flow (scikit-image) from `cur` back to `prev` and forward, and Ruder et al. 2016's non-occlusion mask:
+    a pixel counts where the two flows agree (|w + w'(x + w)|^2 <= 0.01 (|w|^2 + |w'|^2) + 0.5), off a motion
+    boundary (|grad w|^2 <= 0.01 |w|^2 + 0.002) and where it came from inside the picture. Returns (rows, cols)
+    where each pixel of `cur` was in `prev`, and the mask."""
+    from scipy.ndimage import map_coordinates
+    from skimage.registration import optical_flow_tvl1
 
-    def __init__(self, session: Any, plain: Path, scene: Path, size: tuple[int, int], frames: int) -> None:
+    back = np.stack(optical_flow_tvl1(cur, prev))  # (2, h, w): row and column offsets from cur into prev
+    fwd = np.stack(optical_flow_tvl1(prev, cur))
+    h, w = cur.shape
+    rows, cols = np.mgrid[0:h, 0:w].astype(np.float64)
+    src_r, src_c = rows + back[0], cols + back[1]
+    fwd_at = np.stack([map_coordinates(f, [src_r, src_c], order=1, mode="nearest") for f in fwd])
+    both = ((back + fwd_at) ** 2).sum(0)
+    occluded = both > 0.01 * ((back ** 2).sum(0) + (fwd_at ** 2).sum(0)) + 0.5
+    grad = sum(g ** 2 for f in back for g in np.gradient(f))
+    boundary = grad > 0.01 * (back ** 2).sum(0) + 0.002
+    inside = (src_r >= 0) & (src_r <= h - 1) & (src_c >= 0) & (src_c <= w - 1)
+    return src_r, src_c, inside & ~occluded & ~boundary
+
+
+class Shot:
+    """One shot's motion fields and previous depths (from a plain G-buffer), and its plain floor; with `flow`, also
+    the motion estimated from the plain render (`estimated_flow`) for the `flow` figures."""
+
+    def __init__(self, session: Any, plain: Path, scene: Path, size: tuple[int, int], frames: int,
+                 flow: bool = False) -> None:
         self.scene, self.frames = scene, frames
+        self.variants = VARIANTS + (("flow",) if flow else ())
         pipe = session.load(plain, scene=str(scene), size=size)
         self.motion = [pipe.inspect("gbuf.motion", frame=t) for t in range(frames)]
         self.depth = [pipe.inspect("gbuf.depth", frame=t)[..., 0] for t in range(frames)]
@@ -346,7 +378,9 @@ class Shot:
         self.band_px = BAND_PX * min(size) / 256.0
         self.extended = [extend_motion(m, self.band_px) for m in self.motion]
         self.masks = [self._masks(t) for t in range(1, frames)]
-        self.floor = self.errors([luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")])
+        plain_lum = [luminance(img) for _, img in pipe.frames(range(frames), dtype="float32")]
+        self.flow = [estimated_flow(plain_lum[t - 1], plain_lum[t]) for t in range(1, frames)] if flow else []
+        self.floor = self.errors(plain_lum)
         self.e_plain = self.floor["index"]
 
     def _masks(self, t: int) -> dict[str, np.ndarray]:
@@ -369,12 +403,19 @@ class Shot:
     def errors(self, lum: list[np.ndarray]) -> dict[str, float]:
         """Mean warping error over the consecutive pairs of frames for each set of pixels (`_masks`): along the
         exact motion for all but `extended`, along the extended motion (`extend_motion`) for `extended`."""
-        out: dict[str, list[float]] = {"index": [], **{v: [] for v in VARIANTS}}
+        out: dict[str, list[float]] = {"index": [], **{v: [] for v in self.variants}}
         for t in range(1, len(lum)):
             masks = self.masks[t - 1]
             diff = np.abs(lum[t] - mo.warp(lum[t - 1], self.motion[t]))
             ext = np.abs(lum[t] - mo.warp(lum[t - 1], self.extended[t][0]))
             for key in out:
+                if key == "flow":  # along the estimated motion, over its own mask
+                    from scipy.ndimage import map_coordinates
+
+                    src_r, src_c, mask = self.flow[t - 1]
+                    d = np.abs(lum[t] - map_coordinates(lum[t - 1], [src_r, src_c], order=1, mode="nearest"))
+                    out[key].append(d[mask].mean() if mask.any() else np.nan)
+                    continue
                 d = ext if key == "extended" else diff
                 out[key].append(d[masks[key]].mean() if masks[key].any() else np.nan)
         return {k: float(np.nanmean(v)) for k, v in out.items()}
@@ -519,12 +560,13 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
     t0 = time.perf_counter()
     probe = session.load(name, size=size)
     base = grain_off(probe)
+    variants = next(iter(shots.values())).variants
 
     def shot_figures(shot: Shot, overrides: dict[str, Any], reseed: dict[str, Any] | None = None,
                      source: str = name, grain: dict[str, Any] = base) -> dict[str, Any]:
         e_pipe = shot.errors(styled(session, source, shot, size, {**grain, **overrides}))
         if reseed is not None:
-            e_reseed = {"index": reseed["e_reseed"], **{v: reseed[v]["e_reseed"] for v in VARIANTS}}
+            e_reseed = {"index": reseed["e_reseed"], **{v: reseed[v]["e_reseed"] for v in variants}}
         else:
             e_reseed = shot.errors(styled(session, source, shot, size, {**grain, **overrides}, reseed=True))
 
@@ -532,7 +574,7 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
             return {"coherence_index": coherence_index(e_pipe[key], shot.floor[key], e_reseed[key]),
                     "e_pipeline": e_pipe[key], "e_plain": shot.floor[key], "e_reseed": e_reseed[key]}
 
-        out = {**figures("index"), **{v: figures(v) for v in VARIANTS}}
+        out = {**figures("index"), **{v: figures(v) for v in variants}}
         out["extended"]["band_px"] = shot.band_px
         return out
 
@@ -543,7 +585,7 @@ def measure(name: str, session: Any, shots: dict[str, Shot], size: tuple[int, in
         for s, shot in shots.items():
             e_still = shot.errors(styled(session, name, shot, size, {**base, **still}))
             default[s]["e_no_uncertainty"] = e_still["index"]
-            for v in VARIANTS:
+            for v in variants:
                 default[s][v]["e_no_uncertainty"] = e_still[v]
     result["default"] = {"overrides": {}, "shots": default}
     echo(f"  {name}: default {_indices(default)} ({time.perf_counter() - t0:.0f} s)")
@@ -599,9 +641,10 @@ def _fmt(v: float | None) -> str:
 
 
 def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool = True, do_sweep: bool = True,
-        echo: Any = click.echo, shots: str = "report", scene: Path | None = None) -> dict[str, Any]:
+        echo: Any = click.echo, shots: str = "report", scene: Path | None = None, flow: bool = False
+        ) -> dict[str, Any]:
     """Every pipeline's figures on the three shots of `shots`, or with `scene` on that one file's frames
-    0 .. frames - 1 (a shot named after the file)."""
+    0 .. frames - 1 (a shot named after the file); with `flow`, also along motion estimated by optical flow."""
     import nodegraph as ng
 
     t0 = time.perf_counter()
@@ -612,7 +655,7 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
         scenes = {scene.stem: scene} if scene is not None else write_shots(folder, frames, shots)
         measured = {}
         for s, path in scenes.items():
-            measured[s] = Shot(session, plain, path, size, frames)
+            measured[s] = Shot(session, plain, path, size, frames, flow=flow)
             echo(f"shot {s}: plain floor E = {measured[s].e_plain:.4f}")
             if not any(_moves(field) for field in measured[s].motion):
                 echo(f"warning: nothing moves in frames 0-{frames - 1} of {path.name}: the figures only say whether "
@@ -620,7 +663,9 @@ def run(pipelines: list[str], size: tuple[int, int], frames: int, do_hold: bool 
         out: dict[str, Any] = {
             "size": list(size), "frames": frames, "fps": FPS, "shots": str(scene) if scene is not None else shots,
             "measure": "mean |L_t - warp(L_t-1, motion_t)| of luminance (0..1) over pixels visible in both frames, "
-                       "mean over consecutive pairs; paper grain off",
+                       "mean over consecutive pairs; paper grain off" + (
+                           "; `flow`: along TV-L1 optical flow of the plain render, Ruder et al.'s mask" if flow
+                           else ""),
             "pipelines": {}}
         for name in pipelines:
             echo(f"{name} ...")
@@ -778,6 +823,9 @@ def _size(text: str) -> tuple[int, int]:
 @click.option("--scene", "scene", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="Measure on this animated scene instead (a glTF file, a scene YAML with keyframes or an orbit, "
                    "or a mesh file, which orbits): its frames 0 .. --frames - 1, one shot named after the file.")
+@click.option("--flow", is_flag=True,
+              help="Also measure along motion estimated as the papers do (TV-L1 optical flow of the plain render, "
+                   "scikit-image; Ruder et al.'s non-occlusion mask): the `flow` figures beside the index.")
 @click.option("--no-hold", is_flag=True, help="Skip the hold N = 1, 2, 4 variants.")
 @click.option("--no-sweep", is_flag=True, help="Skip the parameter sweep (and the chart's lines).")
 @click.option("--chart", "chart_path", type=click.Path(path_type=Path), default=None,
@@ -788,8 +836,8 @@ def _size(text: str) -> tuple[int, int]:
 @click.option("--stills", "stills_path", type=click.Path(path_type=Path), default=None,
               help="Also write each pipeline's still on its own scene, default beside film (PNG).")
 def command(json_path: Path | None, pipelines: str | None, size: str, frames: int, shots: str | None,
-            scene: Path | None, no_hold: bool, no_sweep: bool, chart_path: Path | None, sheet_path: Path | None,
-            stills_path: Path | None) -> None:
+            scene: Path | None, flow: bool, no_hold: bool, no_sweep: bool, chart_path: Path | None,
+            sheet_path: Path | None, stills_path: Path | None) -> None:
     from ... import shipped
 
     if scene is not None and shots is not None:
@@ -805,7 +853,13 @@ def command(json_path: Path | None, pipelines: str | None, size: str, frames: in
     imageless = [n for n in names if not _draws_image(n)]
     if imageless:
         raise click.BadParameter(f"{', '.join(imageless)}: no `image` output to measure", param_hint="--pipelines")
-    result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots or "report", scene=scene)
+    if flow:
+        try:
+            import skimage  # noqa: F401
+        except ImportError:
+            raise click.UsageError("--flow needs scikit-image (pip install scikit-image)") from None
+    result = run(names, _size(size), frames, not no_hold, not no_sweep, shots=shots or "report", scene=scene,
+                 flow=flow)
     click.echo(summary(result))
     if json_path:
         json_path.parent.mkdir(parents=True, exist_ok=True)
