@@ -306,3 +306,4 @@ def test_a_small_run_with_flow_reports_the_flow_figures(gl):
         assert fl["e_plain"] > 0.0 and math.isfinite(fl["e_pipeline"]) and math.isfinite(fl["e_reseed"])
         assert fl["coherence_index"] is None or 0.0 <= fl["coherence_index"] <= 1.0
         assert fl["coherence_index"] == co.coherence_index(fl["e_pipeline"], fl["e_plain"], fl["e_reseed"])
+    assert "0.8 i/e/s/f" in co.summary(result).splitlines()[0]  # the table says whether it reaches 0.8 by flow too

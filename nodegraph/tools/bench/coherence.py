@@ -883,13 +883,15 @@ def _draws_image(name: str) -> bool:
 
 def summary(result: dict[str, Any]) -> str:
     """A table: per pipeline, the index per shot (default, film), whether the film setting reaches TARGET on every
-    shot by the index, `extended` and `surfaces` (y / n / - where undefined), hold 1/2/4 where measured, and
-    sketchiness."""
+    shot by the index, `extended` and `surfaces` (and `flow` where measured: y / n / - where undefined), hold 1/2/4
+    where measured, and sketchiness."""
     width = max([26, *map(len, result["pipelines"])])
     first = next(iter(result["pipelines"].values()), None)
     names = list(first["default"]["shots"]) if first else list(SHOTS)  # the three shots, or a --scene file's one
+    flow = bool(first) and "flow" in next(iter(first["default"]["shots"].values()))
+    measures = "i/e/s/f" if flow else "i/e/s  "
     lines = [f"{'pipeline':{width}s} " + " ".join(f"{s[:6]:>6s}" for s in names) + "   film " +
-             " ".join(f"{s[:6]:>6s}" for s in names) + f"   {TARGET} i/e/s   hold1/2/4 (mean)  sketch px"]
+             " ".join(f"{s[:6]:>6s}" for s in names) + f"   {TARGET} {measures} hold1/2/4 (mean)  sketch px"]
     for name, r in result["pipelines"].items():
         d, f = r["default"]["shots"], r["film"]["shots"]
         holds = ""
@@ -899,19 +901,20 @@ def summary(result: dict[str, Any]) -> str:
         lines.append(f"{name:{width}s} " + " ".join(f"{_fmt(d[s]['coherence_index']) if s in d else '':>6s}"
                                                for s in names) + "        " +
                      " ".join(f"{_fmt(f[s]['coherence_index']) if s in f else '':>6s}" for s in names) +
-                     f"   {_reaches(f):9s} {holds:17s} {r['sketchiness_px']:.2f}" +
+                     f"   {_reaches(f, flow):11s} {holds:17s} {r['sketchiness_px']:.2f}" +
                      (f" (film {film:.2f})" if film else ""))
     return "\n".join(lines)
 
 
-def _reaches(shots: dict[str, Any]) -> str:
-    """'y/n/y': whether every shot's index reaches TARGET, by the index, `extended` and `surfaces` ('-': undefined
-    on some shot)."""
+def _reaches(shots: dict[str, Any], flow: bool = False) -> str:
+    """'y/n/y': whether every shot's index reaches TARGET, by the index, `extended` and `surfaces` (and `flow`)
+    ('-': undefined on some shot)."""
     def one(get: Any) -> str:
         values = [get(f)["coherence_index"] for f in shots.values()]
         return "-" if any(v is None for v in values) else "y" if all(v >= TARGET for v in values) else "n"
 
-    return "/".join(one(get) for get in (lambda f: f, lambda f: f["extended"], lambda f: f["surfaces"]))
+    gets = [lambda f: f, lambda f: f["extended"], lambda f: f["surfaces"]] + ([lambda f: f["flow"]] if flow else [])
+    return "/".join(one(get) for get in gets)
 
 
 def _mean(values: list[float | None]) -> float | None:
