@@ -425,6 +425,11 @@ def sink_parts(texture: bytes | None = None) -> tuple[dict, bytes]:
     # the box's texture coordinates come last, so that the indices above stay put
     b.doc.meshes[box].primitives[0].attributes.TEXCOORD_0 = b.accessor((BOX_V[:, :2] + 0.5).astype(np.float32),
                                                                        "VEC2")
+    return _parts(b)
+
+
+def _parts(b: Builder) -> tuple[dict, bytes]:
+    """The builder's document as a JSON dict with one buffer without a uri (as in a .glb), and its buffer."""
     b.doc.buffers = [g.Buffer(byteLength=len(b.blob))]
     doc = json.loads(b.doc.to_json())
     # pygltflib writes "byteOffset": 0 into accessors without a bufferView; the spec has no byteOffset there
@@ -499,12 +504,7 @@ def extension_parts() -> tuple[dict, bytes]:
     b.doc.animations.append(g.Animation(name="pointers", samplers=samplers, channels=channels))
     b.doc.extensionsUsed = ["EXT_mesh_gpu_instancing", "KHR_node_visibility", "KHR_draco_mesh_compression",
                             "EXT_texture_webp", "KHR_lights_punctual", "KHR_animation_pointer"]
-    b.doc.buffers = [g.Buffer(byteLength=len(b.blob))]
-    doc = json.loads(b.doc.to_json())
-    for acc in doc["accessors"]:
-        if "bufferView" not in acc:
-            acc.pop("byteOffset", None)
-    return doc, bytes(b.blob)
+    return _parts(b)
 
 
 def glb_bytes(doc: dict, blob: bytes | None, version: int = 2, magic: bytes = b"glTF", length: int | None = None,
