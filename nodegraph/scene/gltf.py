@@ -182,7 +182,7 @@ class GltfAnimation:
         return any(k == kind and i == index for (k, i, _), _ in self.props)
 
 
-@dataclass
+@dataclass(eq=False)  # an instance's matrix is an array: objects are told apart by identity
 class GltfObject:
     """One drawable: a primitive of the mesh on a node (and, under EXT_mesh_gpu_instancing, one instance of it:
     `instance` is its T x R x S in the node's space)."""
