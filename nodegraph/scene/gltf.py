@@ -40,7 +40,7 @@ import warnings
 import zlib
 from collections.abc import Sequence
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, NoReturn
 from urllib.parse import unquote
@@ -1537,6 +1537,10 @@ class _Reader:
                       f"({', '.join(map(str, sorted(counts)))})")
         self.instancing[i] = found
 
+    def instance_count(self, node: int) -> int:
+        """How many instances EXT_mesh_gpu_instancing gives node `node` (one of `self.instancing`)."""
+        return self.accs[next(iter(self.instancing[node].values()))].count
+
     def _check_skins(self) -> None:
         self.skin_joints: list[list[int]] = []
         for si, s in enumerate(self.coll("skins")):
@@ -1607,7 +1611,7 @@ class _Reader:
                 self._str(tgt, "path", f"{wc}.target", required=True)
                 node, path = self.target_of(tgt, f"{wc}.target")
                 if node is None and tgt["path"] == "pointer":
-                    self._check_prop(ai, ci, path, samplers, wc)
+                    self._check_prop(ai, ci, path, samplers[smp], f"{w}.samplers[{smp}]", wc)
                 if path not in _ANIM_OUTPUT:
                     continue  # an extension's path (the schema allows any string): noted when read
                 if node is None:
@@ -1624,15 +1628,17 @@ class _Reader:
                     k = 1
                     if "matrix" in nodes[node]:
                         self.fail(f"{wc}.target", f"node {node} is given by a matrix: its {path} cannot be animated")
-                s = samplers[smp]
-                ws = f"{w}.samplers[{smp}]"
-                out = self._format(s["output"], f"{ws}.output", _ANIM_OUTPUT[path], f"{path} output")
-                keys = self.accs[s["input"]].count
-                per = 3 * k if s.get("interpolation") == "CUBICSPLINE" else k
-                if out.count != keys * per:
-                    self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {path} need {keys * per}")
+                self._check_output(samplers[smp], f"{w}.samplers[{smp}]", _ANIM_OUTPUT[path], path, k)
 
-    def _check_prop(self, ai: int, ci: int, ptr: str, samplers: list[Any], wc: str) -> None:
+    def _check_output(self, s: dict[str, Any], ws: str, rule: tuple[Any, ...], what: str, k: int) -> None:
+        """A sampler's output: `rule`'s format, `k` values a key (three times that for CUBICSPLINE)."""
+        out = self._format(s["output"], f"{ws}.output", rule, f"{what} output")
+        keys = self.accs[s["input"]].count
+        per = 3 * k if s.get("interpolation") == "CUBICSPLINE" else k
+        if out.count != keys * per:
+            self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {what} need {keys * per}")
+
+    def _check_prop(self, ai: int, ci: int, ptr: str, s: dict[str, Any], ws: str, wc: str) -> None:
         """A KHR_animation_pointer channel of a camera's or a light's field (`_PROP_POINTER`): the camera or light
         exists and is of the pointer's type, the output is that field's format with one value per key
         (`self.props[(ai, ci)]`: (kind, index, field))."""
@@ -1651,15 +1657,7 @@ class _Reader:
             kind, fld = "light", m.group("lfield")
             if fld.startswith("spot/") and lights[index].kind != "spot":
                 self.fail(wp, f"light {index} is a {lights[index].kind} light, not a spot")
-        smp = samplers[self._index(self.coll("animations")[ai]["channels"][ci]["sampler"], f"{wc}.sampler",
-                                   "samplers", len(samplers))]
-        ws = f"{wc.rsplit('.channels', 1)[0]}.samplers"
-        out = self._format(smp["output"], f"{ws}.output", (("VEC3",) if fld == "color" else ("SCALAR",), (_F,), ()),
-                           f"{kind} {fld} output")
-        keys = self.accs[smp["input"]].count
-        per = 3 if smp.get("interpolation") == "CUBICSPLINE" else 1
-        if out.count != keys * per:
-            self.fail(f"{ws}.output", f"{out.count} elements; {keys} keys of {kind} {fld} need {keys * per}")
+        self._check_output(s, ws, (("VEC3",) if fld == "color" else ("SCALAR",), (_F,), ()), f"{kind} {fld}", 1)
         self.props[(ai, ci)] = (kind, index, fld)
 
     def target_of(self, tgt: dict[str, Any], where: str) -> tuple[int | None, str]:
@@ -2136,19 +2134,26 @@ _PROP_LIMITS = {"yfov": (1e-4, math.pi - 1e-4), "ymag": (1e-9, math.inf), "znear
                 "spot/outerConeAngle": (1e-4, math.pi / 2)}
 
 
-def _prop_track(r: _Reader, an: dict[str, Any], ch: dict[str, Any], ai: int, prop: tuple[str, int, str]) -> Track:
-    """The track of a camera's or a light's field (`_Reader._check_prop`), its values clamped to what the field
-    can hold (a yfov in (0, pi), an intensity >= 0, cone angles in [0, pi/2])."""
+def _channel_track(r: _Reader, an: dict[str, Any], ch: dict[str, Any], ai: int, path: str) -> Track:
+    """The track of a channel's sampler: times from 0 on, rotations unit quaternions (slerped); a camera's or a
+    light's field (`_PROP_LIMITS`, `_Reader._check_prop`) clamped to what it can hold (a yfov in (0, pi), an
+    intensity >= 0, cone angles in [0, pi/2])."""
     smp = an["samplers"][ch["sampler"]]
     ws = f"animations[{ai}].samplers[{ch['sampler']}]"
     times = r.accessor(smp["input"], f"{ws}.input")[:, 0]
     if times[0] < 0:
         r.fail(f"{ws}.input", f"key time {float(times[0])} is negative")
-    lo, hi = _PROP_LIMITS[prop[2]]
-    values = np.clip(r.accessor(smp["output"], f"{ws}.output"), lo, hi)
+    values = r.accessor(smp["output"], f"{ws}.output")
+    if path in _PROP_LIMITS:
+        values = np.clip(values, *_PROP_LIMITS[path])
     interp = smp.get("interpolation", "LINEAR")
+    interp = interp if interp in _INTERPOLATIONS else "LINEAR"
+    if path == "rotation":
+        norms = np.linalg.norm(values[1::3] if interp == "CUBICSPLINE" else values, axis=1)
+        if np.any(np.abs(norms - 1.0) > _UNIT_TOLERANCE):
+            r.fail(f"{ws}.output", "a rotation key is not a unit quaternion")
     try:
-        return Track(times, values, interp if interp in _INTERPOLATIONS else "LINEAR")
+        return Track(times, values, interp, quaternion=path == "rotation")
     except ValueError as exc:
         r.fail(ws, str(exc))
 
@@ -2170,7 +2175,7 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
     drawn = [i for i in r.order if "mesh" in jnodes[i] and i not in hidden]
     used = sorted({jnodes[i]["mesh"] for i in drawn})
     # limits on what is drawn, from the metadata alone: objects, and (an upper bound of) their triangles
-    instances = {i: r.accs[next(iter(r.instancing[i].values()))].count for i in drawn if i in r.instancing}
+    instances = {i: r.instance_count(i) for i in drawn if i in r.instancing}
     n_obj = sum(len(j["meshes"][jnodes[i]["mesh"]]["primitives"]) * instances.get(i, 1) for i in drawn)
     if n_obj > MAX_OBJECTS:
         r.fail("nodes", f"the scene places {n_obj} primitives (instances counted): the limit is {MAX_OBJECTS} "
@@ -2257,28 +2262,11 @@ def _read(path: Path, allow_outside: bool = False) -> GltfAsset:
             node, pth = r.target_of(ch["target"], f"animations[{ai}].channels[{ci}].target")
             prop = r.props.get((ai, ci))
             if prop is not None:
-                props.append((prop, _prop_track(r, an, ch, ai, prop)))
-                continue
-            if node is None or pth not in _ANIM_OUTPUT:
+                props.append((prop, _channel_track(r, an, ch, ai, prop[2])))
+            elif node is None or pth not in _ANIM_OUTPUT:
                 unread.append(f"channel {ci} {pth[:60]!r}")
-                continue
-            smp = an["samplers"][ch["sampler"]]
-            ws = f"animations[{ai}].samplers[{ch['sampler']}]"
-            times = r.accessor(smp["input"], f"{ws}.input")[:, 0]
-            if times[0] < 0:
-                r.fail(f"{ws}.input", f"key time {float(times[0])} is negative")
-            values = r.accessor(smp["output"], f"{ws}.output")
-            interp = smp.get("interpolation", "LINEAR")
-            interp = interp if interp in _INTERPOLATIONS else "LINEAR"
-            if pth == "rotation":
-                norms = np.linalg.norm(values[1::3] if interp == "CUBICSPLINE" else values, axis=1)
-                if np.any(np.abs(norms - 1.0) > _UNIT_TOLERANCE):
-                    r.fail(f"{ws}.output", "a rotation key is not a unit quaternion")
-            try:
-                track = Track(times, values, interp, quaternion=pth == "rotation")
-            except ValueError as exc:
-                r.fail(f"{ws}", str(exc))
-            channels.append((node, pth, track))
+            else:
+                channels.append((node, pth, _channel_track(r, an, ch, ai, pth)))
         if unread:
             r.note(f"animation {ai}: {len(unread)} channel{'s' if len(unread) > 1 else ''} whose target is not read "
                    f"(an extension's: {', '.join(unread[:3])}" + (f" and {len(unread) - 3} more)" if len(unread) > 3
@@ -2420,8 +2408,6 @@ class GltfInstance:
 
     def lights_at(self, t: float) -> list[Any]:
         """The file's lights (lights.Light) placed by their nodes' world matrices at time t, under `root`."""
-        from dataclasses import replace
-
         placed = self.light_nodes()
         if not placed:
             return []
@@ -2460,8 +2446,6 @@ class GltfInstance:
         world, _ = self.asset.pose(t if node in moving else 0.0, self.anim)
         fields = self.anim.value("camera", camera_index, t) if self.anim is not None else {}
         if fields:  # KHR_animation_pointer: yfov (a zoom), ymag, znear, zfar at t
-            from dataclasses import replace
-
             cam = replace(cam, **{k: float(v) for k, v in fields.items()})
             if cam.kind == "perspective" and cam.znear <= 0.0:
                 cam = replace(cam, znear=1e-6)

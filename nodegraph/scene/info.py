@@ -182,7 +182,7 @@ def gltf_info(path: Path, allow_outside: bool = False) -> dict[str, Any]:
                                 "triangles": tris, "vertices": verts, "morph_targets": r.mesh_targets[mi],
                                 "vertex_colors": colors, "nodes": placed,
                                 "sketchgraph": does(key)}
-        instanced = {_name(jnodes[i], f"node{i}"): r.accs[next(iter(r.instancing[i].values()))].count
+        instanced = {_name(jnodes[i], f"node{i}"): r.instance_count(i)
                      for i in nodes_of.get(("mesh", mi), []) if i in r.instancing}
         if instanced:  # EXT_mesh_gpu_instancing: instances per node
             item["instances"] = instanced

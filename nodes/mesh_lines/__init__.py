@@ -342,6 +342,11 @@ def object_boxes(scene: Any, objs: list[tuple[Any, ...]]) -> tuple[np.ndarray, n
     return np.array([c.min(axis=0) for c in corners]), np.array([c.max(axis=0) for c in corners])
 
 
+def boxes_meet(lo: np.ndarray, hi: np.ndarray, i: int, others: np.ndarray) -> np.ndarray:
+    """Which of the objects `others` (indices) have world boxes (`object_boxes`) that meet object `i`'s."""
+    return ~(np.any(hi[i] < lo[others], axis=1) | np.any(hi[others] < lo[i], axis=1))
+
+
 def box_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """The eight corners (8, 3) of the box from `lo` to `hi`."""
     return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -355,7 +360,7 @@ def crossings_between(scene: Any, objs: list[tuple[Any, ...]], segs: list[extrac
     lo, hi = object_boxes(scene, objs)
     for i, (ia, ma, _) in enumerate(objs):
         later = np.arange(i + 1, len(objs))
-        later = later[~(np.any(hi[i] < lo[later], axis=1) | np.any(hi[later] < lo[i], axis=1))]
+        later = later[boxes_meet(lo, hi, i, later)]
         if not len(later):
             continue
         a = scene.objects[ia].mesh
@@ -403,9 +408,8 @@ def solid_tests(scene: Any, objs: list[tuple[Any, ...]], segs: list[extract.Segs
     out: list[solids.Junctions | None] = []
     for i in range(len(objs)):
         mesh = scene.objects[objs[i][0]].mesh
-        overlap = ~(np.any(hi[i] < lo, axis=1) | np.any(hi < lo[i], axis=1))  # world boxes that meet its own
-        overlap[i] = False
-        others = [int(j) for j in np.flatnonzero(overlap)]
+        every = np.arange(len(objs))
+        others = [int(j) for j in every[boxes_meet(lo, hi, i, every) & (every != i)]]
         if not others and not mesh_parts(mesh).closed.any():
             out.append(None)
             continue

@@ -403,6 +403,8 @@ class Shot:
     def errors(self, lum: list[np.ndarray]) -> dict[str, float]:
         """Mean warping error over the consecutive pairs of frames for each set of pixels (`_masks`): along the
         exact motion for all but `extended`, along the extended motion (`extend_motion`) for `extended`."""
+        from scipy.ndimage import map_coordinates
+
         out: dict[str, list[float]] = {"index": [], **{v: [] for v in self.variants}}
         for t in range(1, len(lum)):
             masks = self.masks[t - 1]
@@ -410,8 +412,6 @@ class Shot:
             ext = np.abs(lum[t] - mo.warp(lum[t - 1], self.extended[t][0]))
             for key in out:
                 if key == "flow":  # along the estimated motion, over its own mask
-                    from scipy.ndimage import map_coordinates
-
                     src_r, src_c, mask = self.flow[t - 1]
                     d = np.abs(lum[t] - map_coordinates(lum[t - 1], [src_r, src_c], order=1, mode="nearest"))
                     out[key].append(d[mask].mean() if mask.any() else np.nan)
